@@ -1,0 +1,115 @@
+"""The ``cnctwin`` command: the root of the command groups, global options and error reporting.
+
+Errors reach the user as one line on stderr and an exit code: 2 for bad input (any
+:class:`~cnctwin.errors.CnctwinError`, a file that cannot be read), 1 for a bug
+("internal error", with the traceback under ``--debug``), 130 on Ctrl-C.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+import traceback
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Annotated
+
+import typer
+
+from cnctwin import __version__
+from cnctwin.cli import demo, nc
+from cnctwin.errors import CnctwinError
+
+__all__ = ["app", "main", "run"]
+
+EXIT_BAD_INPUT = 2
+EXIT_INTERNAL = 1
+EXIT_INTERRUPTED = 130
+
+app = typer.Typer(
+    name="cnctwin",
+    help="cnctwin: a digital twin for CNC machining.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+app.add_typer(nc.app, name="nc")
+app.command("demo")(demo.demo)
+
+
+@dataclass
+class _Options:
+    """Global options of the current invocation."""
+
+    debug: bool = False
+
+
+_options = _Options()
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"cnctwin {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    debug: Annotated[
+        bool, typer.Option("--debug", help="Log debug messages and show tracebacks of errors.")
+    ] = False,
+    version: Annotated[
+        bool,
+        typer.Option("--version", callback=_version, is_eager=True, help="Print the version."),
+    ] = False,
+) -> None:
+    _options.debug = debug
+    logging.getLogger("cnctwin").setLevel(logging.DEBUG if debug else logging.WARNING)
+
+
+def run(argv: Sequence[str] | None = None) -> int:
+    """Run the command line and return its exit code instead of exiting.
+
+    Parameters
+    ----------
+    argv
+        Arguments after the program name; ``None`` takes ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        0 on success, 2 for bad input, 1 for an internal error, 130 when interrupted.
+    """
+    _options.debug = False
+    logging.basicConfig(format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    command = typer.main.get_command(app)
+    try:
+        command.main(args=list(sys.argv[1:] if argv is None else argv), prog_name="cnctwin")
+    except SystemExit as done:
+        return done.code if isinstance(done.code, int) else int(done.code is not None)
+    except CnctwinError as err:
+        return _fail(str(err), EXIT_BAD_INPUT)
+    except OSError as err:
+        where = f"{err.filename}: " if err.filename else ""
+        return _fail(f"{where}{err.strerror or err}", EXIT_BAD_INPUT)
+    except KeyboardInterrupt:
+        return _fail("interrupted", EXIT_INTERRUPTED)
+    except Exception as err:  # noqa: BLE001 - the last resort: report, never a bare traceback
+        return _fail(
+            f"internal error: {type(err).__name__}: {err} (re-run with --debug for the traceback)",
+            EXIT_INTERNAL,
+        )
+    return 0
+
+
+def main() -> None:
+    """Entry point of the ``cnctwin`` console script."""
+    sys.exit(run())
+
+
+def _fail(message: str, code: int) -> int:
+    if _options.debug:
+        traceback.print_exc(file=sys.stderr)
+    sys.stderr.write(" ".join(message.splitlines()) + "\n")
+    sys.stderr.flush()
+    return code

@@ -1,0 +1,166 @@
+"""``cnctwin nc``: read NC programs: summarize (``inspect``) and trace (``trace``) them."""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from cnctwin.config import TwinConfig, load_config
+from cnctwin.nc.segments import Segment
+from cnctwin.nc.summary import summarize
+
+__all__ = ["app", "inspect", "inspect_report", "report_table", "trace"]
+
+app = typer.Typer(help="Read NC programs: summarize, trace, plot.", no_args_is_help=True)
+
+ProgramArg = Annotated[Path, typer.Argument(help="NC program (.ngc, .nc, .tap, .mpf, ...).")]
+ConfigOpt = Annotated[
+    Path | None,
+    typer.Option("--config", "-c", help="Configuration TOML (machine, tools); defaults if omitted."),
+]
+
+
+def _load(config: Path | None) -> TwinConfig:
+    """The configuration in ``config``, or the defaults when it is ``None``."""
+    return load_config(config) if config is not None else TwinConfig()
+
+
+def inspect_report(
+    program: Path, config: TwinConfig, *, on_segment: Callable[[Segment], None] | None = None
+) -> dict[str, Any]:
+    """Interpret a program and summarize it, streaming.
+
+    Parameters
+    ----------
+    program
+        The NC file.
+    config
+        Machine and tools.
+    on_segment
+        Called with each segment as it streams by (e.g. to plot it).
+
+    Returns
+    -------
+    dict
+        The keys of ``cnctwin nc inspect --json``: lines, motion_blocks, feed_length_mm,
+        rapid_length_mm, machining_time_s, rapid_time_s, dwell_time_s, total_time_s,
+        bounds_mm, tools, units, warnings, file. Lengths in mm, times in s.
+
+    Raises
+    ------
+    cnctwin.errors.CnctwinError
+        NCError for a bad program, DataError for a bad tool table.
+    OSError
+        If the file cannot be read.
+    """
+    from cnctwin.nc.interpreter import Interpreter  # the interpreter is heavy to import
+
+    interpreter = Interpreter(config.nc_setup())
+    segments: Iterable[Segment] = interpreter.run_file(program)
+    if on_segment is not None:
+        segments = _tap(segments, on_segment)
+    summary = summarize(segments, rapid_mm_min=config.machine.rapid_mm_min).to_dict()
+    return {
+        "lines": interpreter.lines_read,
+        **{key: summary[key] for key in _SUMMARY_KEYS},
+        "units": interpreter.units or "mm",
+        "warnings": [*interpreter.warnings, *summary["warnings"]],
+        "file": str(program),
+    }
+
+
+_SUMMARY_KEYS = (
+    "motion_blocks",
+    "feed_length_mm",
+    "rapid_length_mm",
+    "machining_time_s",
+    "rapid_time_s",
+    "dwell_time_s",
+    "total_time_s",
+    "bounds_mm",
+    "tools",
+)
+
+
+@app.command()
+def inspect(
+    program: ProgramArg,
+    config: ConfigOpt = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="Also draw the tool-tip path to this PNG.")
+    ] = None,
+) -> None:
+    """Summarize a program: lengths, times, bounds of the tool tip, tools, warnings."""
+    settings = _load(config)
+    picture = None
+    if plot is not None:
+        from cnctwin.nc.plot import ToolpathPlot  # matplotlib only when asked for
+
+        picture = ToolpathPlot()
+    report = inspect_report(program, settings, on_segment=picture.add if picture else None)
+    if picture is not None and plot is not None:
+        picture.save(plot, title=program.name)
+    if as_json:
+        sys.stdout.write(json.dumps(report) + "\n")
+        return
+    Console().print(report_table(report))
+    if plot is not None:
+        Console().print(f"tool path drawn to {plot}")
+    warn = Console(stderr=True)
+    for warning in report["warnings"]:
+        warn.print(f"warning: {warning}", style="yellow", markup=False, highlight=False)
+
+
+@app.command()
+def trace(program: ProgramArg, config: ConfigOpt = None) -> None:
+    """Print the canonical motion trace of a program, one call a line."""
+    from cnctwin.nc.interpreter import Interpreter
+    from cnctwin.nc.trace import format_trace
+
+    interpreter = Interpreter(_load(config).nc_setup())
+    out = sys.stdout
+    for line in format_trace(interpreter.run_file(program)):
+        out.write(f"{line}\n")
+
+
+def _tap(segments: Iterable[Segment], sink: Callable[[Segment], None]) -> Iterator[Segment]:
+    for seg in segments:
+        sink(seg)
+        yield seg
+
+
+def _duration(seconds: float) -> str:
+    minutes, secs = divmod(seconds, 60.0)
+    hours, minutes = divmod(int(minutes), 60)
+    return f"{seconds:.1f} s ({hours}:{minutes:02d}:{secs:04.1f})"
+
+
+def report_table(report: dict[str, Any]) -> Table:
+    """A rich table of an :func:`inspect_report`."""
+    table = Table(title=report["file"], show_header=False, title_justify="left")
+    table.add_column("quantity", style="bold")
+    table.add_column("value", justify="right")
+    table.add_row("lines", str(report["lines"]))
+    table.add_row("units", report["units"])
+    table.add_row("motion blocks", str(report["motion_blocks"]))
+    table.add_row("feed length", f"{report['feed_length_mm']:.3f} mm")
+    table.add_row("rapid length", f"{report['rapid_length_mm']:.3f} mm")
+    table.add_row("machining time", _duration(report["machining_time_s"]))
+    table.add_row("rapid time", _duration(report["rapid_time_s"]))
+    table.add_row("dwell time", _duration(report["dwell_time_s"]))
+    table.add_row("total time", _duration(report["total_time_s"]))
+    low, high = report["bounds_mm"]["min"], report["bounds_mm"]["max"]
+    for axis, name in enumerate("XYZ"):
+        span = f"{low[axis]:.3f} .. {high[axis]:.3f} mm" if low else "-"
+        table.add_row(f"tool tip {name}", span)
+    table.add_row("tools", ", ".join(f"T{t}" for t in report["tools"]) or "-")
+    table.add_row("warnings", str(len(report["warnings"])))
+    return table

@@ -1,0 +1,25 @@
+"""Validated, typed configuration loaded from TOML (see docs/configuration.md).
+
+An empty file is a valid configuration: every section has defaults.
+"""
+
+from cnctwin.config.base import Vec3Mm
+from cnctwin.config.loading import load_config
+from cnctwin.config.machine import AxesConfig, AxisConfig, MachineConfig, WorkOffsets
+from cnctwin.config.material import MaterialConfig
+from cnctwin.config.stock import BoxStock
+from cnctwin.config.tools import ToolConfig
+from cnctwin.config.twin import TwinConfig
+
+__all__ = [
+    "AxesConfig",
+    "AxisConfig",
+    "BoxStock",
+    "MachineConfig",
+    "MaterialConfig",
+    "ToolConfig",
+    "TwinConfig",
+    "Vec3Mm",
+    "WorkOffsets",
+    "load_config",
+]

@@ -1,0 +1,139 @@
+"""Reading a TOML configuration file into a validated :class:`~cnctwin.config.TwinConfig`."""
+
+from __future__ import annotations
+
+import os
+import tomllib
+import types
+import typing
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+from pydantic_core import ErrorDetails
+
+from cnctwin.config.twin import TwinConfig
+from cnctwin.errors import ConfigError
+
+__all__ = ["load_config"]
+
+_SCALARS = (str, int, float, bool)
+
+
+def load_config(path: str | os.PathLike[str]) -> TwinConfig:
+    """Read and validate a configuration file.
+
+    Parameters
+    ----------
+    path
+        A TOML file; relative paths inside it (``tool_table``) are relative to its folder.
+
+    Returns
+    -------
+    TwinConfig
+        The validated configuration.
+
+    Raises
+    ------
+    cnctwin.errors.ConfigError
+        If the file cannot be read, is not valid TOML, or a value is invalid; the message is
+        one line ``"FILE: key.path: what is wrong; got VALUE"``.
+    """
+    path = Path(path)
+    source = str(path)
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except OSError as err:
+        raise ConfigError(f"cannot read configuration: {err.strerror}", source) from err
+    except UnicodeDecodeError as err:
+        raise ConfigError(f"not UTF-8 text (byte {err.start}): {err.reason}", source) from err
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError(f"invalid TOML: {err}", source) from err
+    try:
+        return TwinConfig.model_validate(data, context={"base_dir": path.parent})
+    except ValidationError as err:
+        raise ConfigError(_describe_validation_error(err, TwinConfig), source) from err
+
+
+def _describe_validation_error(error: ValidationError, root: type[BaseModel]) -> str:
+    """One line for a pydantic error: key path, what is wrong, what is valid, the value.
+
+    Parameters
+    ----------
+    error
+        The validation error of ``root``.
+    root
+        The model that was validated, used to list the valid keys next to an unknown one.
+
+    Returns
+    -------
+    str
+        E.g. ``"machine.axes.x.max_mm: must be greater than min_mm (-10.0); got -20.0"``,
+        followed by ``" (and N more problems)"`` when there are several.
+    """
+    details = error.errors(include_url=False)
+    first = details[0]
+    text = f"{_key_path(first['loc'])}: {_problem(first, root)}"
+    if len(details) > 1:
+        text += f" (and {len(details) - 1} more problem{'s' if len(details) > 2 else ''})"
+    return text
+
+
+def _key_path(loc: tuple[int | str, ...]) -> str:
+    path = ""
+    for part in loc:
+        if isinstance(part, int):
+            path += f"[{part}]"
+        else:
+            path += f".{part}" if path else str(part)
+    return path or "(top level)"
+
+
+def _problem(detail: ErrorDetails, root: type[BaseModel]) -> str:
+    kind = detail["type"]
+    if kind == "extra_forbidden":
+        keys = _valid_keys(root, detail["loc"][:-1])
+        return "unknown key" + (f"; valid keys: {', '.join(keys)}" if keys else "")
+    if kind == "missing":
+        return "required key is missing" if isinstance(detail["loc"][-1], str) else "item is missing"
+    message = detail["msg"].removeprefix("Value error, ")
+    if message.startswith("Input should be"):
+        message = "must be" + message.removeprefix("Input should be")
+    else:
+        message = message[:1].lower() + message[1:]
+    value = detail.get("input")
+    if isinstance(value, _SCALARS):
+        message += f"; got {value!r}"
+    return message
+
+
+def _valid_keys(root: type[BaseModel], loc: tuple[int | str, ...]) -> list[str]:
+    """The keys allowed in the table at ``loc`` below ``root``; empty if it cannot be told."""
+    annotation: Any = root
+    for part in loc:
+        annotation = _model_or_item(annotation, part)
+        if annotation is None:
+            return []
+    model = _model_or_item(annotation, None)
+    if model is None:
+        return []
+    return [field.alias or name for name, field in model.model_fields.items()]
+
+
+def _model_or_item(annotation: Any, part: int | str | None) -> Any:
+    """Step from a type to the type of its key ``part`` (``None``: the model itself)."""
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType):
+        members = [a for a in typing.get_args(annotation) if a is not type(None)]
+        return _model_or_item(members[0], part) if len(members) == 1 else None
+    if isinstance(part, int) and origin in (list, tuple):
+        return typing.get_args(annotation)[0]
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        if part is None:
+            return annotation
+        for name, field in annotation.model_fields.items():
+            if part in (name, field.alias):
+                return field.annotation
+    return None

@@ -1,0 +1,102 @@
+"""The ``[machine]`` section: kind, rapid rate, axis travel, reference points and work offsets."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import ConfigDict, Field, ValidationInfo, field_validator
+from pydantic_core import PydanticCustomError
+
+from cnctwin.config.base import Section, Vec3Mm
+
+__all__ = ["AxesConfig", "AxisConfig", "MachineConfig", "WorkOffsets"]
+
+
+class AxisConfig(Section):
+    """Travel and dynamic limits of one linear axis.
+
+    Attributes
+    ----------
+    min_mm, max_mm
+        Travel limits in machine coordinates, mm; ``max_mm`` must exceed ``min_mm``.
+    max_velocity_mm_min
+        Maximum axis velocity in mm/min.
+    max_accel_mm_s2
+        Maximum axis acceleration in mm/s^2.
+    """
+
+    min_mm: float = -500.0
+    max_mm: float = Field(default=500.0, validate_default=True)
+    max_velocity_mm_min: float = Field(default=10_000.0, gt=0)
+    max_accel_mm_s2: float = Field(default=1_000.0, gt=0)
+
+    @field_validator("max_mm")
+    @classmethod
+    def _above_min(cls, value: float, info: ValidationInfo) -> float:
+        low = info.data.get("min_mm")
+        if low is not None and value <= low:
+            raise PydanticCustomError(
+                "travel_order", "must be greater than min_mm ({min_mm})", {"min_mm": low}
+            )
+        return value
+
+
+class AxesConfig(Section):
+    """The linear axes X, Y and Z."""
+
+    x: AxisConfig = Field(default_factory=AxisConfig)
+    y: AxisConfig = Field(default_factory=AxisConfig)
+    z: AxisConfig = Field(default_factory=AxisConfig)
+
+
+class WorkOffsets(Section):
+    """Initial work offsets (program origins in machine coordinates, mm), G54 to G59.3.
+
+    Keys are the G-codes in lower case (``g54``; quote the dotted ones: ``"g59.1"``);
+    a coordinate system that is not given starts at the machine origin.
+    """
+
+    model_config = ConfigDict(populate_by_name=False)
+
+    g54: Vec3Mm | None = None
+    g55: Vec3Mm | None = None
+    g56: Vec3Mm | None = None
+    g57: Vec3Mm | None = None
+    g58: Vec3Mm | None = None
+    g59: Vec3Mm | None = None
+    g59_1: Vec3Mm | None = Field(default=None, alias="g59.1")
+    g59_2: Vec3Mm | None = Field(default=None, alias="g59.2")
+    g59_3: Vec3Mm | None = Field(default=None, alias="g59.3")
+
+    def by_system(self) -> dict[int, Vec3Mm]:
+        """The offsets that are set, by coordinate system number (1 = G54 ... 9 = G59.3), in mm."""
+        offsets = (getattr(self, name) for name in type(self).model_fields)
+        return {number: value for number, value in enumerate(offsets, 1) if value is not None}
+
+
+class MachineConfig(Section):
+    """The machine tool.
+
+    Attributes
+    ----------
+    name
+        A name for reports.
+    kind
+        ``"mill"`` or ``"lathe"`` (a lathe interprets programs with lathe conventions).
+    rapid_mm_min
+        Rapid traverse rate in mm/min, used for rapid-move times.
+    axes
+        Limits of the X, Y and Z axes.
+    g28_home_mm, g30_home_mm
+        Machine positions of the G28 and G30 reference points in mm.
+    work_offsets
+        Initial work offsets G54 to G59.3 in mm.
+    """
+
+    name: str = "cnctwin machine"
+    kind: Literal["mill", "lathe"] = "mill"
+    rapid_mm_min: float = Field(default=10_000.0, gt=0)
+    axes: AxesConfig = Field(default_factory=AxesConfig)
+    g28_home_mm: Vec3Mm = (0.0, 0.0, 0.0)
+    g30_home_mm: Vec3Mm = (0.0, 0.0, 0.0)
+    work_offsets: WorkOffsets = Field(default_factory=WorkOffsets)

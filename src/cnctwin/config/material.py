@@ -1,0 +1,27 @@
+"""The ``[material]`` section: the workpiece material."""
+
+from __future__ import annotations
+
+from pydantic import Field
+
+from cnctwin.config.base import Section
+
+__all__ = ["MaterialConfig"]
+
+
+class MaterialConfig(Section):
+    """Workpiece material.
+
+    Attributes
+    ----------
+    name
+        Material name, e.g. ``"aluminium 7075-T6"``.
+    density_kg_m3
+        Density in kg/m^3, if known.
+    hardness_hb
+        Brinell hardness (HB), if known.
+    """
+
+    name: str = "unspecified"
+    density_kg_m3: float | None = Field(default=None, gt=0)
+    hardness_hb: float | None = Field(default=None, gt=0)

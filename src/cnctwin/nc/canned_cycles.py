@@ -1,0 +1,164 @@
+"""Drilling canned cycles (G73, G81-G86, G89) expanded into elementary moves.
+
+The expansion follows the RS274NGC/LinuxCNC definition: for each hole, a rapid in the
+plane at the clearance level, a rapid along the drilling axis to the R plane, the
+cycle's own motion, and a retract to the clearance level (the initial level under G98,
+the R plane under G99). Moves that would not move the tool are dropped, as LinuxCNC does.
+Positions are machine coordinates in mm; the drilling axis is the plane's normal.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from cnctwin.nc.segments import MotionKind
+
+__all__ = ["CycleMove", "CycleSpec", "expand_cycle", "PECK_CLEARANCE_MM"]
+
+#: Retract of G73 chip breaking and the stop short of the previous depth in G83, in mm
+#: (LinuxCNC uses 0.010 inch, i.e. 0.254 mm).
+PECK_CLEARANCE_MM = 0.254
+
+
+@dataclass(frozen=True, slots=True)
+class CycleMove:
+    """One elementary move of an expanded cycle.
+
+    Attributes
+    ----------
+    kind
+        RAPID, LINEAR or DWELL.
+    position_mm
+        Target (x, y, z) in machine coordinates, mm (unchanged for a dwell).
+    dwell_s
+        Dwell time in s.
+    spindle_direction
+        Spindle direction during the move: 1 CW, -1 CCW, 0 stopped, ``None`` unchanged.
+    """
+
+    kind: MotionKind
+    position_mm: tuple[float, float, float]
+    dwell_s: float = 0.0
+    spindle_direction: int | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class CycleSpec:
+    """What one hole of a cycle needs.
+
+    Attributes
+    ----------
+    code
+        The cycle's G number: 73, 81, 82, 83, 84, 85, 86 or 89.
+    normal_axis
+        Index (0, 1, 2) of the drilling axis (Z in G17, Y in G18, X in G19).
+    r_mm
+        R plane level along the drilling axis, machine coordinates, mm.
+    bottom_mm
+        Hole bottom along the drilling axis, machine coordinates, mm.
+    clear_mm
+        Retract level after the hole, machine coordinates, mm.
+    peck_mm
+        Peck increment Q (G73, G83), mm, > 0.
+    dwell_s
+        Dwell P at the bottom (G82, G89; also G84 when given), s.
+    spindle_direction
+        Spindle direction before the cycle (G84 reverses it to retract).
+    """
+
+    code: int
+    normal_axis: int
+    r_mm: float
+    bottom_mm: float
+    clear_mm: float
+    peck_mm: float = 0.0
+    dwell_s: float = 0.0
+    spindle_direction: int = 1
+
+
+def expand_cycle(
+    spec: CycleSpec, hole_mm: tuple[float, float, float], current_mm: tuple[float, float, float]
+) -> list[CycleMove]:
+    """Elementary moves that drill one hole.
+
+    Parameters
+    ----------
+    spec
+        The cycle.
+    hole_mm
+        Hole position in machine coordinates, mm; its drilling-axis component is ignored.
+    current_mm
+        Position before the hole, machine coordinates, mm.
+
+    Returns
+    -------
+    list of CycleMove
+        Rapid to the hole at the current level, rapid to R, the cycle motion, retract.
+    """
+    n = spec.normal_axis
+    moves: list[CycleMove] = []
+    here = list(current_mm)
+
+    def go(kind: MotionKind, level: float | None = None, direction: int | None = None) -> None:
+        target = list(here)
+        if level is not None:
+            target[n] = level
+        if target == here and kind != MotionKind.DWELL:
+            return
+        here[:] = target
+        moves.append(CycleMove(kind, (target[0], target[1], target[2]), 0.0, direction))
+
+    def dwell(seconds: float, direction: int | None = None) -> None:
+        moves.append(
+            CycleMove(MotionKind.DWELL, (here[0], here[1], here[2]), seconds, direction)
+        )
+
+    # Position over the hole at the current level, then down to R.
+    over = list(hole_mm)
+    over[n] = here[n]
+    if over != here:
+        here[:] = over
+        moves.append(CycleMove(MotionKind.RAPID, (over[0], over[1], over[2])))
+    go(MotionKind.RAPID, spec.r_mm)
+
+    code = spec.code
+    r, bottom = spec.r_mm, spec.bottom_mm
+    if code in (73, 83):
+        depth = r - spec.peck_mm
+        while depth > bottom:
+            go(MotionKind.LINEAR, depth)
+            if code == 73:
+                go(MotionKind.RAPID, depth + PECK_CLEARANCE_MM)
+            else:
+                go(MotionKind.RAPID, r)
+                go(MotionKind.RAPID, depth + PECK_CLEARANCE_MM)
+            depth -= spec.peck_mm
+        go(MotionKind.LINEAR, bottom)
+        go(MotionKind.RAPID, spec.clear_mm)
+    elif code == 81:
+        go(MotionKind.LINEAR, bottom)
+        go(MotionKind.RAPID, spec.clear_mm)
+    elif code == 82:
+        go(MotionKind.LINEAR, bottom)
+        if spec.dwell_s > 0.0:
+            dwell(spec.dwell_s)
+        go(MotionKind.RAPID, spec.clear_mm)
+    elif code == 84:
+        go(MotionKind.LINEAR, bottom)
+        reverse = -spec.spindle_direction
+        if spec.dwell_s > 0.0:
+            dwell(spec.dwell_s, reverse)
+        # The tap feeds out with the spindle reversed, straight to the clearance level.
+        go(MotionKind.LINEAR, spec.clear_mm, reverse)
+    elif code in (85, 89):
+        go(MotionKind.LINEAR, bottom)
+        if code == 89 and spec.dwell_s > 0.0:
+            dwell(spec.dwell_s)
+        go(MotionKind.LINEAR, r)
+        go(MotionKind.RAPID, spec.clear_mm)
+    elif code == 86:
+        go(MotionKind.LINEAR, bottom)
+        go(MotionKind.RAPID, spec.clear_mm, 0)
+    else:
+        raise ValueError(f"not a drilling cycle: G{code}")
+    return moves

@@ -1,0 +1,1437 @@
+"""RS274/ISO 6983 interpreter: NC program text to motion segments in machine coordinates.
+
+The interpreter follows the RS274NGC language as LinuxCNC implements it (modal groups,
+order of execution within a block, parameters, expressions, O-word subroutines and
+control flow) and accepts the Fanuc/Haas, grbl and Sinumerik basics that real CAM posts
+emit. Everything it does not implement is rejected with an :class:`~cnctwin.errors.NCError`
+that names the construct and the line. The list is in ``docs/nc.md``.
+
+Segments are produced lazily: a program of any length is interpreted in constant memory.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Iterator
+from dataclasses import replace
+from pathlib import Path
+
+from cnctwin.errors import NCError
+from cnctwin.nc.canned_cycles import CycleSpec, expand_cycle
+from cnctwin.nc.cutter_comp import CutterCompensator
+from cnctwin.nc.expressions import Parameters, read_value
+from cnctwin.nc.lexer import Block, OWord, lex_block, strip_comments
+from cnctwin.nc.segments import (
+    PLANE_AXES,
+    CutterComp,
+    FeedMode,
+    MachineState,
+    MotionKind,
+    Plane,
+    Segment,
+    Vec3,
+    arc_sweep_rad,
+)
+from cnctwin.nc.setup import NCSetup, ToolEntry
+from cnctwin.nc.source import LineSource
+
+__all__ = ["Interpreter", "interpret_file", "interpret_text"]
+
+logger = logging.getLogger(__name__)
+
+MM_PER_INCH = 25.4
+#: Largest allowed difference between an arc's start and end radius: absolute, in mm,
+#: and relative to the radius (LinuxCNC uses comparable tolerances).
+ARC_RADIUS_TOLERANCE_MM = 0.005
+ARC_RADIUS_TOLERANCE_REL = 0.001
+#: Chord tolerance of the line segments that approximate G5.1 splines, mm.
+SPLINE_TOLERANCE_MM = 0.001
+#: Upper bound on the iterations of one O-word loop, against runaway programs.
+MAX_LOOP_ITERATIONS = 1_000_000
+#: Upper bound on nested subroutine calls.
+MAX_CALL_DEPTH = 100
+
+_AXES = "xyz"
+_ROTARY = "abc"
+
+# Modal groups of G-codes (keys are ten times the G number).
+_GROUPS: dict[int, int] = {}
+for _group, _codes in {
+    1: (0, 10, 20, 30, 51, 331, 730, 800, 810, 820, 830, 840, 850, 860, 890),
+    2: (170, 180, 190),
+    3: (900, 910),
+    4: (901, 911),
+    5: (930, 940, 950),
+    6: (200, 210, 7000, 7100),
+    7: (400, 410, 420, 411, 421),
+    8: (430, 431, 432, 490),
+    10: (980, 990),
+    12: (540, 550, 560, 570, 580, 590, 591, 592, 593),
+    13: (610, 611, 640),
+    14: (960, 970),
+    15: (70, 80),
+    0: (40, 100, 280, 281, 300, 301, 520, 530, 920, 921, 922, 923, 500),
+}.items():
+    for _code in _codes:
+        _GROUPS[_code] = _group
+
+_NON_MODAL_WITH_AXES = {100, 280, 300, 520, 920}
+_CYCLES = {730, 810, 820, 830, 840, 850, 860, 890}
+_COORD_SYSTEMS = {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8, 593: 9}
+
+#: G-codes recognised but not implemented, with what they are.
+_UNSUPPORTED_G: dict[int, str] = {
+    50: "cubic spline (G5)",
+    52: "NURBS (G5.2)",
+    53: "NURBS (G5.3)",
+    120: "circular pocket (G12)",
+    130: "circular pocket (G13)",
+    330: "spindle-synchronized motion (G33)",
+    382: "probing (G38.2)",
+    383: "probing (G38.3)",
+    384: "probing (G38.4)",
+    385: "probing (G38.5)",
+    510: "scaling (G51)",
+    541: "extended work offsets (G54.1)",
+    680: "coordinate rotation (G68)",
+    690: "coordinate rotation cancel (G69)",
+    700: "lathe finishing cycle (G70)",
+    710: "lathe roughing cycle (G71)",
+    711: "lathe roughing cycle (G71.1)",
+    712: "lathe roughing cycle (G71.2)",
+    720: "lathe facing cycle (G72)",
+    721: "lathe facing cycle (G72.1)",
+    722: "lathe facing cycle (G72.2)",
+    740: "left-hand tapping / lathe peck cycle (G74)",
+    750: "lathe grooving cycle (G75)",
+    760: "threading cycle (G76)",
+    870: "back boring cycle (G87)",
+    880: "boring cycle with manual retract (G88)",
+    1000: "macro call (G100)",
+}
+_UNSUPPORTED_M: dict[int, str] = {
+    98: "Fanuc subprogram call (M98)",
+    99: "Fanuc subprogram return (M99)",
+}
+_KNOWN_M = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 30, 48, 49, 60}
+
+
+class _Jump(Exception):
+    """Raised inside control flow to abandon the current line loop (never escapes)."""
+
+
+class Interpreter:
+    """Interpret NC programs into :class:`~cnctwin.nc.segments.Segment` objects.
+
+    Parameters
+    ----------
+    setup
+        Tool table, lathe flag, initial work offsets, reference points (mm).
+
+    Attributes
+    ----------
+    lines_read
+        Lines read so far (every line, including those skipped by control flow).
+    units
+        Units the program first selected, ``"mm"`` or ``"inch"`` (``"mm"`` if it never does).
+    warnings
+        ``"FILE:LINE: message"`` for everything accepted but worth a look.
+    messages
+        Texts of ``(MSG, ...)`` comments, in order.
+    tools_used
+        Tool numbers loaded by the program, in order of first use.
+
+    Examples
+    --------
+    >>> from cnctwin.nc.interpreter import interpret_text
+    >>> [s.end_mm for s in interpret_text("G21 G90\\nG0 X10 Y5\\nG1 Z-1 F100\\nM2")]
+    [(10.0, 5.0, 0.0), (10.0, 5.0, -1.0)]
+    """
+
+    def __init__(self, setup: NCSetup | None = None) -> None:
+        self.setup = setup if setup is not None else NCSetup()
+        self.lines_read = 0
+        self.units: str | None = None
+        self.warnings: list[str] = []
+        self.messages: list[str] = []
+        self.tools_used: list[int] = []
+        self.params = Parameters()
+        self._file = "<string>"
+        self._line = 0
+        lathe = self.setup.lathe
+        # Positions are machine coordinates of the controlled point, mm / degrees.
+        self._pos: list[float] = list(self.setup.initial_position_mm)
+        self._abc: list[float] = [0.0, 0.0, 0.0]
+        self._factor = 1.0
+        self._incremental = False
+        self._arc_absolute = False
+        self._motion: int | None = None
+        self._g5x: dict[int, list[float]] = {
+            n: list(self.setup.work_offsets_mm.get(n, (0.0, 0.0, 0.0))) + [0.0, 0.0, 0.0]
+            for n in range(1, 10)
+        }
+        self._cs = 1
+        self._rotation_deg: dict[int, float] = dict.fromkeys(range(1, 10), 0.0)
+        self._off = [0.0] * 6
+        self._g92 = [0.0] * 6
+        self._g92_saved = [0.0] * 6
+        self._tool_offset = [0.0, 0.0, 0.0]
+        self._tools: dict[int, ToolEntry] = dict(self.setup.tools)
+        self._selected_tool = 0
+        self._retract_r = False
+        self._cycle_r: float | None = None
+        self._cycle_bottom: float | None = None
+        self._cycle_q = 0.0
+        self._cycle_p = 0.0
+        self._g28 = list(self.setup.g28_home_mm)
+        self._g30 = list(self.setup.g30_home_mm)
+        self._comp: CutterCompensator | None = None
+        self._diameter_mode = lathe
+        self._state = MachineState(
+            plane=Plane.ZX if lathe else Plane.XY,
+            diameter_mode=lathe,
+        )
+        self._ended = False
+        self._frames: list[tuple] = []
+        self._subs: dict[str, tuple[LineSource, int, int]] = {}
+        self._sources: list[LineSource] = []
+        self._out: list[Segment] = []
+        self._line_start = 0
+
+    # ------------------------------------------------------------------ entry points
+    def run_file(self, path: str | Path) -> Iterator[Segment]:
+        """Interpret a program file lazily.
+
+        Parameters
+        ----------
+        path
+            NC program file (``.ngc``, ``.nc``, ``.tap``, ``.gcode``, ``.mpf``, ...).
+
+        Yields
+        ------
+        Segment
+            Motion segments in program order.
+
+        Raises
+        ------
+        NCError
+            ``"FILE:LINE: message"`` for anything the interpreter cannot honour.
+        OSError
+            If the file cannot be opened.
+        """
+        source = LineSource.from_path(path)
+        return self._run(source)
+
+    def run_text(self, text: str, name: str = "<string>") -> Iterator[Segment]:
+        """Interpret program text held in memory; see :meth:`run_file`."""
+        return self._run(LineSource.from_text(text, name))
+
+    # ------------------------------------------------------------------ main loop
+    def _run(self, source: LineSource) -> Iterator[Segment]:
+        self._sources.append(source)
+        try:
+            while self._sources and not self._ended:
+                src = self._sources[-1]
+                self._file = src.name
+                finished = True
+                main = len(self._sources) == 1 and src is source
+                for lineno, start, raw in src:
+                    self._line = lineno
+                    self._line_start = start
+                    if main and lineno > self.lines_read:
+                        self.lines_read = lineno
+                    try:
+                        block = lex_block(raw, self.params)
+                        if block is None:
+                            continue
+                        if block.oword is not None:
+                            if self._control(block.oword, src):
+                                finished = False
+                                break
+                            continue
+                        self._execute(block)
+                    except NCError as err:
+                        raise self._locate(err) from None
+                    if self._out:
+                        yield from self._out
+                        self._out.clear()
+                    if self._ended:
+                        break
+                if finished and self._sources and self._sources[-1] is src:
+                    if len(self._sources) > 1:
+                        raise self._error(
+                            "end of subroutine file reached without 'endsub' or 'return'"
+                        )
+                    self._sources.pop()
+            self._finish_comp()
+            if self._out:
+                yield from self._out
+                self._out.clear()
+        finally:
+            for src in self._sources:
+                src.close()
+            source.close()
+
+    def _locate(self, err: NCError) -> NCError:
+        if err.line:
+            return err
+        return NCError(err.message, self._file, self._line, err.column)
+
+    def _error(self, message: str) -> NCError:
+        return NCError(message, self._file, self._line)
+
+    def _warn(self, message: str) -> None:
+        self.warnings.append(f"{self._file}:{self._line}: {message}")
+
+    # ------------------------------------------------------------------ blocks
+    def _execute(self, block: Block) -> None:
+        for key, value in block.assignments:
+            self.params[key] = value
+        if block.messages:
+            self.messages.extend(block.messages)
+        gcodes = block.gcodes
+        mcodes = block.mcodes
+        words = block.words
+        if not gcodes and not mcodes:
+            if not words:
+                return
+            motion = self._motion
+            if (motion == 10 or motion == 0) and self._comp is None and words.keys() <= {
+                "x",
+                "y",
+                "z",
+                "f",
+            }:
+                # Fast path: a modal straight move, the bulk of CAM output.
+                if "f" in words:
+                    self._set_feed(words["f"])
+                if motion == 10:
+                    self._require_feed(words)
+                target = self._target(words)
+                self._straight(MotionKind.LINEAR if motion == 10 else MotionKind.RAPID, target)
+                return
+        self._execute_general(block)
+
+    def _execute_general(self, block: Block) -> None:
+        words = block.words
+        seen_groups: dict[int, int] = {}
+        motion_code: int | None = None
+        non_modal: int | None = None
+        g53 = False
+        for code in block.gcodes:
+            group = _GROUPS.get(code)
+            if group is None:
+                self._reject_g(code)
+            if code == 530:
+                g53 = True
+            elif group == 0:
+                if code == 500 and not self.setup.lathe:
+                    raise self._error(
+                        "G50 (spindle speed clamp) is a lathe code: use a lathe "
+                        "configuration (machine.kind = 'lathe')"
+                    )
+                if non_modal is not None:
+                    raise self._error(f"G{_g(non_modal)} and G{_g(code)} cannot share a block")
+                non_modal = code
+            else:
+                if group in seen_groups:
+                    raise self._error(
+                        f"G{_g(seen_groups[group])} and G{_g(code)} are in the same modal "
+                        "group and cannot share a block"
+                    )
+                seen_groups[group] = code
+                if group == 1:
+                    motion_code = code
+        if self.setup.lathe and (980 in seen_groups.values() or 990 in seen_groups.values()):
+            # Fanuc lathe (G-code system A): G98/G99 select feed per minute/revolution.
+            code = seen_groups.pop(10)
+            seen_groups[5] = 940 if code == 980 else 950
+
+        # 1-3: feed mode, feed, spindle speed.
+        if 5 in seen_groups:
+            mode = FeedMode(seen_groups[5] // 10)
+            if mode != self._state.feed_mode:
+                self._state = replace(self._state, feed_mode=mode)
+        if "f" in words:
+            self._set_feed(words["f"])
+        if "s" in words and non_modal != 500:
+            self._set_speed(words["s"])
+        # 4-5: tool select and change.
+        if "t" in words:
+            self._select_tool(words["t"])
+        for m in block.mcodes:
+            if m not in _KNOWN_M:
+                if m in _UNSUPPORTED_M:
+                    raise self._error(f"{_UNSUPPORTED_M[m]} is not supported")
+                self._warn(f"M{m} is machine-specific and was ignored")
+        if 6 in block.mcodes:
+            self._change_tool()
+        # 6: spindle.
+        for m in block.mcodes:
+            if m in (3, 4, 5):
+                direction = {3: 1, 4: -1, 5: 0}[m]
+                if direction != self._state.spindle_direction:
+                    self._state = replace(self._state, spindle_direction=direction)
+            elif m in (7, 8, 9):
+                self._coolant(m)
+        # 7: dwell.
+        if non_modal == 40:
+            self._dwell(words)
+        # 8: plane, units, diameter mode, css.
+        if 2 in seen_groups:
+            plane = Plane(seen_groups[2] // 10)
+            if plane != self._state.plane:
+                if self._comp is not None:
+                    raise self._error("cannot change the plane while cutter compensation is on")
+                self._state = replace(self._state, plane=plane)
+        if 6 in seen_groups:
+            self._set_units("inch" if seen_groups[6] in (200, 7000) else "mm")
+        if 15 in seen_groups:
+            self._diameter_mode = seen_groups[15] == 70
+            self._state = replace(self._state, diameter_mode=self._diameter_mode)
+        if 14 in seen_groups:
+            self._set_css(seen_groups[14] == 960, words)
+        if non_modal == 500:
+            self._spindle_clamp(words)
+        # 9: cutter compensation.
+        if 7 in seen_groups:
+            self._set_comp(seen_groups[7], words)
+        # 10: tool length offset.
+        if 8 in seen_groups:
+            self._set_tool_offset(seen_groups[8], words)
+        # 11: coordinate system.
+        if 12 in seen_groups:
+            if self._comp is not None:
+                raise self._error(
+                    "cannot change the coordinate system while cutter compensation is on"
+                )
+            self._cs = _COORD_SYSTEMS[seen_groups[12]]
+            self._update_offsets()
+        # 12: path control mode (G61/G64): no effect on the programmed path.
+        # 13: distance modes, retract mode.
+        if 3 in seen_groups:
+            self._incremental = seen_groups[3] == 910
+        if 4 in seen_groups:
+            self._arc_absolute = seen_groups[4] == 901
+        if 10 in seen_groups:
+            self._retract_r = seen_groups[10] == 990
+        # 14: reference points, offsets.
+        axis_words = any(k in words for k in "xyzabc")
+        if non_modal in (280, 300):
+            self._go_home(non_modal, words)
+        elif non_modal in (281, 301):
+            target = self._g28 if non_modal == 281 else self._g30
+            target[:] = self._pos
+        elif non_modal == 100:
+            self._g10(words)
+        elif non_modal in (920, 921, 922, 923, 520):
+            self._set_g92(non_modal, words)
+        # 15: motion.
+        if motion_code is not None:
+            if motion_code == 800:
+                self._motion = None
+                self._cycle_r = None
+                self._cycle_bottom = None
+            else:
+                self._motion = motion_code
+        if non_modal in _NON_MODAL_WITH_AXES:
+            pass
+        elif motion_code is not None and motion_code != 800:
+            self._motion_block(motion_code, words, g53)
+        elif axis_words:
+            if self._motion is None:
+                raise self._error(
+                    "axis words with no active motion mode: add G0, G1, G2 or G3"
+                    if motion_code != 800
+                    else "axis words after G80 with no motion mode: add G0 or G1"
+                )
+            self._motion_block(self._motion, words, g53)
+        elif motion_code in (20, 30) or (motion_code is None and g53):
+            pass
+        # 16: stops.
+        for m in block.mcodes:
+            if m in (2, 30):
+                self._ended = True
+            elif m == 60:
+                pass
+
+    def _reject_g(self, code: int) -> None:
+        if code in _UNSUPPORTED_G:
+            raise self._error(f"{_UNSUPPORTED_G[code]} is not supported")
+        raise self._error(
+            f"G{_g(code)} is not a G-code cnctwin knows; see docs/nc.md for the supported list"
+        )
+
+    # ------------------------------------------------------------------ modal settings
+    def _set_feed(self, value: float) -> None:
+        if value < 0:
+            raise self._error(f"feed rate F{value:g} is negative: F must be >= 0")
+        if value != self._state.programmed_feed:
+            self._state = replace(self._state, programmed_feed=value)
+
+    def _set_speed(self, value: float) -> None:
+        if value < 0:
+            raise self._error(f"spindle speed S{value:g} is negative: S must be >= 0")
+        if value != self._state.programmed_speed:
+            self._state = replace(self._state, programmed_speed=value)
+
+    def _set_units(self, units: str) -> None:
+        if self.units is None:
+            self.units = units
+        factor = MM_PER_INCH if units == "inch" else 1.0
+        if factor != self._factor:
+            self._factor = factor
+            self._state = replace(self._state, units=units)  # type: ignore[arg-type]
+
+    def _set_css(self, on: bool, words: dict[str, float]) -> None:
+        if on and "d" in words:
+            self._state = replace(self._state, spindle_clamp_rpm=words["d"])
+        self._state = replace(self._state, css=on)
+
+    def _spindle_clamp(self, words: dict[str, float]) -> None:
+        if "s" not in words or any(k in words for k in "xyz"):
+            raise self._error(
+                "G50 on a lathe is supported as spindle speed clamp only (G50 S<rpm>); "
+                "coordinate setting with G50 X/Z is not supported"
+            )
+        self._state = replace(self._state, spindle_clamp_rpm=words["s"])
+
+    def _coolant(self, m: int) -> None:
+        current = self._state.coolant
+        if m == 9:
+            new = "off"
+        else:
+            kind = "mist" if m == 7 else "flood"
+            parts = set() if current == "off" else set(current.split("+"))
+            parts.add(kind)
+            new = "+".join(sorted(parts))
+        if new != current:
+            self._state = replace(self._state, coolant=new)
+
+    def _select_tool(self, value: float) -> None:
+        if value < 0 or value != int(value):
+            raise self._error(f"tool number T{value:g} must be a non-negative integer")
+        number = int(value)
+        if self.setup.lathe and number >= 100:
+            # Fanuc lathe: T0101 = tool 01 with offset register 01, applied at once.
+            tool, register = divmod(number, 100)
+            self._selected_tool = tool
+            self._change_tool()
+            entry = self._tools.get(register)
+            if register and entry is None:
+                raise self._error(
+                    f"T{number:04d}: offset register {register} is not in the tool table"
+                )
+            offset = (
+                (entry.x_offset_mm, 0.0, entry.length_mm) if entry and register else (0.0,) * 3
+            )
+            self._tool_offset = list(offset)
+            self._update_offsets()
+            return
+        self._selected_tool = number
+
+    def _change_tool(self) -> None:
+        tool = self._selected_tool
+        if tool not in self.tools_used and tool != 0:
+            self.tools_used.append(tool)
+        if tool != self._state.tool:
+            self._state = replace(self._state, tool=tool)
+
+    def _set_tool_offset(self, code: int, words: dict[str, float]) -> None:
+        if code == 490:
+            self._tool_offset = [0.0, 0.0, 0.0]
+        elif code == 430:
+            number = words.get("h", float(self._state.tool))
+            if number != int(number) or number < 0:
+                raise self._error(f"G43 H{number:g}: H must be a non-negative integer")
+            entry = self._tool_entry(int(number), "G43 applies a zero length offset")
+            self._tool_offset = [entry.x_offset_mm, 0.0, entry.length_mm]
+        elif code == 431:
+            f = self._factor
+            self._tool_offset = [
+                words.get("x", 0.0) * f,
+                words.get("y", 0.0) * f,
+                words.get("z", 0.0) * f,
+            ]
+        elif code == 432:
+            number = words.get("h")
+            entry = self._tools.get(int(number)) if number is not None else None
+            if entry is None:
+                raise self._error("G43.2 needs H<tool> with a tool in the tool table")
+            self._tool_offset[0] += entry.x_offset_mm
+            self._tool_offset[2] += entry.length_mm
+        self._update_offsets()
+
+    def _tool_entry(self, number: int, consequence: str) -> ToolEntry:
+        """Tool-table entry, or an empty one with a warning when the table lacks it."""
+        entry = self._tools.get(number)
+        if entry is None:
+            entry = ToolEntry(number)
+            if number != 0:
+                self._warn(
+                    f"tool {number} is not in the tool table: {consequence} "
+                    "(add it to the configuration's [[tools]] or tool_table)"
+                )
+        return entry
+
+    def _update_offsets(self) -> None:
+        g5x = self._g5x[self._cs]
+        g92 = self._g92
+        tool = self._tool_offset
+        self._off = [g5x[i] + g92[i] + (tool[i] if i < 3 else 0.0) for i in range(6)]
+        state = self._state
+        new = (
+            (g5x[0], g5x[1], g5x[2]),
+            (g92[0], g92[1], g92[2]),
+            (tool[0], tool[1], tool[2]),
+            self._rotation_deg[self._cs],
+            self._cs,
+        )
+        if new != (
+            state.work_offset_mm,
+            state.axis_offset_mm,
+            state.tool_offset_mm,
+            state.xy_rotation_deg,
+            state.coordinate_system,
+        ):
+            self._state = replace(
+                state,
+                work_offset_mm=new[0],
+                axis_offset_mm=new[1],
+                tool_offset_mm=new[2],
+                xy_rotation_deg=new[3],
+                coordinate_system=new[4],
+            )
+
+    def _offset(self, axis: int) -> float:
+        """Offset from program to machine coordinates on an axis not turned by the XY
+        rotation (Z, A, B, C; X and Y when the rotation is 0), mm or degrees."""
+        return self._off[axis]
+
+    # ------------------------------------------------------------------ positions
+    def _target(self, words: dict[str, float], g53: bool = False) -> list[float]:
+        """Machine target of the axis words of a block, mm."""
+        pos = self._pos
+        target = [pos[0], pos[1], pos[2]]
+        f = self._factor
+        if self._state.xy_rotation_deg and not g53:
+            prog = list(self._state.to_program((pos[0], pos[1], pos[2])))
+            for i, v in self._axis_values(words).items():
+                if i < 3:
+                    prog[i] = prog[i] + v if self._incremental else v
+            return list(self._state.to_machine((prog[0], prog[1], prog[2])))
+        for i, letter in enumerate(_AXES):
+            value = words.get(letter)
+            if value is None:
+                continue
+            v = value * f
+            if i == 0 and self._diameter_mode:
+                v *= 0.5
+            if g53:
+                target[i] = v
+            elif self._incremental:
+                target[i] = pos[i] + v
+            else:
+                target[i] = v + self._offset(i)
+        return target
+
+    def _target_abc(self, words: dict[str, float], g53: bool = False) -> list[float]:
+        target = list(self._abc)
+        for i, letter in enumerate(_ROTARY):
+            value = words.get(letter)
+            if value is None:
+                continue
+            if g53:
+                target[i] = value
+            elif self._incremental:
+                target[i] += value
+            else:
+                target[i] = value + self._offset(3 + i)
+        return target
+
+    # ------------------------------------------------------------------ motion
+    def _motion_block(self, code: int, words: dict[str, float], g53: bool) -> None:
+        if g53 and code not in (0, 10):
+            raise self._error("G53 needs G0 or G1 motion")
+        if g53 and self._comp is not None:
+            raise self._error("G53 is not allowed while cutter compensation is on")
+        if code in (0, 10):
+            target = self._target(words, g53)
+            abc = self._target_abc(words, g53)
+            if code == 10:
+                self._require_feed(words)
+            self._straight(MotionKind.LINEAR if code == 10 else MotionKind.RAPID, target, abc)
+        elif code in (20, 30):
+            self._require_feed(words)
+            self._arc(code == 30, words)
+        elif code == 51:
+            self._require_feed(words)
+            self._spline(words)
+        elif code == 331:
+            self._rigid_tap(words)
+        elif code in _CYCLES:
+            self._cycle(code // 10, words)
+
+    def _require_feed(self, words: dict[str, float]) -> None:
+        mode = self._state.feed_mode
+        if mode == FeedMode.INVERSE_TIME:
+            if "f" not in words:
+                raise self._error("G93 inverse time mode needs an F word on every feed move")
+        elif self._state.programmed_feed <= 0.0:
+            raise self._error(
+                "feed move with feed rate 0: program F (e.g. F100) before G1/G2/G3"
+            )
+
+    def _feed_mm_min(self, length_mm: float) -> float:
+        state = self._state
+        mode = state.feed_mode
+        if mode == FeedMode.UNITS_PER_MINUTE:
+            return state.programmed_feed * self._factor
+        if mode == FeedMode.INVERSE_TIME:
+            # F is 1/minutes: the move takes 1/F minutes.
+            return length_mm * state.programmed_feed
+        return state.programmed_feed * self._factor * self._spindle_rpm()
+
+    def _spindle_rpm(self) -> float:
+        state = self._state
+        if state.spindle_direction == 0:
+            return 0.0
+        if not state.css:
+            return state.programmed_speed
+        # Constant surface speed: S in m/min (mm mode) or ft/min (inch mode) at the
+        # current radius of the tool tip about the spindle axis (program X = 0).
+        radius_mm = abs(self._state.to_program((self._pos[0], self._pos[1], self._pos[2]))[0])
+        surface_mm_min = state.programmed_speed * (1000.0 if self._factor == 1.0 else 304.8)
+        clamp = min(state.spindle_clamp_rpm, self.setup.max_spindle_rpm)
+        if radius_mm <= 1e-9:
+            rpm = math.inf
+        else:
+            rpm = surface_mm_min / (2.0 * math.pi * radius_mm)
+        if rpm > clamp:
+            rpm = clamp
+        if math.isinf(rpm):
+            raise self._error(
+                "G96 constant surface speed at X0 with no spindle limit: program G50 S<rpm> "
+                "(Fanuc) or G96 D<rpm> (LinuxCNC), or set machine.max_spindle_rpm"
+            )
+        return rpm
+
+    def _make(
+        self,
+        kind: MotionKind,
+        start: list[float],
+        end: list[float],
+        length: float,
+        center: Vec3 | None = None,
+        turns: int = 0,
+        abc_start: list[float] | None = None,
+        abc_end: list[float] | None = None,
+    ) -> Segment:
+        feed = 0.0 if kind == MotionKind.RAPID else self._feed_mm_min(length)
+        state = self._state
+        rpm = (
+            0.0
+            if state.spindle_direction == 0
+            else (self._spindle_rpm() if state.css else state.programmed_speed)
+        )
+        abc0 = self._abc if abc_start is None else abc_start
+        abc1 = abc0 if abc_end is None else abc_end
+        return Segment(
+            kind,
+            self._line,
+            (start[0], start[1], start[2]),
+            (end[0], end[1], end[2]),
+            feed,
+            rpm,
+            state,
+            center,
+            turns,
+            0.0,
+            (abc0[0], abc0[1], abc0[2]),
+            (abc1[0], abc1[1], abc1[2]),
+            self._file,
+        )
+
+    def _emit(self, seg: Segment) -> None:
+        if self._comp is not None and seg.kind != MotionKind.DWELL:
+            self._out.extend(self._comp.push(seg))
+        else:
+            self._out.append(seg)
+
+    def _straight(
+        self, kind: MotionKind, target: list[float], abc: list[float] | None = None
+    ) -> None:
+        pos = self._pos
+        length = math.sqrt(
+            (target[0] - pos[0]) ** 2 + (target[1] - pos[1]) ** 2 + (target[2] - pos[2]) ** 2
+        )
+        seg = self._make(kind, pos, target, length, abc_end=abc)
+        self._emit(seg)
+        self._pos = target
+        if abc is not None:
+            self._abc = abc
+
+    def _arc(self, ccw: bool, words: dict[str, float]) -> None:
+        plane = self._state.plane
+        i0, i1, normal = PLANE_AXES[plane]
+        target = self._target(words)
+        abc = self._target_abc(words)
+        start = self._pos
+        f = self._factor
+        letters = "ijk"
+        in_plane = {letters[i0], letters[i1]}
+        turns_word = words.get("p", 1.0)
+        if turns_word < 1 or turns_word != int(turns_word):
+            raise self._error(f"arc turn count P{turns_word:g} must be a positive integer")
+        turns = int(turns_word) * (1 if ccw else -1)
+        if "r" in words:
+            if any(k in words for k in "ijk" if k in in_plane):
+                raise self._error("arc with both R and I/J/K: use one format")
+            center = self._center_from_radius(words["r"] * f, start, target, i0, i1, ccw)
+        else:
+            for k in "ijk":
+                if k in words and k not in in_plane:
+                    raise self._error(
+                        f"{k.upper()} word is not allowed in an arc in the "
+                        f"{plane.name} plane (G{int(plane)}); use "
+                        + " and ".join(sorted(x.upper() for x in in_plane))
+                    )
+            if not in_plane & words.keys():
+                raise self._error(
+                    "arc without centre: give "
+                    + " and/or ".join(sorted(x.upper() for x in in_plane))
+                    + " (centre offsets) or R (radius)"
+                )
+            if self._state.xy_rotation_deg and plane != Plane.XY:
+                raise self._error(
+                    "arcs in G18/G19 with a rotated coordinate system (G10 L2 R) are not supported"
+                )
+            if self._arc_absolute:
+                prog = list(self._state.to_program((start[0], start[1], start[2])))
+                for axis in (i0, i1):
+                    value = words.get(letters[axis], 0.0) * f
+                    prog[axis] = value * 0.5 if axis == 0 and self._diameter_mode else value
+                center = list(self._state.to_machine((prog[0], prog[1], prog[2])))
+            else:
+                offsets = [words.get(letters[axis], 0.0) * f for axis in range(3)]
+                if self._state.xy_rotation_deg:
+                    rot = math.radians(self._state.xy_rotation_deg)
+                    c, s_ = math.cos(rot), math.sin(rot)
+                    offsets[0], offsets[1] = (
+                        c * offsets[0] - s_ * offsets[1],
+                        s_ * offsets[0] + c * offsets[1],
+                    )
+                center = [start[0] + offsets[0], start[1] + offsets[1], start[2] + offsets[2]]
+            center[normal] = start[normal]
+            r0 = math.hypot(start[i0] - center[i0], start[i1] - center[i1])
+            r1 = math.hypot(target[i0] - center[i0], target[i1] - center[i1])
+            if abs(r1 - r0) > max(ARC_RADIUS_TOLERANCE_MM, ARC_RADIUS_TOLERANCE_REL * r0):
+                raise self._error(
+                    f"arc end is {r1:.4f} mm from the centre but the start is {r0:.4f} mm: "
+                    "the radii must agree (check I/J/K, incremental vs absolute G90.1/G91.1)"
+                )
+            if r0 <= 0.0:
+                raise self._error("arc of zero radius: the centre equals the start point")
+        center_t = (center[0], center[1], center[2])
+        radius, _, sweep = arc_sweep_rad(
+            (start[0], start[1], start[2]), (target[0], target[1], target[2]), center_t, turns, plane
+        )
+        length = math.hypot(radius * sweep, target[normal] - start[normal])
+        seg = self._make(MotionKind.ARC, start, target, length, center_t, turns, abc_end=abc)
+        self._emit(seg)
+        self._pos = target
+        self._abc = abc
+
+    def _center_from_radius(
+        self, radius: float, start: list[float], end: list[float], i0: int, i1: int, ccw: bool
+    ) -> list[float]:
+        du = end[i0] - start[i0]
+        dv = end[i1] - start[i1]
+        chord = math.hypot(du, dv)
+        if chord < 1e-9:
+            raise self._error(
+                "full circle with R format: the centre is undefined; use I/J/K offsets"
+            )
+        half = chord / 2.0
+        r = abs(radius)
+        if r < half:
+            if half - r > ARC_RADIUS_TOLERANCE_MM:
+                raise self._error(
+                    f"arc radius R{radius / self._factor:g} is smaller than half the distance "
+                    f"to the end point ({half / self._factor:.4f}): no such arc"
+                )
+            r = half
+        h = math.sqrt(max(r * r - half * half, 0.0))
+        # Left normal of the chord; CCW arcs of less than 180 deg have their centre on the left.
+        nu, nv = -dv / chord, du / chord
+        side = 1.0 if ccw else -1.0
+        if radius < 0:
+            side = -side
+        center = list(start)
+        center[i0] = start[i0] + du / 2.0 + side * h * nu
+        center[i1] = start[i1] + dv / 2.0 + side * h * nv
+        return center
+
+    def _spline(self, words: dict[str, float]) -> None:
+        if self._state.plane != Plane.XY:
+            raise self._error("G5.1 splines are only defined in the XY plane (G17)")
+        if "i" not in words and "j" not in words:
+            raise self._error("G5.1 needs I and/or J (control point offsets)")
+        start = list(self._pos)
+        target = self._target(words)
+        f = self._factor
+        control = (start[0] + words.get("i", 0.0) * f, start[1] + words.get("j", 0.0) * f)
+        # Quadratic B-spline (Bezier) start -> control -> end, split into chords whose
+        # deviation |P0 - 2 P1 + P2| / (8 n^2) stays below the tolerance.
+        ax = start[0] - 2 * control[0] + target[0]
+        ay = start[1] - 2 * control[1] + target[1]
+        bend = math.hypot(ax, ay)
+        n = max(1, math.ceil(math.sqrt(bend / (8.0 * SPLINE_TOLERANCE_MM))))
+        for k in range(1, n + 1):
+            t = k / n
+            u = 1.0 - t
+            point = [
+                u * u * start[0] + 2 * u * t * control[0] + t * t * target[0],
+                u * u * start[1] + 2 * u * t * control[1] + t * t * target[1],
+                start[2] + (target[2] - start[2]) * t,
+            ]
+            self._straight(MotionKind.LINEAR, point)
+
+    def _rigid_tap(self, words: dict[str, float]) -> None:
+        if "k" not in words or words["k"] <= 0:
+            raise self._error("G33.1 rigid tapping needs K<pitch> > 0 (distance per revolution)")
+        state = self._state
+        if state.spindle_direction == 0 or state.programmed_speed <= 0:
+            raise self._error("G33.1 rigid tapping needs the spindle turning (M3/M4 with S)")
+        start = list(self._pos)
+        target = self._target(words)
+        pitch_mm = words["k"] * self._factor
+        rpm = self._spindle_rpm()
+        feed = pitch_mm * rpm
+        length = math.dist(start, target)
+        down = Segment(
+            MotionKind.LINEAR, self._line, tuple(start), tuple(target), feed, rpm, state,
+            start_abc_deg=tuple(self._abc), end_abc_deg=tuple(self._abc), file=self._file,
+        )  # type: ignore[arg-type]
+        reverse = replace(state, spindle_direction=-state.spindle_direction)
+        up = Segment(
+            MotionKind.LINEAR, self._line, tuple(target), tuple(start), feed, rpm, reverse,
+            start_abc_deg=tuple(self._abc), end_abc_deg=tuple(self._abc), file=self._file,
+        )  # type: ignore[arg-type]
+        if length > 0:
+            self._emit(down)
+            self._emit(up)
+
+    def _dwell(self, words: dict[str, float]) -> None:
+        seconds = words.get("p")
+        if seconds is None:
+            seconds = words.get("x", words.get("u"))
+        if seconds is None or seconds < 0:
+            raise self._error("G4 dwell needs P<seconds> >= 0 (or X/U seconds)")
+        pos = (self._pos[0], self._pos[1], self._pos[2])
+        abc = (self._abc[0], self._abc[1], self._abc[2])
+        state = self._state
+        rpm = self._spindle_rpm() if state.spindle_direction else 0.0
+        self._out.append(
+            Segment(MotionKind.DWELL, self._line, pos, pos, 0.0, rpm, state, None, 0,
+                    seconds, abc, abc, self._file)
+        )
+
+    def _go_home(self, code: int, words: dict[str, float]) -> None:
+        home = self._g28 if code == 280 else self._g30
+        axes = [i for i, letter in enumerate(_AXES) if letter in words]
+        if any(k in words for k in "abc"):
+            raise self._error("G28/G30 with rotary axes is not supported")
+        if self._comp is not None:
+            raise self._error("G28/G30 is not allowed while cutter compensation is on")
+        if axes:
+            self._straight(MotionKind.RAPID, self._target(words))
+        else:
+            axes = [0, 1, 2]
+        target = list(self._pos)
+        for i in axes:
+            target[i] = home[i]
+        self._straight(MotionKind.RAPID, target)
+
+    def _g10(self, words: dict[str, float]) -> None:
+        if "l" not in words:
+            raise self._error("G10 needs an L word (L1, L2, L10, L11 or L20)")
+        l_word = int(words["l"])
+        p = words.get("p")
+        f = self._factor
+        if l_word in (2, 20):
+            if p is None or p != int(p) or not 0 <= p <= 9:
+                raise self._error(f"G10 L{l_word} needs P0-P9 (coordinate system); got {p}")
+            cs = int(p) or self._cs
+            offsets = self._g5x[cs]
+            values = self._axis_values(words)
+            if l_word == 2:
+                for i, v in values.items():
+                    offsets[i] = v
+            else:
+                # L20: the current position becomes the given program coordinates.
+                if "r" in words:
+                    self._rotation_deg[cs] = words["r"]
+                frame = replace(
+                    self._state,
+                    work_offset_mm=(0.0, 0.0, 0.0),
+                    axis_offset_mm=(self._g92[0], self._g92[1], self._g92[2]),
+                    xy_rotation_deg=self._rotation_deg[cs],
+                )
+                prog = list(self._state.to_program(tuple(self._pos)))  # type: ignore[arg-type]
+                for i, v in values.items():
+                    if i < 3:
+                        prog[i] = v
+                    else:
+                        offsets[i] = self._abc[i - 3] - self._g92[i] - v
+                shifted = frame.to_machine((prog[0], prog[1], prog[2]))
+                for i in range(3):
+                    if i in values or cs != self._cs:
+                        offsets[i] = self._pos[i] - shifted[i]
+            if "r" in words:
+                self._rotation_deg[cs] = words["r"]
+            self._update_offsets()
+        elif l_word in (1, 10, 11):
+            if p is None or p != int(p) or p < 1:
+                raise self._error(f"G10 L{l_word} needs P<tool number>; got {p}")
+            number = int(p)
+            entry = self._tools.get(number, ToolEntry(number))
+            length, xoff, diameter = entry.length_mm, entry.x_offset_mm, entry.diameter_mm
+            if "r" in words:
+                diameter = 2.0 * words["r"] * f
+            if l_word == 1:
+                if "z" in words:
+                    length = words["z"] * f
+                if "x" in words:
+                    xoff = words["x"] * f
+            else:
+                cs = 9 if l_word == 11 else self._cs
+                g92 = self._g92 if l_word == 10 else [0.0] * 6
+                if "z" in words:
+                    length = self._pos[2] - self._g5x[cs][2] - g92[2] - words["z"] * f
+                if "x" in words:
+                    xoff = self._pos[0] - self._g5x[cs][0] - g92[0] - words["x"] * f
+            self._tools[number] = ToolEntry(number, length, xoff, diameter)
+        else:
+            raise self._error(f"G10 L{l_word} is not supported (use L1, L2, L10, L11 or L20)")
+
+    def _axis_values(self, words: dict[str, float]) -> dict[int, float]:
+        """Axis words of a block in mm (degrees for A, B, C), X halved in diameter mode."""
+        values: dict[int, float] = {}
+        for i, letter in enumerate("xyzabc"):
+            if letter in words:
+                v = words[letter] * (self._factor if i < 3 else 1.0)
+                if i == 0 and self._diameter_mode:
+                    v *= 0.5
+                values[i] = v
+        return values
+
+    def _set_g92(self, code: int, words: dict[str, float]) -> None:
+        f = self._factor
+        if code == 920:
+            if not any(k in words for k in "xyzabc"):
+                raise self._error("G92 needs at least one axis word")
+            unshifted = replace(self._state, axis_offset_mm=(0.0, 0.0, 0.0))
+            here = unshifted.to_program(tuple(self._pos))  # type: ignore[arg-type]
+            for i, v in self._axis_values(words).items():
+                if i < 3:
+                    self._g92[i] = here[i] - v
+                else:
+                    self._g92[i] = self._abc[i - 3] - self._g5x[self._cs][i] - v
+            self._g92_saved = list(self._g92)
+        elif code == 520:
+            for i, letter in enumerate("xyzabc"):
+                if letter in words:
+                    self._g92[i] = words[letter] * (f if i < 3 else 1.0)
+            self._g92_saved = list(self._g92)
+        elif code == 921:
+            self._g92 = [0.0] * 6
+            self._g92_saved = [0.0] * 6
+        elif code == 922:
+            self._g92 = [0.0] * 6
+        elif code == 923:
+            self._g92 = list(self._g92_saved)
+        self._update_offsets()
+
+    # ------------------------------------------------------------------ cutter comp
+    def _set_comp(self, code: int, words: dict[str, float]) -> None:
+        if code == 400:
+            self._finish_comp()
+            if self._state.cutter_comp != CutterComp.OFF:
+                self._state = replace(self._state, cutter_comp=CutterComp.OFF, comp_radius_mm=0.0)
+            return
+        if self._comp is not None:
+            raise self._error(
+                "cutter compensation is already on: turn it off with G40 before G41/G42"
+            )
+        side = CutterComp.LEFT if code in (410, 411) else CutterComp.RIGHT
+        if code in (411, 421):
+            if "d" not in words:
+                raise self._error(f"G{_g(code)} needs D<diameter>")
+            radius = words["d"] * self._factor / 2.0
+        else:
+            number = words.get("d", float(self._state.tool))
+            if number != int(number) or number < 0:
+                raise self._error(f"D{number:g} must be a tool number")
+            entry = self._tool_entry(int(number), "cutter compensation uses radius 0")
+            radius = entry.diameter_mm / 2.0
+        if radius < 0:
+            # A negative diameter compensates on the other side (as LinuxCNC does).
+            side = CutterComp.RIGHT if side == CutterComp.LEFT else CutterComp.LEFT
+            radius = -radius
+        self._state = replace(self._state, cutter_comp=side, comp_radius_mm=radius)
+        if radius > 0:
+            pos = self._pos
+            self._comp = CutterCompensator(side, radius, self._state.plane, (pos[0], pos[1], pos[2]))
+
+    def _finish_comp(self) -> None:
+        if self._comp is None:
+            return
+        out = self._comp.finish()
+        self._comp = None
+        self._out.extend(out)
+        if out:
+            end = out[-1].end_mm
+            self._pos = [end[0], end[1], end[2]]
+
+    # ------------------------------------------------------------------ canned cycles
+    def _cycle(self, code: int, words: dict[str, float]) -> None:
+        if self._comp is not None:
+            raise self._error(f"canned cycle G{code} is not allowed with cutter compensation on")
+        plane = self._state.plane
+        if plane != Plane.XY and self._state.xy_rotation_deg:
+            raise self._error(
+                f"canned cycle G{code} in G18/G19 with a rotated coordinate system is not supported"
+            )
+        i0, i1, n = PLANE_AXES[plane]
+        letter_n = _AXES[n]
+        f = self._factor
+        repeats = words.get("l", 1.0)
+        if repeats < 0 or repeats != int(repeats):
+            raise self._error(f"canned cycle repeat L{repeats:g} must be a non-negative integer")
+        if "r" in words:
+            r_word = words["r"] * f
+        elif self._cycle_r is not None:
+            r_word = self._cycle_r
+        else:
+            raise self._error(f"canned cycle G{code} needs an R word (retract plane)")
+        if letter_n in words:
+            bottom_word = words[letter_n] * f
+        elif self._cycle_bottom is not None:
+            bottom_word = self._cycle_bottom
+        else:
+            raise self._error(
+                f"canned cycle G{code} needs a {letter_n.upper()} word (hole bottom)"
+            )
+        self._cycle_r = r_word
+        self._cycle_bottom = bottom_word
+        if code in (73, 83):
+            if "q" in words:
+                self._cycle_q = words["q"] * f
+            if self._cycle_q <= 0:
+                raise self._error(f"G{code} needs Q<peck depth> > 0")
+        if "p" in words:
+            self._cycle_p = words["p"]
+        old = self._pos[n]
+        if self._incremental:
+            r_mm = old + r_word
+            bottom_mm = r_mm + bottom_word
+        else:
+            r_mm = r_word + self._offset(n)
+            bottom_mm = bottom_word + self._offset(n)
+        if bottom_mm > r_mm:
+            raise self._error(
+                f"canned cycle G{code}: hole bottom {letter_n.upper()} is above the R plane"
+            )
+        if old < r_mm:
+            target = list(self._pos)
+            target[n] = r_mm
+            self._straight(MotionKind.RAPID, target)
+            old = r_mm
+        clear = r_mm if self._retract_r else old
+        state_before = self._state
+        spec = CycleSpec(
+            code,
+            n,
+            r_mm,
+            bottom_mm,
+            clear,
+            self._cycle_q,
+            self._cycle_p if code in (82, 84, 89) else 0.0,
+            state_before.spindle_direction or 1,
+        )
+        hole_words = {_AXES[a]: words[_AXES[a]] for a in (i0, i1) if _AXES[a] in words}
+        for _ in range(int(repeats)):
+            hole = self._target(hole_words)
+            for move in expand_cycle(spec, (hole[0], hole[1], hole[2]), tuple(self._pos)):  # type: ignore[arg-type]
+                if move.spindle_direction is not None:
+                    self._state = replace(state_before, spindle_direction=move.spindle_direction)
+                if move.kind == MotionKind.DWELL:
+                    pos = (self._pos[0], self._pos[1], self._pos[2])
+                    abc = (self._abc[0], self._abc[1], self._abc[2])
+                    self._out.append(
+                        Segment(MotionKind.DWELL, self._line, pos, pos, 0.0,
+                                self._state.programmed_speed, self._state, None, 0,
+                                move.dwell_s, abc, abc, self._file)
+                    )
+                else:
+                    self._straight(move.kind, list(move.position_mm))
+            self._state = state_before
+
+    # ------------------------------------------------------------------ O-words
+    def _control(self, ow: OWord, src: LineSource) -> bool:
+        """Execute an O-word statement. Returns True if the current source changed."""
+        kw = ow.keyword
+        label = ow.label
+        if kw == "sub":
+            known = self._subs.get(label)
+            if known is not None and known[0] is src and known[1] != src.offset:
+                raise self._error(f"o{label} sub is defined twice")
+            self._subs[label] = (src, src.offset, src.lineno)
+            self._skip_to(src, label, ("endsub",))
+            return False
+        if kw == "call":
+            return self._call(ow, src)
+        if kw in ("endsub", "return"):
+            return self._return(ow, src)
+        if kw == "if":
+            if self._condition(ow):
+                self._frames.append(("if", label, True))
+            else:
+                self._branch(src, label)
+            return False
+        if kw in ("elseif", "else"):
+            frame = self._top_frame("if", label, kw)
+            if frame[2]:
+                self._skip_to(src, label, ("endif",))
+                self._frames.pop()
+            else:
+                raise self._error(f"o{label} {kw} without a matching o{label} if")
+            return False
+        if kw == "endif":
+            self._top_frame("if", label, kw)
+            self._frames.pop()
+            return False
+        if kw == "do":
+            self._frames.append(("do", label, src.offset, src.lineno, 0))
+            return False
+        if kw == "while":
+            if self._frames and self._frames[-1][0] == "do" and self._frames[-1][1] == label:
+                frame = self._frames[-1]
+                if self._condition(ow):
+                    self._loop_back(src, frame)
+                else:
+                    self._frames.pop()
+                return False
+            if not (
+                self._frames and self._frames[-1][0] == "while" and self._frames[-1][1] == label
+            ):
+                # Remember where the while statement starts, to evaluate it again.
+                self._frames.append(("while", label, self._line_start, src.lineno - 1, 0))
+            if not self._condition(ow):
+                self._frames.pop()
+                self._skip_to(src, label, ("endwhile",))
+            return False
+        if kw == "endwhile":
+            frame = self._top_frame("while", label, kw)
+            self._loop_back(src, frame)
+            return False
+        if kw == "repeat":
+            count = self._argument(ow)
+            if count != int(count) or count < 0:
+                raise self._error(f"o{label} repeat count {count:g} must be a whole number >= 0")
+            if count == 0:
+                self._skip_to(src, label, ("endrepeat",))
+            else:
+                self._frames.append(("repeat", label, src.offset, src.lineno, int(count)))
+            return False
+        if kw == "endrepeat":
+            frame = self._top_frame("repeat", label, kw)
+            remaining = frame[4] - 1
+            self._frames.pop()
+            if remaining > 0:
+                self._frames.append((frame[0], frame[1], frame[2], frame[3], remaining))
+                src.seek(frame[2], frame[3])
+            return False
+        if kw == "break":
+            while self._frames:
+                frame = self._frames.pop()
+                if frame[1] == label and frame[0] in ("while", "do", "repeat"):
+                    end = {"while": ("endwhile",), "do": ("while",), "repeat": ("endrepeat",)}
+                    self._skip_to(src, label, end[frame[0]])
+                    return False
+                if frame[0] == "call":
+                    break
+            raise self._error(f"o{label} break outside an o{label} loop")
+        if kw == "continue":
+            for index in range(len(self._frames) - 1, -1, -1):
+                frame = self._frames[index]
+                if frame[1] == label and frame[0] in ("while", "do", "repeat"):
+                    del self._frames[index + 1 :]
+                    if frame[0] == "while":
+                        self._loop_back(src, frame)
+                        return False
+                    end = ("endrepeat",) if frame[0] == "repeat" else ("while",)
+                    self._skip_to(src, label, end, stop_before=True)
+                    return False
+                if frame[0] == "call":
+                    break
+            raise self._error(f"o{label} continue outside an o{label} loop")
+        raise self._error(f"o-word keyword '{kw}' is not supported")  # pragma: no cover
+
+    def _top_frame(self, kind: str, label: str, keyword: str) -> tuple:
+        if not self._frames or self._frames[-1][0] != kind or self._frames[-1][1] != label:
+            raise self._error(f"o{label} {keyword} without a matching o{label} {kind}")
+        return self._frames[-1]
+
+    def _loop_back(self, src: LineSource, frame: tuple) -> None:
+        count = frame[4] + 1
+        if count > MAX_LOOP_ITERATIONS:
+            raise self._error(
+                f"o{frame[1]} loop ran {MAX_LOOP_ITERATIONS} times: stopped as a runaway loop"
+            )
+        self._frames[-1] = (frame[0], frame[1], frame[2], frame[3], count)
+        src.seek(frame[2], frame[3])
+
+    def _condition(self, ow: OWord) -> bool:
+        return self._argument(ow) != 0.0
+
+    def _argument(self, ow: OWord) -> float:
+        if ow.args_pos >= len(ow.text):
+            raise self._error(f"o{ow.label} {ow.keyword} needs a [condition]")
+        value, pos = read_value(ow.text, ow.args_pos, self.params)
+        if pos != len(ow.text):
+            raise self._error(
+                f"unexpected text '{ow.text[pos:]}' after o{ow.label} {ow.keyword} [...]"
+            )
+        return value
+
+    def _branch(self, src: LineSource, label: str) -> None:
+        """The if (or elseif) condition was false: find the branch to run."""
+        while True:
+            ow = self._skip_to(src, label, ("elseif", "else", "endif"))
+            if ow.keyword == "endif":
+                return
+            if ow.keyword == "else":
+                self._frames.append(("if", label, True))
+                return
+            if self._condition(ow):
+                self._frames.append(("if", label, True))
+                return
+
+    def _skip_to(
+        self, src: LineSource, label: str, keywords: tuple[str, ...], stop_before: bool = False
+    ) -> OWord:
+        """Read forward to the O-word ``o<label> <keyword>``; return it."""
+        start_line = self._line
+        for lineno, start, raw in src:
+            self._line = lineno
+            low = raw.lower()
+            if "o" not in low:
+                continue
+            try:
+                text = "".join(strip_comments(raw).split()).lower()
+            except NCError:
+                continue
+            if not text.startswith("o"):
+                continue
+            block = lex_block(text, self.params) if text[1:2] else None
+            if block is None or block.oword is None or block.oword.label != label:
+                continue
+            if block.oword.keyword in keywords:
+                if stop_before:
+                    src.seek(start, lineno - 1)
+                return block.oword
+        self._line = start_line
+        raise self._error(f"o{label}: no matching o{label} {' or '.join(keywords)} found")
+
+    def _call(self, ow: OWord, src: LineSource) -> bool:
+        label = ow.label
+        return_to = (src.offset, src.lineno)
+        args: list[float] = []
+        pos = ow.args_pos
+        text = ow.text
+        while pos < len(text):
+            if text[pos] != "[":
+                raise self._error(
+                    f"o{label} call arguments must be bracketed expressions like [1.5]"
+                )
+            value, pos = read_value(text, pos, self.params)
+            args.append(value)
+        if len(args) > 30:
+            raise self._error(f"o{label} call has {len(args)} arguments; at most 30 are allowed")
+        if sum(1 for fr in self._frames if fr[0] == "call") >= MAX_CALL_DEPTH:
+            raise self._error(f"o{label} call nested deeper than {MAX_CALL_DEPTH} levels")
+        target = self._subs.get(label)
+        if target is None:
+            target = self._find_sub(label, src)
+        sub_src, offset, lineno = target
+        self._frames.append(("call", label, src, return_to[0], return_to[1], self._file))
+        self.params.push_call(args)
+        if sub_src is not src:
+            self._sources.append(sub_src)
+        sub_src.seek(offset, lineno)
+        return sub_src is not src
+
+    def _find_sub(self, label: str, src: LineSource) -> tuple[LineSource, int, int]:
+        """Find a subroutine defined later in the file or in a file named after it."""
+        here = (src.offset, src.lineno)
+        line = self._line
+        try:
+            self._skip_to(src, label, ("sub",))
+            found = (src, src.offset, src.lineno)
+            self._subs[label] = found
+            src.seek(*here)
+            self._line = line
+            return found
+        except NCError:
+            src.seek(*here)
+            self._line = line
+        if label.startswith("<"):
+            name = label[1:-1]
+            folder = Path(self._file).parent
+            for candidate in (folder / f"{name}.ngc", folder / f"{name.upper()}.ngc"):
+                if candidate.is_file():
+                    sub_src = LineSource.from_path(candidate)
+                    for lineno, _start, raw in sub_src:
+                        text = "".join(strip_comments(raw).split()).lower()
+                        if text.startswith(f"o{label}sub"):
+                            found = (sub_src, sub_src.offset, sub_src.lineno)
+                            self._subs[label] = found
+                            return found
+                    sub_src.close()
+        raise self._error(f"o{label} call: no subroutine o{label} is defined")
+
+    def _return(self, ow: OWord, src: LineSource) -> bool:
+        while self._frames and self._frames[-1][0] != "call":
+            self._frames.pop()
+        if not self._frames:
+            if ow.keyword == "endsub":
+                raise self._error(f"o{ow.label} endsub without a matching o{ow.label} sub")
+            raise self._error(f"o{ow.label} return outside a subroutine")
+        if ow.args_pos < len(ow.text):
+            self.params["_value"] = self._argument(ow)
+        _, _, ret_src, offset, lineno, _file = self._frames.pop()
+        self.params.pop_call()
+        ret_src.seek(offset, lineno)
+        if ret_src is not src:
+            self._sources.pop()
+            return True
+        return False
+
+
+def _g(code: int) -> str:
+    """G-code key (ten times the number) back to its text, e.g. 921 -> '92.1'."""
+    whole, tenth = divmod(code, 10)
+    return f"{whole}.{tenth}" if tenth else f"{whole}"
+
+
+def interpret_file(path: str | Path, setup: NCSetup | None = None) -> Iterator[Segment]:
+    """Interpret an NC file lazily; see :class:`Interpreter`."""
+    return Interpreter(setup).run_file(path)
+
+
+def interpret_text(text: str, setup: NCSetup | None = None, name: str = "<string>") -> Iterator[Segment]:
+    """Interpret NC program text lazily; see :class:`Interpreter`."""
+    return Interpreter(setup).run_text(text, name)

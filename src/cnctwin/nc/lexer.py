@@ -1,0 +1,283 @@
+"""Reading one NC block (line) into words.
+
+A block is read in two passes of the kind RS274NGC prescribes: comments are removed
+(``(...)`` anywhere, ``;`` to the end of the line), all white space is dropped and the
+text is lower-cased; then the words are read. Lines made only of letters and numbers take
+a fast path through two compiled regular expressions; lines with parameters, expressions
+or O-words go through :mod:`cnctwin.nc.expressions`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+from cnctwin.errors import NCError
+from cnctwin.nc.expressions import Parameters, read_assignment, read_value
+
+__all__ = ["Block", "OWord", "lex_block", "strip_comments", "O_KEYWORDS"]
+
+_NUMBER = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)"
+_SIMPLE_LINE = re.compile(rf"(?:[a-z]{_NUMBER})*")
+_WORD = re.compile(rf"([a-z])({_NUMBER})")
+_MESSAGE = re.compile(r"^\s*(msg|debug|print)\s*,(.*)$", re.IGNORECASE | re.DOTALL)
+_PROGRAM_NUMBER = re.compile(r"^[o:]\d+$")
+
+#: O-word keywords (LinuxCNC subroutines and control flow).
+O_KEYWORDS = (
+    "sub",
+    "endsub",
+    "call",
+    "do",
+    "while",
+    "endwhile",
+    "if",
+    "elseif",
+    "else",
+    "endif",
+    "repeat",
+    "endrepeat",
+    "break",
+    "continue",
+    "return",
+)
+_O_WORD = re.compile(r"^o(\d+|<[^>]*>)(" + "|".join(sorted(O_KEYWORDS, key=len, reverse=True)) + ")")
+
+
+@dataclass(slots=True)
+class OWord:
+    """An O-word control statement.
+
+    Attributes
+    ----------
+    label
+        The O-word's label: its number as text (``"101"``) or its name (``"<name>"``
+        lower-cased, angle brackets kept).
+    keyword
+        One of :data:`O_KEYWORDS`.
+    text
+        The lower-cased, space-free block text.
+    args_pos
+        Index in ``text`` where the statement's arguments (condition, call arguments,
+        return value) start.
+    """
+
+    label: str
+    keyword: str
+    text: str
+    args_pos: int
+
+
+@dataclass(slots=True)
+class Block:
+    """The words of one NC block.
+
+    Attributes
+    ----------
+    gcodes
+        G-codes in the order written, as ten times their number (G1 -> 10, G92.1 -> 921),
+        so that decimal G-codes compare exactly.
+    mcodes
+        M-codes in the order written.
+    words
+        Every other word by its lower-case letter (N excluded), value in program units.
+    assignments
+        Parameter assignments ``(key, value)`` to apply after the block is read.
+    messages
+        Texts of ``(MSG,...)``, ``(DEBUG,...)`` and ``(PRINT,...)`` comments.
+    oword
+        The block's O-word statement, if any.
+    """
+
+    gcodes: list[int] = field(default_factory=list)
+    mcodes: list[int] = field(default_factory=list)
+    words: dict[str, float] = field(default_factory=dict)
+    assignments: list[tuple[int | str, float]] = field(default_factory=list)
+    messages: list[str] = field(default_factory=list)
+    oword: OWord | None = None
+
+
+def strip_comments(raw: str, messages: list[str] | None = None) -> str:
+    """Remove ``(...)`` and ``;`` comments from a line.
+
+    Parameters
+    ----------
+    raw
+        The line as read from the file.
+    messages
+        If given, the texts of ``(MSG, ...)``/``(DEBUG, ...)``/``(PRINT, ...)`` comments
+        and of Sinumerik ``MSG("...")`` are appended to it.
+
+    Returns
+    -------
+    str
+        The line without comments (case and spaces kept).
+
+    Raises
+    ------
+    NCError
+        For an unclosed ``(`` or a ``(`` nested inside a comment; ``line`` is left 0 for
+        the caller to fill in.
+    """
+    out: list[str] = []
+    i = 0
+    n = len(raw)
+    while i < n:
+        open_at = raw.find("(", i)
+        semi = raw.find(";", i)
+        if semi != -1 and (open_at == -1 or semi < open_at):
+            out.append(raw[i:semi])
+            break
+        if open_at == -1:
+            out.append(raw[i:])
+            break
+        out.append(raw[i:open_at])
+        close = raw.find(")", open_at + 1)
+        if close == -1:
+            raise NCError(
+                "unclosed comment: '(' has no matching ')' on this line", column=open_at + 1
+            )
+        body = raw[open_at + 1 : close]
+        if "(" in body:
+            raise NCError(
+                "nested comment: '(' inside a comment is not allowed", column=open_at + 1
+            )
+        if messages is not None:
+            found = _MESSAGE.match(body)
+            if found:
+                messages.append(found.group(2).strip())
+        i = close + 1
+    return "".join(out)
+
+
+def lex_block(raw: str, params: Parameters) -> Block | None:
+    """Read one line of an NC program into a :class:`Block`.
+
+    Parameters
+    ----------
+    raw
+        The line as read from the file, without its line terminator.
+    params
+        Parameter store used to evaluate ``#`` references and expressions.
+
+    Returns
+    -------
+    Block or None
+        ``None`` for a line with nothing to execute (blank, comment only, ``%``,
+        a program number such as ``O1003``).
+
+    Raises
+    ------
+    NCError
+        For anything that is not valid RS274NGC; ``line`` is left 0 and ``column`` refers
+        to the comment-free, space-free text.
+    """
+    messages: list[str] = []
+    if "(" in raw or ";" in raw:
+        text = strip_comments(raw, messages)
+    else:
+        text = raw
+    text = "".join(text.split()).lower()
+    if text.startswith("/"):
+        # Block delete: the switch is off, so the block is executed.
+        text = text[1:]
+    if not text or text == "%":
+        if messages:
+            return Block(messages=messages)
+        return None
+    if _SIMPLE_LINE.fullmatch(text):
+        if text[0] in "o:" and _PROGRAM_NUMBER.match(text):
+            return None
+        block = Block(messages=messages)
+        _fill_words(block, _WORD.findall(text))
+        return block
+    return _lex_general(text, params, messages)
+
+
+def _fill_words(block: Block, pairs: list[tuple[str, str]]) -> None:
+    """Sort (letter, number text) pairs into the block."""
+    gcodes = block.gcodes
+    mcodes = block.mcodes
+    words = block.words
+    for letter, number in pairs:
+        value = float(number)
+        if letter == "g":
+            gcodes.append(_gcode_key(value))
+        elif letter == "m":
+            mcodes.append(_mcode_key(value))
+        elif letter == "n":
+            continue
+        elif letter in words:
+            raise NCError(
+                f"word {letter.upper()} appears twice in one block "
+                f"({letter.upper()}{_fmt(words[letter])} and {letter.upper()}{_fmt(value)})"
+            )
+        else:
+            words[letter] = value
+
+
+def _lex_general(text: str, params: Parameters, messages: list[str]) -> Block:
+    """Slow path: parameters, expressions, O-words."""
+    block = Block(messages=messages)
+    if text[0] == "o":
+        found = _O_WORD.match(text)
+        if found:
+            block.oword = OWord(found.group(1), found.group(2), text, found.end())
+            return block
+        if _PROGRAM_NUMBER.match(text):
+            return block
+        raise NCError(
+            f"unrecognised O-word statement '{text}': expected o<label> followed by one of "
+            + ", ".join(O_KEYWORDS),
+            column=1,
+        )
+    pairs: list[tuple[str, float]] = []
+    pos = 0
+    n = len(text)
+    while pos < n:
+        ch = text[pos]
+        if ch == "#":
+            key, value, pos = read_assignment(text, pos, params)
+            block.assignments.append((key, value))
+            continue
+        if "a" <= ch <= "z":
+            value, pos = read_value(text, pos + 1, params)
+            pairs.append((ch, value))
+            continue
+        raise NCError(
+            f"unexpected character '{ch}' in '{text}': expected a word letter (A-Z) or '#'",
+            column=pos + 1,
+        )
+    gcodes = block.gcodes
+    mcodes = block.mcodes
+    words = block.words
+    for letter, value in pairs:
+        if letter == "g":
+            gcodes.append(_gcode_key(value))
+        elif letter == "m":
+            mcodes.append(_mcode_key(value))
+        elif letter == "n":
+            continue
+        elif letter in words:
+            raise NCError(f"word {letter.upper()} appears twice in one block")
+        else:
+            words[letter] = value
+    return block
+
+
+def _gcode_key(value: float) -> int:
+    key = round(value * 10.0)
+    if abs(key - value * 10.0) > 1e-6 or key < 0:
+        raise NCError(f"G{_fmt(value)} is not a G-code: G numbers are 0-999 with at most one decimal")
+    return key
+
+
+def _mcode_key(value: float) -> int:
+    key = round(value)
+    if abs(key - value) > 1e-9 or key < 0:
+        raise NCError(f"M{_fmt(value)} is not an M-code: M numbers are non-negative integers")
+    return key
+
+
+def _fmt(value: float) -> str:
+    return f"{value:g}"

@@ -1,0 +1,200 @@
+"""A one-pass summary of an NC program's motion: lengths, times, tool-tip bounds, tools.
+
+The summary streams over segments; it never holds them. Times are nominal: every move at
+its programmed (resolved) feed or at the machine's rapid rate, with no acceleration limits.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+from cnctwin.errors import ConfigError, NCError
+from cnctwin.nc.segments import PLANE_AXES, MotionKind, Segment, Vec3, arc_sweep_rad
+
+__all__ = ["ProgramSummary", "arc_extreme_points", "summarize"]
+
+_QUARTER = math.pi / 2.0
+#: cos and sin of k * 90 degrees, exactly.
+_COS = (1.0, 0.0, -1.0, 0.0)
+_SIN = (0.0, 1.0, 0.0, -1.0)
+
+
+@dataclass(frozen=True, slots=True)
+class ProgramSummary:
+    """What an NC program does, in numbers.
+
+    Attributes
+    ----------
+    motion_blocks
+        Number of motion segments (rapid, linear and arc; not dwells).
+    feed_length_mm, rapid_length_mm
+        Path length of feed moves (linear and arc) and of rapids in mm.
+    machining_time_s
+        Sum over feed moves of length / feed, in s (moves with feed 0 add nothing).
+    rapid_time_s
+        Rapid length at the machine's rapid rate, in s.
+    dwell_time_s
+        Sum of dwells in s.
+    total_time_s
+        machining + rapid + dwell time, in s.
+    bounds_min_mm, bounds_max_mm
+        Box around the tool tip's path in machine coordinates, mm, arcs included exactly;
+        ``None`` without motion.
+    tools
+        Sorted tool numbers in the spindle during motion (tool 0, no tool, excluded).
+    zero_feed_moves
+        Number of feed moves whose feed is 0.
+    warnings
+        ``"FILE:LINE: message"`` lines, e.g. about moves with feed 0.
+    """
+
+    motion_blocks: int
+    feed_length_mm: float
+    rapid_length_mm: float
+    machining_time_s: float
+    rapid_time_s: float
+    dwell_time_s: float
+    total_time_s: float
+    bounds_min_mm: Vec3 | None
+    bounds_max_mm: Vec3 | None
+    tools: tuple[int, ...]
+    zero_feed_moves: int
+    warnings: tuple[str, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form: numbers, lists, ``bounds_mm`` as ``{"min": [x, y, z], "max": ...}``."""
+        return {
+            "motion_blocks": self.motion_blocks,
+            "feed_length_mm": self.feed_length_mm,
+            "rapid_length_mm": self.rapid_length_mm,
+            "machining_time_s": self.machining_time_s,
+            "rapid_time_s": self.rapid_time_s,
+            "dwell_time_s": self.dwell_time_s,
+            "total_time_s": self.total_time_s,
+            "bounds_mm": {
+                "min": list(self.bounds_min_mm) if self.bounds_min_mm else None,
+                "max": list(self.bounds_max_mm) if self.bounds_max_mm else None,
+            },
+            "tools": list(self.tools),
+            "zero_feed_moves": self.zero_feed_moves,
+            "warnings": list(self.warnings),
+        }
+
+
+def summarize(segments: Iterable[Segment], *, rapid_mm_min: float) -> ProgramSummary:
+    """Summarize a program's segments in one pass.
+
+    Parameters
+    ----------
+    segments
+        Segments from the interpreter, consumed once.
+    rapid_mm_min
+        The machine's rapid traverse rate in mm/min, > 0.
+
+    Returns
+    -------
+    ProgramSummary
+        Lengths in mm, times in s, tool-tip bounds in mm.
+
+    Raises
+    ------
+    cnctwin.errors.ConfigError
+        If ``rapid_mm_min`` is not a positive finite number.
+    """
+    if not (math.isfinite(rapid_mm_min) and rapid_mm_min > 0):
+        raise ConfigError(f"rapid_mm_min must be a positive number of mm/min; got {rapid_mm_min!r}")
+    motion = 0
+    feed_length = rapid_length = machining_time = dwell_time = 0.0
+    low = [math.inf] * 3
+    high = [-math.inf] * 3
+    tools: set[int] = set()
+    zero_feed = 0
+    first_zero_feed = ""
+    for seg in segments:
+        if seg.kind == MotionKind.DWELL:
+            dwell_time += seg.dwell_s
+            continue
+        motion += 1
+        length = seg.length_mm
+        if seg.kind == MotionKind.RAPID:
+            rapid_length += length
+        else:
+            feed_length += length
+            if seg.feed_mm_min > 0:
+                machining_time += 60.0 * length / seg.feed_mm_min
+            else:
+                zero_feed += 1
+                first_zero_feed = first_zero_feed or f"{seg.file or '<program>'}:{seg.line}"
+        if seg.state.tool:
+            tools.add(seg.state.tool)
+        points: Iterable[Vec3] = (seg.tcp_start_mm, seg.tcp_end_mm)
+        if seg.kind == MotionKind.ARC and seg.center_mm is not None:
+            points = (*points, *arc_extreme_points(seg))
+        for point in points:
+            for axis in range(3):
+                low[axis] = min(low[axis], point[axis])
+                high[axis] = max(high[axis], point[axis])
+    rapid_time = 60.0 * rapid_length / rapid_mm_min
+    warnings = ()
+    if zero_feed:
+        warnings = (
+            f"{first_zero_feed}: {zero_feed} feed move{'s' if zero_feed > 1 else ''} with feed 0 "
+            "mm/min (the first here); their machining time is not counted",
+        )
+    return ProgramSummary(
+        motion_blocks=motion,
+        feed_length_mm=feed_length,
+        rapid_length_mm=rapid_length,
+        machining_time_s=machining_time,
+        rapid_time_s=rapid_time,
+        dwell_time_s=dwell_time,
+        total_time_s=machining_time + rapid_time + dwell_time,
+        bounds_min_mm=(low[0], low[1], low[2]) if motion else None,
+        bounds_max_mm=(high[0], high[1], high[2]) if motion else None,
+        tools=tuple(sorted(tools)),
+        zero_feed_moves=zero_feed,
+        warnings=warnings,
+    )
+
+
+def arc_extreme_points(seg: Segment) -> Iterator[Vec3]:
+    """Tool-tip points where an arc (or helix) crosses 0, 90, 180 or 270 degrees in its plane.
+
+    Together with the start and end these bound the arc exactly.
+
+    Parameters
+    ----------
+    seg
+        An arc segment (``center_mm`` set).
+
+    Yields
+    ------
+    Vec3
+        Points in machine coordinates of the tool tip, mm; at most four, the normal
+        coordinate interpolated along the helix.
+
+    Raises
+    ------
+    cnctwin.errors.NCError
+        If the segment has no centre.
+    """
+    if seg.center_mm is None:
+        raise NCError(f"{seg.kind.name} segment has no arc centre", seg.file or "<program>", seg.line)
+    offset = seg.state.tool_offset_mm
+    start, end = seg.tcp_start_mm, seg.tcp_end_mm
+    center = tuple(c - o for c, o in zip(seg.center_mm, offset, strict=True))
+    radius, a0, sweep = arc_sweep_rad(start, end, center, seg.turns, seg.state.plane)
+    first_axis, second_axis, normal = PLANE_AXES[seg.state.plane]
+    lo, hi = sorted((a0, a0 + sweep))
+    k_first = math.ceil(lo / _QUARTER)
+    k_last = min(math.floor(hi / _QUARTER), k_first + 3)
+    for k in range(k_first, k_last + 1):
+        fraction = (k * _QUARTER - a0) / sweep
+        point = [0.0, 0.0, 0.0]
+        point[first_axis] = center[first_axis] + radius * _COS[k % 4]
+        point[second_axis] = center[second_axis] + radius * _SIN[k % 4]
+        point[normal] = start[normal] + fraction * (end[normal] - start[normal])
+        yield (point[0], point[1], point[2])
