@@ -164,9 +164,10 @@ def test_missing_tool_table_names_the_key(tmp_path: Path) -> None:
             "g59.1, g59.2, g59.3",
         ),
         (
-            "[[tools]]\nnumber = 1\ndiameter_mm = 3\n[[tools]]\nnumber = 2\ndiameter_mm = 3\ncolour = 1\n",
-            "tools[1].colour: unknown key; valid keys: number, kind, diameter_mm, corner_radius_mm, "
-            "flutes, helix_deg, flute_length_mm, length_mm, x_offset_mm",
+            "[[tools]]\nnumber = 1\ndiameter_mm = 3\n"
+            "[[tools]]\nnumber = 2\ndiameter_mm = 3\ncolour = 1\n",
+            "tools[1].colour: unknown key; valid keys: number, kind, diameter_mm, "
+            "corner_radius_mm, flutes, helix_deg, flute_length_mm, length_mm, x_offset_mm",
         ),
     ],
 )
@@ -183,10 +184,15 @@ def test_unknown_keys_are_named_with_their_path(tmp_path: Path, text: str, expec
         ),
         ("[machine]\nrapid_mm_min = 0\n", "machine.rapid_mm_min: must be greater than 0; got 0"),
         ("[machine]\nkind = 'drill'\n", "machine.kind: must be 'mill' or 'lathe'; got 'drill'"),
-        ("[machine]\nrapid_mm_min = nan\n", "machine.rapid_mm_min: must be a finite number; got nan"),
+        (
+            "[machine]\nrapid_mm_min = nan\n",
+            "machine.rapid_mm_min: must be a finite number; got nan",
+        ),
         ("[machine]\ng28_home_mm = [1, 2]\n", "machine.g28_home_mm[2]: item is missing"),
-        ("[machine.axes.y]\nmax_accel_mm_s2 = -1\n", "machine.axes.y.max_accel_mm_s2: must be "
-         "greater than 0; got -1"),
+        (
+            "[machine.axes.y]\nmax_accel_mm_s2 = -1\n",
+            "machine.axes.y.max_accel_mm_s2: must be greater than 0; got -1",
+        ),
         ("[[tools]]\nnumber = 1\n", "tools[0].diameter_mm: required key is missing"),
         (
             "[[tools]]\nnumber = 1\ndiameter_mm = 10\nkind = 'ball'\ncorner_radius_mm = 2\n",
@@ -215,8 +221,11 @@ def test_unknown_keys_are_named_with_their_path(tmp_path: Path, text: str, expec
             "stock.max_mm: z must be greater than min_mm's z (0.0)",
         ),
         ("tool_table_units = 'cm'\n", "tool_table_units: must be 'mm' or 'inch'; got 'cm'"),
-        ("[material]\ndensity_kg_m3 = 'heavy'\n", "material.density_kg_m3: must be a valid number, "
-         "unable to parse string as a number; got 'heavy'"),
+        (
+            "[material]\ndensity_kg_m3 = 'heavy'\n",
+            "material.density_kg_m3: must be a valid number, "
+            "unable to parse string as a number; got 'heavy'",
+        ),
     ],
 )
 def test_bad_values_name_key_bound_and_value(tmp_path: Path, text: str, expected: str) -> None:

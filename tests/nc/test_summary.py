@@ -25,7 +25,12 @@ def rapid(start: Vec3, end: Vec3, *, state: MachineState = STATE) -> Segment:
 
 
 def arc(
-    start: Vec3, end: Vec3, center: Vec3, turns: int, feed: float = 600.0, *,
+    start: Vec3,
+    end: Vec3,
+    center: Vec3,
+    turns: int,
+    feed: float = 600.0,
+    *,
     state: MachineState = STATE,
 ) -> Segment:
     return Segment(MotionKind.ARC, 1, start, end, feed, 1000.0, state, center, turns, file="t.ngc")
@@ -78,7 +83,9 @@ def test_helix_two_turns() -> None:
     start = (r, 0.0, 0.0)
     end = (r, 0.0, -2.0 * pitch)
     result = summarize([arc(start, end, (0.0, 0.0, 0.0), 2)], rapid_mm_min=1.0)
-    assert result.feed_length_mm == pytest.approx(math.hypot(4.0 * math.pi * r, 2 * pitch), rel=1e-12)
+    assert result.feed_length_mm == pytest.approx(
+        math.hypot(4.0 * math.pi * r, 2 * pitch), rel=1e-12
+    )
     assert result.bounds_min_mm == pytest.approx((-r, -r, -2.0 * pitch), abs=1e-12)
     assert result.bounds_max_mm == pytest.approx((r, r, 0.0), abs=1e-12)
 
@@ -100,26 +107,36 @@ def test_xz_plane_arc_and_tool_offset() -> None:
 def test_segment_feeds_are_used_as_resolved() -> None:
     # Under G93 the interpreter resolves "F2" (1/min) for a 10 mm move to 20 mm/min.
     state = MachineState(tool=2, programmed_feed=2.0)
-    result = summarize([line((0.0, 0.0, 0.0), (10.0, 0.0, 0.0), 20.0, state=state)], rapid_mm_min=1.0)
+    result = summarize(
+        [line((0.0, 0.0, 0.0), (10.0, 0.0, 0.0), 20.0, state=state)], rapid_mm_min=1.0
+    )
     assert result.machining_time_s == pytest.approx(30.0, rel=1e-15)  # 1 / 2 min
 
 
 def test_zero_feed_moves_are_counted_and_warned() -> None:
-    segments = [line((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 0.0), line((1.0, 0.0, 0.0), (2.0, 0.0, 0.0), 0.0)]
+    segments = [
+        line((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 0.0),
+        line((1.0, 0.0, 0.0), (2.0, 0.0, 0.0), 0.0),
+    ]
     result = summarize(segments, rapid_mm_min=1.0)
     assert result.zero_feed_moves == 2
     assert result.machining_time_s == 0.0
     assert result.feed_length_mm == 2.0
     assert result.warnings == (
-        "t.ngc:1: 2 feed moves with feed 0 mm/min (the first here); their machining time is not counted",
+        "t.ngc:1: 2 feed moves with feed 0 mm/min (the first here); "
+        "their machining time is not counted",
     )
 
 
 def test_dwell_time_tools_and_empty_program() -> None:
-    dwell = Segment(MotionKind.DWELL, 4, (0.0,) * 3, (0.0,) * 3, 0.0, 0.0, MachineState(), dwell_s=1.5)
+    dwell = Segment(
+        MotionKind.DWELL, 4, (0.0,) * 3, (0.0,) * 3, 0.0, 0.0, MachineState(), dwell_s=1.5
+    )
     no_tool = rapid((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), state=MachineState(tool=0))
     t7 = line((0.0, 0.0, 1.0), (0.0, 0.0, 2.0), state=MachineState(tool=7))
-    result = summarize([dwell, t7, no_tool, line((0.0, 0.0, 2.0), (0.0, 0.0, 3.0))], rapid_mm_min=1.0)
+    result = summarize(
+        [dwell, t7, no_tool, line((0.0, 0.0, 2.0), (0.0, 0.0, 3.0))], rapid_mm_min=1.0
+    )
     assert result.dwell_time_s == 1.5
     assert result.motion_blocks == 3
     assert result.tools == (3, 7)
@@ -133,8 +150,17 @@ def test_to_dict_keys() -> None:
     data = summarize([line((0.0, 0.0, 0.0), (1.0, 2.0, 3.0))], rapid_mm_min=1.0).to_dict()
     assert data["bounds_mm"] == {"min": [0.0, 0.0, 0.0], "max": [1.0, 2.0, 3.0]}
     assert set(data) == {
-        "motion_blocks", "feed_length_mm", "rapid_length_mm", "machining_time_s", "rapid_time_s",
-        "dwell_time_s", "total_time_s", "bounds_mm", "tools", "zero_feed_moves", "warnings",
+        "motion_blocks",
+        "feed_length_mm",
+        "rapid_length_mm",
+        "machining_time_s",
+        "rapid_time_s",
+        "dwell_time_s",
+        "total_time_s",
+        "bounds_mm",
+        "tools",
+        "zero_feed_moves",
+        "warnings",
     }
 
 

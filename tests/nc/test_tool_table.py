@@ -1,4 +1,4 @@
-"""LinuxCNC tool tables: hand-written tables and the real ones beside LinuxCNC's interpreter tests."""
+"""LinuxCNC tool tables: hand-written ones and the real ones of LinuxCNC's interpreter tests."""
 
 from __future__ import annotations
 
@@ -12,7 +12,9 @@ from cnctwin.nc.tool_table import parse_tool_table, read_tool_table
 
 
 def test_words_comments_and_blank_lines() -> None:
-    text = "\n; a comment line\nT1 P1 Z0.5 D0.0625;first tool\n   \nt4 p4 z-2 x1.5 d6 ; lower case\n"
+    text = (
+        "\n; a comment line\nT1 P1 Z0.5 D0.0625;first tool\n   \nt4 p4 z-2 x1.5 d6 ; lower case\n"
+    )
     tools = parse_tool_table(text)
     assert tools == {
         1: ToolEntry(number=1, length_mm=0.5, x_offset_mm=0.0, diameter_mm=0.0625),

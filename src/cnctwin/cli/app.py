@@ -94,7 +94,7 @@ def run(argv: Sequence[str] | None = None) -> int:
         return _fail(f"{where}{err.strerror or err}", EXIT_BAD_INPUT)
     except KeyboardInterrupt:
         return _fail("interrupted", EXIT_INTERRUPTED)
-    except Exception as err:  # noqa: BLE001 - the last resort: report, never a bare traceback
+    except Exception as err:  # the last resort: report in one line, never a bare traceback
         return _fail(
             f"internal error: {type(err).__name__}: {err} (re-run with --debug for the traceback)",
             EXIT_INTERNAL,

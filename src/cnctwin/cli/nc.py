@@ -23,7 +23,9 @@ app = typer.Typer(help="Read NC programs: summarize, trace, plot.", no_args_is_h
 ProgramArg = Annotated[Path, typer.Argument(help="NC program (.ngc, .nc, .tap, .mpf, ...).")]
 ConfigOpt = Annotated[
     Path | None,
-    typer.Option("--config", "-c", help="Configuration TOML (machine, tools); defaults if omitted."),
+    typer.Option(
+        "--config", "-c", help="Configuration TOML (machine, tools); defaults if omitted."
+    ),
 ]
 
 

@@ -97,7 +97,9 @@ def _problem(detail: ErrorDetails, root: type[BaseModel]) -> str:
         keys = _valid_keys(root, detail["loc"][:-1])
         return "unknown key" + (f"; valid keys: {', '.join(keys)}" if keys else "")
     if kind == "missing":
-        return "required key is missing" if isinstance(detail["loc"][-1], str) else "item is missing"
+        return (
+            "required key is missing" if isinstance(detail["loc"][-1], str) else "item is missing"
+        )
     message = detail["msg"].removeprefix("Value error, ")
     if message.startswith("Input should be"):
         message = "must be" + message.removeprefix("Input should be")

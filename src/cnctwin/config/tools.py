@@ -61,19 +61,23 @@ class ToolConfig(Section):
         if kind == "flat":
             if value:
                 raise PydanticCustomError(
-                    "corner_radius", "must be 0 for kind 'flat' (use kind 'bull' for a corner radius)"
+                    "corner_radius",
+                    "must be 0 for kind 'flat' (use kind 'bull' for a corner radius)",
                 )
             return 0.0
         if kind == "ball":
             if value is not None and not math.isclose(value, half, rel_tol=1e-9, abs_tol=1e-12):
                 raise PydanticCustomError(
-                    "corner_radius", "must be diameter_mm/2 ({half}) for kind 'ball'", {"half": half}
+                    "corner_radius",
+                    "must be diameter_mm/2 ({half}) for kind 'ball'",
+                    {"half": half},
                 )
             return half
         if value is None or not 0.0 < value < half:
             raise PydanticCustomError(
                 "corner_radius",
-                "must be given for kind 'bull', greater than 0 and less than diameter_mm/2 ({half})",
+                "must be given for kind 'bull', greater than 0 and less than "
+                "diameter_mm/2 ({half})",
                 {"half": half},
             )
         return value

@@ -72,8 +72,9 @@ class TwinConfig(Section):
         path = (Path(base) / value).resolve()
         if not path.is_file():
             raise PydanticCustomError(
-                "missing_file", "no such file {path} (a relative path is relative to the "
-                "configuration file)", {"path": str(path)}
+                "missing_file",
+                "no such file {path} (a relative path is relative to the configuration file)",
+                {"path": str(path)},
             )
         return path
 

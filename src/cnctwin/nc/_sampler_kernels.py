@@ -449,10 +449,10 @@ def _next_phase(
                 v_end = math.sqrt(v_l2)
                 ends = 1
         elif v >= vb - tol:
-            # On the braking curve: decelerate to the exit speed.
+            # On (or, after an override drop, above) the braking curve: decelerate to the end.
             acc = -a
             s_end = length
-            v_end = math.sqrt(max(v * v - 2.0 * a * rem, 0.0))
+            v_end = ve if v <= vb + tol else math.sqrt(v * v - 2.0 * a * rem)
             ends = 1
         elif v < c - tol:
             acc = a
@@ -481,10 +481,10 @@ def _next_phase(
                 s_end = max(s, length - (c * c - ve * ve) / (2.0 * a))
     if hold:
         duration = t_break - t
-    elif acc != 0.0:
-        duration = abs(v_end - v) / abs(acc)
+    elif v + v_end > 0.0:
+        duration = 2.0 * (s_end - s) / (v + v_end)
     else:
-        duration = (s_end - s) / v
+        duration = 0.0
     t_end = t + duration
     if t_end > t_break:
         tau = t_break - t

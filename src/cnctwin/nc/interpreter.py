@@ -184,8 +184,8 @@ class Interpreter:
         self._cycle_bottom: float | None = None
         self._cycle_q = 0.0
         self._cycle_p = 0.0
-        self._g28 = list(self.setup.g28_home_mm)
-        self._g30 = list(self.setup.g30_home_mm)
+        self._g28 = [*self.setup.g28_home_mm, 0.0, 0.0, 0.0]
+        self._g30 = [*self.setup.g30_home_mm, 0.0, 0.0, 0.0]
         self._comp: CutterCompensator | None = None
         self._diameter_mode = lathe
         self._state = MachineState(
@@ -306,6 +306,8 @@ class Interpreter:
                 # Fast path: a modal straight move, the bulk of CAM output.
                 if "f" in words:
                     self._set_feed(words["f"])
+                    if len(words) == 1:
+                        return
                 if motion == 10:
                     self._require_feed(words)
                 target = self._target(words)
@@ -319,7 +321,14 @@ class Interpreter:
         motion_code: int | None = None
         non_modal: int | None = None
         g53 = False
-        for code in block.gcodes:
+        gcodes = block.gcodes
+        if 800 in gcodes and any(_GROUPS.get(c) == 1 and c != 800 for c in gcodes):
+            # Fanuc/Haas safe-start lines combine G80 with G0/G1: cancel the cycle, then
+            # take the other motion code.
+            gcodes = [c for c in gcodes if c != 800]
+            self._cycle_r = None
+            self._cycle_bottom = None
+        for code in gcodes:
             group = _GROUPS.get(code)
             if group is None:
                 self._reject_g(code)
@@ -417,12 +426,12 @@ class Interpreter:
         if 10 in seen_groups:
             self._retract_r = seen_groups[10] == 990
         # 14: reference points, offsets.
-        axis_words = any(k in words for k in "xyzabc")
+        axis_words = any(k in words for k in "xyzabc@^")
         if non_modal in (280, 300):
             self._go_home(non_modal, words)
         elif non_modal in (281, 301):
             target = self._g28 if non_modal == 281 else self._g30
-            target[:] = self._pos
+            target[:] = self._pos + self._abc
         elif non_modal == 100:
             self._g10(words)
         elif non_modal in (920, 921, 922, 923, 520):
@@ -435,20 +444,20 @@ class Interpreter:
                 self._cycle_bottom = None
             else:
                 self._motion = motion_code
-        if non_modal in _NON_MODAL_WITH_AXES:
-            pass
-        elif motion_code is not None and motion_code != 800:
-            self._motion_block(motion_code, words, g53)
-        elif axis_words:
-            if self._motion is None:
-                raise self._error(
-                    "axis words with no active motion mode: add G0, G1, G2 or G3"
-                    if motion_code != 800
-                    else "axis words after G80 with no motion mode: add G0 or G1"
-                )
-            self._motion_block(self._motion, words, g53)
-        elif motion_code in (20, 30) or (motion_code is None and g53):
-            pass
+        if non_modal not in _NON_MODAL_WITH_AXES:
+            motion = self._motion
+            if (
+                axis_words
+                or motion_code in _CYCLES
+                or (motion in (20, 30) and any(k in words for k in "ijk"))
+            ):
+                if motion is None:
+                    raise self._error(
+                        "axis words after G80 with no motion mode: add G0 or G1"
+                        if motion_code == 800
+                        else "axis words with no active motion mode: add G0, G1, G2 or G3"
+                    )
+                self._motion_block(motion, words, g53)
         # 16: stops.
         for m in block.mcodes:
             if m in (2, 30):
@@ -518,15 +527,8 @@ class Interpreter:
             tool, register = divmod(number, 100)
             self._selected_tool = tool
             self._change_tool()
-            entry = self._tools.get(register)
-            if register and entry is None:
-                raise self._error(
-                    f"T{number:04d}: offset register {register} is not in the tool table"
-                )
-            offset = (
-                (entry.x_offset_mm, 0.0, entry.length_mm) if entry and register else (0.0,) * 3
-            )
-            self._tool_offset = list(offset)
+            entry = self._tool_entry(register, f"T{number:04d} applies a zero offset")
+            self._tool_offset = [entry.x_offset_mm, 0.0, entry.length_mm]
             self._update_offsets()
             return
         self._selected_tool = number
@@ -612,6 +614,8 @@ class Interpreter:
     # ------------------------------------------------------------------ positions
     def _target(self, words: dict[str, float], g53: bool = False) -> list[float]:
         """Machine target of the axis words of a block, mm."""
+        if "@" in words or "^" in words:
+            words = self._polar(words, g53)
         pos = self._pos
         target = [pos[0], pos[1], pos[2]]
         f = self._factor
@@ -635,6 +639,34 @@ class Interpreter:
             else:
                 target[i] = v + self._offset(i)
         return target
+
+    def _polar(self, words: dict[str, float], g53: bool) -> dict[str, float]:
+        """Replace the polar words @ (radius) and ^ (angle, degrees) by X and Y.
+
+        As in LinuxCNC, polar coordinates are about the program origin in G17; under G91
+        @ and ^ increment the current radius and angle.
+        """
+        if g53 or self._state.plane != Plane.XY or "x" in words or "y" in words:
+            raise self._error(
+                "polar coordinates (@ radius, ^ angle) need G17 and no X/Y/G53 in the block"
+            )
+        pos = self._pos
+        here = self._state.to_program((pos[0], pos[1], pos[2]))
+        f = self._factor
+        radius = math.hypot(here[0], here[1])
+        angle = math.degrees(math.atan2(here[1], here[0])) if radius > 0 else 0.0
+        if "@" in words:
+            radius = radius + words["@"] * f if self._incremental else words["@"] * f
+        if "^" in words:
+            angle = angle + words["^"] if self._incremental else words["^"]
+        x = radius * math.cos(math.radians(angle))
+        y = radius * math.sin(math.radians(angle))
+        out = {k: v for k, v in words.items() if k not in "@^"}
+        if self._incremental:
+            out["x"], out["y"] = (x - here[0]) / f, (y - here[1]) / f
+        else:
+            out["x"], out["y"] = x / f, y / f
+        return out
 
     def _target_abc(self, words: dict[str, float], g53: bool = False) -> list[float]:
         target = list(self._abc)
@@ -939,20 +971,21 @@ class Interpreter:
         )
 
     def _go_home(self, code: int, words: dict[str, float]) -> None:
+        """G28/G30: rapid through the intermediate point (the axis words; the current
+        position if none) to the stored reference point, on the named axes (all if none)."""
         home = self._g28 if code == 280 else self._g30
-        axes = [i for i, letter in enumerate(_AXES) if letter in words]
-        if any(k in words for k in "abc"):
-            raise self._error("G28/G30 with rotary axes is not supported")
         if self._comp is not None:
             raise self._error("G28/G30 is not allowed while cutter compensation is on")
-        if axes:
-            self._straight(MotionKind.RAPID, self._target(words))
-        else:
-            axes = [0, 1, 2]
+        axes = [i for i, letter in enumerate("xyzabc") if letter in words] or list(range(6))
+        self._straight(MotionKind.RAPID, self._target(words), self._target_abc(words))
         target = list(self._pos)
+        abc = list(self._abc)
         for i in axes:
-            target[i] = home[i]
-        self._straight(MotionKind.RAPID, target)
+            if i < 3:
+                target[i] = home[i]
+            else:
+                abc[i - 3] = home[i]
+        self._straight(MotionKind.RAPID, target, abc)
 
     def _g10(self, words: dict[str, float]) -> None:
         if "l" not in words:
@@ -986,8 +1019,9 @@ class Interpreter:
                     else:
                         offsets[i] = self._abc[i - 3] - self._g92[i] - v
                 shifted = frame.to_machine((prog[0], prog[1], prog[2]))
+                rotated = self._rotation_deg[cs] != 0.0
                 for i in range(3):
-                    if i in values or cs != self._cs:
+                    if i in values or rotated:
                         offsets[i] = self._pos[i] - shifted[i]
             if "r" in words:
                 self._rotation_deg[cs] = words["r"]
@@ -1161,7 +1195,7 @@ class Interpreter:
             self._cycle_p if code in (82, 84, 89) else 0.0,
             state_before.spindle_direction or 1,
         )
-        hole_words = {_AXES[a]: words[_AXES[a]] for a in (i0, i1) if _AXES[a] in words}
+        hole_words = {k: v for k, v in words.items() if k in (_AXES[i0], _AXES[i1], "@", "^")}
         for _ in range(int(repeats)):
             hole = self._target(hole_words)
             for move in expand_cycle(spec, (hole[0], hole[1], hole[2]), tuple(self._pos)):  # type: ignore[arg-type]

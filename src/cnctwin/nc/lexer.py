@@ -18,8 +18,8 @@ from cnctwin.nc.expressions import Parameters, read_assignment, read_value
 __all__ = ["Block", "OWord", "lex_block", "strip_comments", "O_KEYWORDS"]
 
 _NUMBER = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)"
-_SIMPLE_LINE = re.compile(rf"(?:[a-z]{_NUMBER})*")
-_WORD = re.compile(rf"([a-z])({_NUMBER})")
+_SIMPLE_LINE = re.compile(rf"(?:[a-z@^]{_NUMBER})*")
+_WORD = re.compile(rf"([a-z@^])({_NUMBER})")
 _MESSAGE = re.compile(r"^\s*(msg|debug|print)\s*,(.*)$", re.IGNORECASE | re.DOTALL)
 _PROGRAM_NUMBER = re.compile(r"^[o:]\d+$")
 
@@ -80,7 +80,8 @@ class Block:
     mcodes
         M-codes in the order written.
     words
-        Every other word by its lower-case letter (N excluded), value in program units.
+        Every other word by its lower-case letter (N excluded; ``@`` and ``^`` are the
+        polar radius and angle), value in program units.
     assignments
         Parameter assignments ``(key, value)`` to apply after the block is read.
     messages
@@ -240,12 +241,12 @@ def _lex_general(text: str, params: Parameters, messages: list[str]) -> Block:
             key, value, pos = read_assignment(text, pos, params)
             block.assignments.append((key, value))
             continue
-        if "a" <= ch <= "z":
+        if "a" <= ch <= "z" or ch == "@" or ch == "^":
             value, pos = read_value(text, pos + 1, params)
             pairs.append((ch, value))
             continue
         raise NCError(
-            f"unexpected character '{ch}' in '{text}': expected a word letter (A-Z) or '#'",
+            f"unexpected character '{ch}' in '{text}': expected a word letter (A-Z, @, ^) or '#'",
             column=pos + 1,
         )
     gcodes = block.gcodes

@@ -112,7 +112,9 @@ class ToolpathPlot:
                 low[axis] = min(low[axis], min(v for v in values if v == v))
                 high[axis] = max(high[axis], max(v for v in values if v == v))
             axes.plot(
-                xs, ys, zs,
+                xs,
+                ys,
+                zs,
                 linestyle="--" if rapid else "-",
                 linewidth=0.6 if rapid else 0.9,
                 color="tab:red" if rapid else "tab:blue",
@@ -145,7 +147,8 @@ def _path_points(seg: Segment) -> list[Vec3]:
         return [end]
     start = seg.tcp_start_mm
     offset = seg.state.tool_offset_mm
-    center = tuple(c - o for c, o in zip(seg.center_mm, offset, strict=True))
+    c = seg.center_mm
+    center = (c[0] - offset[0], c[1] - offset[1], c[2] - offset[2])
     radius, a0, sweep = arc_sweep_rad(start, end, center, seg.turns, seg.state.plane)
     first_axis, second_axis, normal = PLANE_AXES[seg.state.plane]
     steps = max(2, math.ceil(abs(sweep) / _ARC_STEP_RAD))

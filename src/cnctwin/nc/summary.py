@@ -138,7 +138,7 @@ def summarize(segments: Iterable[Segment], *, rapid_mm_min: float) -> ProgramSum
                 low[axis] = min(low[axis], point[axis])
                 high[axis] = max(high[axis], point[axis])
     rapid_time = 60.0 * rapid_length / rapid_mm_min
-    warnings = ()
+    warnings: tuple[str, ...] = ()
     if zero_feed:
         warnings = (
             f"{first_zero_feed}: {zero_feed} feed move{'s' if zero_feed > 1 else ''} with feed 0 "
@@ -182,10 +182,13 @@ def arc_extreme_points(seg: Segment) -> Iterator[Vec3]:
         If the segment has no centre.
     """
     if seg.center_mm is None:
-        raise NCError(f"{seg.kind.name} segment has no arc centre", seg.file or "<program>", seg.line)
+        raise NCError(
+            f"{seg.kind.name} segment has no arc centre", seg.file or "<program>", seg.line
+        )
     offset = seg.state.tool_offset_mm
     start, end = seg.tcp_start_mm, seg.tcp_end_mm
-    center = tuple(c - o for c, o in zip(seg.center_mm, offset, strict=True))
+    c = seg.center_mm
+    center = (c[0] - offset[0], c[1] - offset[1], c[2] - offset[2])
     radius, a0, sweep = arc_sweep_rad(start, end, center, seg.turns, seg.state.plane)
     first_axis, second_axis, normal = PLANE_AXES[seg.state.plane]
     lo, hi = sorted((a0, a0 + sweep))

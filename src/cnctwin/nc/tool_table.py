@@ -125,13 +125,13 @@ def _parse_line(body: str, where: str) -> dict[str, float]:
 def _value(letter: str, digits: str, token: str, where: str) -> float:
     if letter in _INTEGER_WORDS:
         try:
-            value = int(digits)
+            whole = int(digits)
         except ValueError:
             raise DataError(f"{where}: {letter} needs a whole number; got {token!r}") from None
-        if value < 0 or (letter == "Q" and value > 9):
+        if whole < 0 or (letter == "Q" and whole > 9):
             valid = "0 to 9" if letter == "Q" else ">= 0"
             raise DataError(f"{where}: {letter} must be {valid}; got {token!r}")
-        return value
+        return whole
     try:
         value = float(digits)
     except ValueError:
