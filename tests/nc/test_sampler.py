@@ -347,11 +347,15 @@ def test_axis_accelerations_bounded_on_mixed_path() -> None:
     assert c.path_speed_mm_min[inner].min() > 1000.0
 
 
-def test_arc_speed_limited_by_centripetal_acceleration() -> None:
-    # v^2 / r <= sqrt(3)/2 a on a full circle, tangential acceleration a/2.
+@pytest.mark.parametrize("turns", [1, -1])
+@pytest.mark.parametrize("start_deg", [0.0, 30.0])
+def test_arc_speed_limited_by_centripetal_acceleration(start_deg: float, turns: int) -> None:
+    # v^2 / r <= sqrt(3)/2 a on a full circle, tangential acceleration a/2. Starting at 30 deg,
+    # the end of the run-up passes where tangential and centripetal parts add up on one axis.
     a, r = 200.0, 2.0
     lim = AxisLimits((a, a, a))
-    seg = arc((r, 0, 0), (r, 0, 0), (0, 0, 0), 1, 6000.0)
+    p = (r * math.cos(math.radians(start_deg)), r * math.sin(math.radians(start_deg)), 0.0)
+    seg = arc(p, p, (0, 0, 0), turns, 6000.0)
     c, d = sample_program([seg], rapid_mm_min=RAPID, cycle_s=0.0005, limits=lim)
     v = math.sqrt(math.sqrt(3) / 2 * a * r)
     assert c.path_speed_mm_min.max() / 60.0 == pytest.approx(v, rel=1e-12)

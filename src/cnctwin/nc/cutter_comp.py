@@ -41,8 +41,6 @@ shifted by ``r`` along Z and/or X to the tip (``ccomp/lathe-comp``).
 from __future__ import annotations
 
 import math
-import os
-_V=os.environ.get('CCV','ss')
 from dataclasses import dataclass, replace
 
 from cnctwin.errors import NCError
@@ -79,10 +77,12 @@ LATHE_TIP_SHIFT: dict[int, _Vec2] = {
     9: (0.0, 0.0),
 }
 
-#: Offset points closer than this (mm) are one point: the junction is tangent.
-_SAME_POINT_MM = 1e-9
-#: |sin| of the turn angle below which opposite tangents count as a cusp.
-_CUSP_SIN = 1e-9
+#: Offset end and offset start closer than this (mm) make a tangent junction: the next
+#: move starts where the held one ends. LinuxCNC's traces show no corner arc and no
+#: trimming up to a gap of 0.0007 mm (inside-corners), and corners from 0.0136 mm on.
+_TANGENT_GAP_MM = 0.0025
+#: sin of the angle within which a turn counts as a reversal (cusp) of the path.
+_CUSP_SIN = math.sin(0.05)
 #: In-plane displacement (mm) below which a straight move has no motion in the plane.
 _NO_MOTION_MM = 1e-9
 
@@ -144,9 +144,10 @@ class _Path:
     comp_end: _Vec2
     t_start: _Vec2  # unit tangent at the start
     t_end: _Vec2  # unit tangent at the end
-    k_start: float  # signed curvature at the start, 1/mm (> 0 turning left)
-    k_end: float  # signed curvature at the end, 1/mm
+    rho_start: float  # arcs: offset radius through ``comp_start``, mm; 0 for lines
+    rho_end: float  # arcs: offset radius through ``comp_end``, mm; 0 for lines
     sweep: float  # arcs: programmed swept angle, rad (signed); 0 for lines
+    length: float  # length of the offset path, mm
 
 
 @dataclass(slots=True)
@@ -328,7 +329,7 @@ class CutterCompensator:
         if seg.kind != MotionKind.ARC:
             d = _unit(_sub(end, start))
             n = _scale(_perp(d), self._side * self._r)
-            return _Path(start, end, d, None, 0, _add(start, n), _add(end, n), d, d, 0.0, 0.0, 0.0)
+            return _Path(start, end, d, None, 0, _add(start, n), _add(end, n), d, d, 0.0, 0.0, 0.0, _norm(_sub(end, start)))
         if seg.center_mm is None:
             raise self._error(seg, "arc segment without a centre")
         c = self._p2(seg.center_mm)
@@ -340,19 +341,21 @@ class CutterCompensator:
         rho_start = self._offset_radius(seg, r_start, sense, "start")
         rho_end = self._offset_radius(seg, r_end, sense, "end")
         u_start, u_end = _scale(u_start, 1.0 / r_start), _scale(u_end, 1.0 / r_end)
+        sweep = arc_sweep_rad(seg.start_mm, seg.end_mm, seg.center_mm, seg.turns, self._plane)[2]
         return _Path(
             start,
             end,
             None,
             c,
             sense,
-            _add(c, _scale(u_start, rho_start if _V[0]=='s' else rho_end)),
+            _add(c, _scale(u_start, rho_start)),
             _add(c, _scale(u_end, rho_end)),
             _scale(_perp(u_start), sense),
             _scale(_perp(u_end), sense),
-            sense / r_start,
-            sense / r_end,
-            arc_sweep_rad(seg.start_mm, seg.end_mm, seg.center_mm, seg.turns, self._plane)[2],
+            rho_start,
+            rho_end,
+            sweep,
+            abs(sweep) * rho_end,
         )
 
     def _entry(self, seg: Segment) -> _Held:
@@ -377,47 +380,60 @@ class CutterCompensator:
 
     def _corner(self, held: _Held, seg: Segment) -> list[Segment]:
         """Resolve the corner between the held move and ``seg``; emit the held move."""
-        path = self._path(seg, self._p2(seg.start_mm))
-        start = path.comp_start
+        b = self._path(seg, self._p2(seg.start_mm))
+        start = b.comp_start
         arc_from: _Vec2 | None = None
-        if _norm(_sub(held.end, start)) > _SAME_POINT_MM:
-            t1, t2 = held.path.t_end, path.t_start
+        if _norm(_sub(held.end, start)) <= _TANGENT_GAP_MM:
+            start = held.end
+        else:
+            t1, t2 = held.path.t_end, b.t_start
             cross = _cross(t1, t2)
-            if abs(cross) <= _CUSP_SIN and _dot(t1, t2) < 0.0:
-                concave = self._side * (held.path.k_end + path.k_start) < 0.0
+            candidates = self._meet(held, b)
+            if _dot(t1, t2) < 0.0 and abs(cross) <= _CUSP_SIN:
+                # Near a reversal the first-order turn says little: the corner is concave
+                # when the offset paths cut each other within both moves.
+                point = self._nearest(
+                    [p for p in candidates if -held.path.length <= _along(held.path, held.end, p) < 0.0
+                     and 0.0 < _along(b, b.comp_start, p) <= b.length],
+                    b.start,
+                )
+            elif self._side * cross > 0.0:
+                point = self._nearest(candidates, b.start)
+                if point is None:
+                    raise self._gouge(seg)
             else:
-                concave = self._side * cross > 0.0
-            if concave:
-                held.end = start = self._intersect(held.seg, held.path, seg, path)
-            else:
+                point = None
+            if point is None:
                 arc_from = held.end
+            else:
+                held.end = start = point
         out = self._release(held)
         if arc_from is not None:
-            out.append(self._corner_arc(seg, path.start, arc_from, start))
-        self._held = _Held(seg, path, self._p3(start, self._pos[self._axes[2]]), path.comp_end, entry=False)
+            out.append(self._corner_arc(seg, b.start, arc_from, start))
+        self._held = _Held(seg, b, self._p3(start, self._pos[self._axes[2]]), b.comp_end, entry=False)
         return out
 
-    def _intersect(self, seg1: Segment, a: _Path, seg2: Segment, b: _Path) -> _Vec2:
-        """Intersection of two offset paths nearest the programmed corner (mm)."""
-        corner = b.start
+    @staticmethod
+    def _nearest(points: list[_Vec2], corner: _Vec2) -> _Vec2 | None:
+        """The point nearest the programmed corner, or None."""
+        return min(points, key=lambda p: _norm(_sub(p, corner)), default=None)
+
+    def _meet(self, held: _Held, b: _Path) -> list[_Vec2]:
+        """Points where the held move's offset path meets the next one's (0, 1 or 2)."""
+        a = held.path
         if a.centre is None and b.centre is None:
             da, db = _direction(a), _direction(b)
             den = _cross(da, db)
             if den == 0.0:
-                raise self._gouge(seg2)
-            s = _cross(_sub(b.comp_start, a.comp_end), db) / den
-            return _add(a.comp_end, _scale(da, s))
+                return []
+            s = _cross(_sub(b.comp_start, held.end), db) / den
+            return [_add(held.end, _scale(da, s))]
         if a.centre is not None and b.centre is not None:
-            rho_a, rho_b = _norm(_sub(a.comp_end, a.centre)), _norm(_sub(b.comp_start if _V[1]=='s' else b.comp_end, b.centre))
-            candidates = _circle_circle(a.centre, rho_a, b.centre, rho_b)
-        elif a.centre is not None:
-            candidates = _line_circle(b.comp_start, _direction(b), a.centre, _norm(_sub(a.comp_end, a.centre)))
-        else:
-            assert b.centre is not None
-            candidates = _line_circle(a.comp_end, _direction(a), b.centre, _norm(_sub(b.comp_start if _V[1]=='s' else b.comp_end, b.centre)))
-        if not candidates:
-            raise self._gouge(seg2)
-        return min(candidates, key=lambda p: _norm(_sub(p, corner)))
+            return _circle_circle(a.centre, a.rho_end, b.centre, b.rho_end)
+        if a.centre is not None:
+            return _line_circle(b.comp_start, _direction(b), a.centre, a.rho_end)
+        assert b.centre is not None
+        return _line_circle(held.end, _direction(a), b.centre, b.rho_end)
 
     # ------------------------------------------------------------------ emission
 
@@ -517,6 +533,18 @@ class CutterCompensator:
 
 def _angle(v: _Vec2) -> float:
     return math.atan2(v[1], v[0])
+
+
+def _along(path: _Path, origin: _Vec2, p: _Vec2) -> float:
+    """Signed distance (mm) from ``origin`` to ``p`` along a path's direction of motion.
+
+    Arcs measure the angle from ``origin`` to ``p`` about the centre, wrapped into
+    (-pi, pi], times the offset radius.
+    """
+    if path.centre is None:
+        return _dot(_sub(p, origin), _direction(path))
+    turn = _wrap(_angle(_sub(p, path.centre)) - _angle(_sub(origin, path.centre)))
+    return path.sense * turn * path.rho_end
 
 
 def _direction(path: _Path) -> _Vec2:

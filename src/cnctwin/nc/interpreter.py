@@ -76,6 +76,7 @@ for _group, _codes in {
     for _code in _codes:
         _GROUPS[_code] = _group
 
+_FAST_WORDS = frozenset("xyzf")
 _NON_MODAL_WITH_AXES = {100, 280, 300, 520, 920}
 _CYCLES = {730, 810, 820, 830, 840, 850, 860, 890}
 _COORD_SYSTEMS = {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8, 593: 9}
@@ -162,7 +163,7 @@ class Interpreter:
         lathe = self.setup.lathe
         # Positions are machine coordinates of the controlled point, mm / degrees.
         self._pos: list[float] = list(self.setup.initial_position_mm)
-        self._abc: list[float] = [0.0, 0.0, 0.0]
+        self._abc: Vec3 = (0.0, 0.0, 0.0)
         self._factor = 1.0
         self._incremental = False
         self._arc_absolute = False
@@ -242,6 +243,8 @@ class Interpreter:
                     if main and lineno > self.lines_read:
                         self.lines_read = lineno
                     try:
+                        if "#" in raw:
+                            self._sync_parameters()
                         block = lex_block(raw, self.params)
                         if block is None:
                             continue
@@ -253,10 +256,16 @@ class Interpreter:
                         self._execute(block)
                     except NCError as err:
                         raise self._locate(err) from None
-                    if self._out:
-                        yield from self._out
-                        self._out.clear()
-                    if self._ended:
+                    out = self._out
+                    if out:
+                        if len(out) == 1:
+                            yield out.pop()
+                        else:
+                            yield from out
+                            out.clear()
+                        if self._ended:
+                            break
+                    elif self._ended:
                         break
                 if finished and self._sources and self._sources[-1] is src:
                     if len(self._sources) > 1:
@@ -272,6 +281,25 @@ class Interpreter:
             for src in self._sources:
                 src.close()
             source.close()
+
+    def _sync_parameters(self) -> None:
+        """Refresh the read-only system parameters a program may read.
+
+        #5220 coordinate system (1-9), #5400 tool number, #5420-#5425 current position
+        X Y Z A B C in the program frame and units, and the named #<_x> #<_y> #<_z>
+        (same) and #<_abs_x> #<_abs_y> #<_abs_z> (machine position, program units).
+        """
+        params = self.params
+        f = self._factor
+        pos = (self._pos[0], self._pos[1], self._pos[2])
+        here = self._state.to_program(pos)
+        params[5220] = float(self._cs)
+        params[5400] = float(self._state.tool)
+        for i in range(3):
+            params[5420 + i] = here[i] / f
+            params[5423 + i] = self._abc[i] - self._off[3 + i]
+            params["_" + _AXES[i]] = here[i] / f
+            params["_abs_" + _AXES[i]] = pos[i] / f
 
     def _locate(self, err: NCError) -> NCError:
         if err.line:
@@ -291,29 +319,83 @@ class Interpreter:
         if block.messages:
             self.messages.extend(block.messages)
         gcodes = block.gcodes
-        mcodes = block.mcodes
         words = block.words
-        if not gcodes and not mcodes:
-            if not words:
-                return
-            motion = self._motion
-            if (motion == 10 or motion == 0) and self._comp is None and words.keys() <= {
-                "x",
-                "y",
-                "z",
-                "f",
-            }:
-                # Fast path: a modal straight move, the bulk of CAM output.
-                if "f" in words:
-                    self._set_feed(words["f"])
-                    if len(words) == 1:
-                        return
-                if motion == 10:
-                    self._require_feed(words)
-                target = self._target(words)
-                self._straight(MotionKind.LINEAR if motion == 10 else MotionKind.RAPID, target)
+        if not block.mcodes and self._comp is None and words.keys() <= _FAST_WORDS:
+            if not gcodes:
+                if not words:
+                    return
+                motion = self._motion
+                if motion == 10 or motion == 0:
+                    self._fast_straight(words, motion)
+                    return
+            elif len(gcodes) == 1 and (gcodes[0] == 10 or gcodes[0] == 0) and words:
+                self._motion = gcodes[0]
+                self._fast_straight(words, gcodes[0])
                 return
         self._execute_general(block)
+
+    def _fast_straight(self, words: dict[str, float], motion: int) -> None:
+        """A modal G0/G1 block of X, Y, Z and F words only: the bulk of CAM output.
+
+        Equivalent to ``_straight(kind, _target(words))``, inlined for speed.
+        """
+        if "f" in words:
+            self._set_feed(words["f"])
+            if len(words) == 1:
+                return
+        state = self._state
+        if self._diameter_mode or state.xy_rotation_deg or state.css:
+            if motion == 10:
+                self._require_feed(words)
+            kind = MotionKind.LINEAR if motion == 10 else MotionKind.RAPID
+            self._straight(kind, self._target(words))
+            return
+        pos = self._pos
+        x0, y0, z0 = pos
+        f = self._factor
+        off = self._off
+        inc = self._incremental
+        x, y, z = x0, y0, z0
+        v = words.get("x")
+        if v is not None:
+            x = x0 + v * f if inc else v * f + off[0]
+        v = words.get("y")
+        if v is not None:
+            y = y0 + v * f if inc else v * f + off[1]
+        v = words.get("z")
+        if v is not None:
+            z = z0 + v * f if inc else v * f + off[2]
+        if motion == 10:
+            kind = MotionKind.LINEAR
+            if state.feed_mode == FeedMode.UNITS_PER_MINUTE and state.programmed_feed > 0.0:
+                feed = state.programmed_feed * f
+            else:
+                self._require_feed(words)
+                feed = self._feed_mm_min(
+                    math.sqrt((x - x0) ** 2 + (y - y0) ** 2 + (z - z0) ** 2)
+                )
+        else:
+            kind = MotionKind.RAPID
+            feed = 0.0
+        abc = self._abc
+        self._out.append(
+            Segment(
+                kind,
+                self._line,
+                (x0, y0, z0),
+                (x, y, z),
+                feed,
+                state.programmed_speed if state.spindle_direction else 0.0,
+                state,
+                None,
+                0,
+                0.0,
+                abc,
+                abc,
+                self._file,
+            )
+        )
+        self._pos = [x, y, z]
 
     def _execute_general(self, block: Block) -> None:
         words = block.words
@@ -431,7 +513,7 @@ class Interpreter:
             self._go_home(non_modal, words)
         elif non_modal in (281, 301):
             target = self._g28 if non_modal == 281 else self._g30
-            target[:] = self._pos + self._abc
+            target[:] = [*self._pos, *self._abc]
         elif non_modal == 100:
             self._g10(words)
         elif non_modal in (920, 921, 922, 923, 520):
@@ -802,7 +884,7 @@ class Interpreter:
         self._emit(seg)
         self._pos = target
         if abc is not None:
-            self._abc = abc
+            self._abc = (abc[0], abc[1], abc[2])
 
     def _arc(self, ccw: bool, words: dict[str, float]) -> None:
         plane = self._state.plane
@@ -873,7 +955,7 @@ class Interpreter:
         seg = self._make(MotionKind.ARC, start, target, length, center_t, turns, abc_end=abc)
         self._emit(seg)
         self._pos = target
-        self._abc = abc
+        self._abc = (abc[0], abc[1], abc[2])
 
     def _center_from_radius(
         self, radius: float, start: list[float], end: list[float], i0: int, i1: int, ccw: bool

@@ -22,6 +22,7 @@ _SIMPLE_LINE = re.compile(rf"(?:[a-z@^]{_NUMBER})*")
 _WORD = re.compile(rf"([a-z@^])({_NUMBER})")
 _MESSAGE = re.compile(r"^\s*(msg|debug|print)\s*,(.*)$", re.IGNORECASE | re.DOTALL)
 _PROGRAM_NUMBER = re.compile(r"^[o:]\d+$")
+_NO_ASSIGNMENTS: list[tuple[int | str, float]] = []  # shared, never mutated
 
 #: O-word keywords (LinuxCNC subroutines and control flow).
 O_KEYWORDS = (
@@ -174,11 +175,11 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
         to the comment-free, space-free text.
     """
     messages: list[str] = []
-    if "(" in raw or ";" in raw:
-        text = strip_comments(raw, messages)
-    else:
-        text = raw
-    text = "".join(text.split()).lower()
+    text = strip_comments(raw, messages) if "(" in raw or ";" in raw else raw
+    text = text.replace(" ", "")
+    if "\t" in text or "\f" in text or "\v" in text:
+        text = "".join(text.split())
+    text = text.lower()
     if text.startswith("/"):
         # Block delete: the switch is off, so the block is executed.
         text = text[1:]
@@ -189,32 +190,26 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
     if _SIMPLE_LINE.fullmatch(text):
         if text[0] in "o:" and _PROGRAM_NUMBER.match(text):
             return None
-        block = Block(messages=messages)
-        _fill_words(block, _WORD.findall(text))
-        return block
+        gcodes: list[int] = []
+        mcodes: list[int] = []
+        words: dict[str, float] = {}
+        for letter, number in _WORD.findall(text):
+            value = float(number)
+            if letter == "g":
+                gcodes.append(_gcode_key(value))
+            elif letter == "m":
+                mcodes.append(_mcode_key(value))
+            elif letter == "n":
+                continue
+            elif letter in words:
+                raise NCError(
+                    f"word {letter.upper()} appears twice in one block "
+                    f"({letter.upper()}{_fmt(words[letter])} and {letter.upper()}{_fmt(value)})"
+                )
+            else:
+                words[letter] = value
+        return Block(gcodes, mcodes, words, _NO_ASSIGNMENTS, messages)
     return _lex_general(text, params, messages)
-
-
-def _fill_words(block: Block, pairs: list[tuple[str, str]]) -> None:
-    """Sort (letter, number text) pairs into the block."""
-    gcodes = block.gcodes
-    mcodes = block.mcodes
-    words = block.words
-    for letter, number in pairs:
-        value = float(number)
-        if letter == "g":
-            gcodes.append(_gcode_key(value))
-        elif letter == "m":
-            mcodes.append(_mcode_key(value))
-        elif letter == "n":
-            continue
-        elif letter in words:
-            raise NCError(
-                f"word {letter.upper()} appears twice in one block "
-                f"({letter.upper()}{_fmt(words[letter])} and {letter.upper()}{_fmt(value)})"
-            )
-        else:
-            words[letter] = value
 
 
 def _lex_general(text: str, params: Parameters, messages: list[str]) -> Block:
@@ -267,6 +262,10 @@ def _lex_general(text: str, params: Parameters, messages: list[str]) -> Block:
 
 
 def _gcode_key(value: float) -> int:
+    if value == 1.0:
+        return 10
+    if value == 0.0:
+        return 0
     key = round(value * 10.0)
     if abs(key - value * 10.0) > 1e-6 or key < 0:
         raise NCError(f"G{_fmt(value)} is not a G-code: G numbers are 0-999 with at most one decimal")

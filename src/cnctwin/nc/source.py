@@ -57,16 +57,17 @@ class LineSource:
         1-based number while the caller handles it.
         """
         stream = self._stream
-        readline = stream.readline
         while True:
             if self._pending is not None:
                 self.offset, self.lineno = self._pending
                 self._pending = None
                 stream.seek(self.offset)
-            raw = readline()
-            if not raw:
+            for raw in stream:
+                start = self.offset
+                self.offset = start + len(raw)
+                self.lineno += 1
+                yield self.lineno, start, raw.decode("utf-8", "replace").rstrip("\r\n")
+                if self._pending is not None:
+                    break
+            else:
                 return
-            start = self.offset
-            self.offset = start + len(raw)
-            self.lineno += 1
-            yield self.lineno, start, raw.decode("utf-8", "replace").rstrip("\r\n")
