@@ -30,7 +30,9 @@ def short_lines(n: int) -> Iterator[Segment]:
     for i in range(n):
         y = 0.1 * i
         x0 = 0.0 if i % 2 == 0 else 0.05
-        yield Segment(MotionKind.LINEAR, i + 1, (x0, y, 0.0), (0.05 - x0, y + 0.1, 0.0), 1000.0, 8000.0, STATE)
+        yield Segment(
+            MotionKind.LINEAR, i + 1, (x0, y, 0.0), (0.05 - x0, y + 0.1, 0.0), 1000.0, 8000.0, STATE
+        )
 
 
 def short_arcs(n: int) -> Iterator[Segment]:
@@ -41,21 +43,27 @@ def short_arcs(n: int) -> Iterator[Segment]:
         a1 = a0 + 0.5 * math.pi
         p0 = (r * math.cos(a0), r * math.sin(a0), 0.0)
         p1 = (r * math.cos(a1), r * math.sin(a1), 0.0)
-        yield Segment(MotionKind.ARC, i + 1, p0, p1, 1000.0, 8000.0, STATE, center_mm=(0.0, 0.0, 0.0), turns=1)
+        yield Segment(
+            MotionKind.ARC, i + 1, p0, p1, 1000.0, 8000.0, STATE, center_mm=(0.0, 0.0, 0.0), turns=1
+        )
 
 
 def long_lines(n: int) -> Iterator[Segment]:
     """Back-and-forth 100 mm lines at 3000 mm/min (2 s each)."""
     for i in range(n):
         x0 = 0.0 if i % 2 == 0 else 100.0
-        yield Segment(MotionKind.LINEAR, i + 1, (x0, 0.0, 0.0), (100.0 - x0, 0.0, 0.0), 3000.0, 8000.0, STATE)
+        yield Segment(
+            MotionKind.LINEAR, i + 1, (x0, 0.0, 0.0), (100.0 - x0, 0.0, 0.0), 3000.0, 8000.0, STATE
+        )
 
 
 def long_arcs(n: int) -> Iterator[Segment]:
     """Full circles of radius 20 mm at 3000 mm/min (2.5 s each)."""
     p = (20.0, 0.0, 0.0)
     for i in range(n):
-        yield Segment(MotionKind.ARC, i + 1, p, p, 3000.0, 8000.0, STATE, center_mm=(0.0, 0.0, 0.0), turns=1)
+        yield Segment(
+            MotionKind.ARC, i + 1, p, p, 3000.0, 8000.0, STATE, center_mm=(0.0, 0.0, 0.0), turns=1
+        )
 
 
 def run_case(
@@ -66,13 +74,17 @@ def run_case(
     gc.collect()
     start = time.perf_counter()
     samples = 0
-    for chunk in TrajectorySampler(iter(segments), rapid_mm_min=RAPID_MM_MIN, cycle_s=cycle_s, limits=limits):
+    for chunk in TrajectorySampler(
+        iter(segments), rapid_mm_min=RAPID_MM_MIN, cycle_s=cycle_s, limits=limits
+    ):
         samples += len(chunk.t_s)
     seconds = time.perf_counter() - start
     del segments
     tracemalloc.start()
     try:
-        for _ in TrajectorySampler(make(n), rapid_mm_min=RAPID_MM_MIN, cycle_s=cycle_s, limits=limits):
+        for _ in TrajectorySampler(
+            make(n), rapid_mm_min=RAPID_MM_MIN, cycle_s=cycle_s, limits=limits
+        ):
             pass
         peak = tracemalloc.get_traced_memory()[1]
     finally:
@@ -92,18 +104,30 @@ def main() -> None:
         ("full circles r 20 mm", long_arcs, 1_000 // scale),
     ]
     run_case(short_arcs, 50, 0.0125, LIMITS)  # load the compiled kernels before timing
-    print(f"Trajectory sampler, {platform.processor() or platform.machine()}, Python {platform.python_version()}")
+    cpu = platform.processor() or platform.machine()
+    print(f"Trajectory sampler, {cpu}, Python {platform.python_version()}")
     print()
-    print("| program | segments | cycle ms | limits | samples | time s | samples/s | segments/s | peak MiB |")
+    print(
+        "| program | segments | cycle ms | limits | samples | time s | samples/s | segments/s "
+        "| peak MiB |"
+    )
     print("|---|---:|---:|---|---:|---:|---:|---:|---:|")
     for name, make, n in cases:
         for cycle_s in (0.0125, 0.001):
             for limits in (None, LIMITS):
                 samples, seconds, peak = run_case(make, n, cycle_s, limits)
-                print(
-                    f"| {name} | {n} | {cycle_s * 1e3:g} | {'axis' if limits else 'none'} | {samples} "
-                    f"| {seconds:.3f} | {samples / seconds:,.0f} | {n / seconds:,.0f} | {peak / 2**20:.1f} |"
-                )
+                cells = [
+                    name,
+                    str(n),
+                    f"{cycle_s * 1e3:g}",
+                    "axis" if limits else "none",
+                    str(samples),
+                    f"{seconds:.3f}",
+                    f"{samples / seconds:,.0f}",
+                    f"{n / seconds:,.0f}",
+                    f"{peak / 2**20:.1f}",
+                ]
+                print("| " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

@@ -75,12 +75,9 @@ def _setup(folder: Path, program: Path) -> NCSetup:
     table = folder / "test.tbl"
     if not table.exists():
         return NCSetup()
-    # The oracles' tool tables are in the units the program selects first.
-    head = program.read_text().lower()
-    inch = re.search(r"g\s*20(?!\d)", head)
-    mm = re.search(r"g\s*21(?!\d)", head)
-    units = "inch" if inch and (not mm or inch.start() < mm.start()) else "mm"
-    return NCSetup(tools=read_tool_table(table, units=units))
+    # The oracles' tool tables are in inches: cam-nisley, a G21 program, compensates
+    # T1 "D0.0625" by 0.79375 mm.
+    return NCSetup(tools=read_tool_table(table, units="inch"))
 
 
 @pytest.fixture(scope="module")

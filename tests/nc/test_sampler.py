@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import tracemalloc
 from collections.abc import Iterator
@@ -53,7 +54,7 @@ def dwell(p: Vec3, dwell_s: float, n: int = 1) -> Segment:
 
 def polyline_point(vertices: np.ndarray, s: float) -> np.ndarray:
     """Point at arc length s (mm) along a polyline."""
-    for a, b in zip(vertices[:-1], vertices[1:]):
+    for a, b in itertools.pairwise(vertices):
         seg = float(np.linalg.norm(b - a))
         if s <= seg:
             return a + (b - a) * (s / seg)
@@ -63,9 +64,12 @@ def polyline_point(vertices: np.ndarray, s: float) -> np.ndarray:
 
 def test_polyline_constant_feed_is_exact() -> None:
     verts = np.array([(0, 0, 0), (30, 0, 0), (30, 40, 0), (30, 40, -12.5), (0, 0, 0)], float)
-    segs = [line(tuple(a), tuple(b), 900.0, n=i + 10) for i, (a, b) in enumerate(zip(verts[:-1], verts[1:]))]
+    segs = [
+        line(tuple(a), tuple(b), 900.0, n=i + 10)
+        for i, (a, b) in enumerate(itertools.pairwise(verts))
+    ]
     v = 900.0 / 60.0
-    total = sum(float(np.linalg.norm(b - a)) for a, b in zip(verts[:-1], verts[1:]))
+    total = sum(float(np.linalg.norm(b - a)) for a, b in itertools.pairwise(verts))
     c, duration = sample_program(segs, rapid_mm_min=RAPID, cycle_s=0.0125)
     assert duration == pytest.approx(total / v, rel=1e-14)
     assert len(c.t_s) == math.ceil(duration / 0.0125)
@@ -126,8 +130,22 @@ def test_helix_in_zx_plane_has_linear_normal_travel() -> None:
     np.testing.assert_allclose(y, 6.0 * frac, atol=POS_TOL_MM)
 
 
+def test_arc_with_unequal_radii_interpolates_radius_linearly_in_angle() -> None:
+    # Start radius 5, end radius 5.02 (as LinuxCNC accepts): r(phi) linear, length = mean r x sweep.
+    r0, r1 = 5.0, 5.02
+    seg = arc((r0, 0, 0), (0, r1, 0), (0, 0, 0), 1, 600.0)
+    c, duration = sample_program([seg], rapid_mm_min=RAPID, cycle_s=0.001)
+    sweep = math.pi / 2
+    assert duration == pytest.approx(0.5 * (r0 + r1) * sweep / 10.0, rel=1e-13)
+    phi = np.arctan2(c.tcp_mm[:, 1], c.tcp_mm[:, 0])
+    np.testing.assert_allclose(phi, sweep * 10.0 * c.t_s / (0.5 * (r0 + r1) * sweep), atol=1e-12)
+    radius = np.hypot(c.tcp_mm[:, 0], c.tcp_mm[:, 1])
+    np.testing.assert_allclose(radius, r0 + (r1 - r0) * phi / sweep, atol=1e-12)
+
+
 def test_arc_sweep_matches_segments_helper() -> None:
-    # The kernel repeats the sweep rule of arc_sweep_rad; durations must agree with segment_length_mm.
+    # The kernel repeats the sweep rule of arc_sweep_rad: durations must agree with
+    # segment_length_mm.
     rng = np.random.default_rng(1)
     segs = []
     for i in range(60):
@@ -138,7 +156,9 @@ def test_arc_sweep_matches_segments_helper() -> None:
         a0, a1 = rng.uniform(-math.pi, math.pi, 2)
         if i % 7 == 0:
             a1 = a0  # full circles
-        first, second, normal = {Plane.XY: (0, 1, 2), Plane.ZX: (2, 0, 1), Plane.YZ: (1, 2, 0)}[plane]
+        first, second, normal = {Plane.XY: (0, 1, 2), Plane.ZX: (2, 0, 1), Plane.YZ: (1, 2, 0)}[
+            plane
+        ]
         p0 = list(centre)
         p1 = list(centre)
         p0[first] += r * math.cos(a0)
@@ -174,7 +194,9 @@ def test_time_series_override_mid_segment_matches_piecewise_integral() -> None:
     dist = np.where(t < 2, 10 * t, np.where(t < 5, 20 + 5 * (t - 2), 35 + 20 * (t - 5)))
     assert duration == pytest.approx(5.0 + 65.0 / 20.0, rel=1e-14)
     np.testing.assert_allclose(c.tcp_mm[:, 0], dist, atol=POS_TOL_MM)
-    np.testing.assert_allclose(c.path_speed_mm_min, np.where(t < 2, 600, np.where(t < 5, 300, 1200)))
+    np.testing.assert_allclose(
+        c.path_speed_mm_min, np.where(t < 2, 600, np.where(t < 5, 300, 1200))
+    )
     assert ov.at(4.99) == 0.5 and ov.at(5.0) == 2.0 and ov.at(-1.0) == 1.0
 
 
@@ -220,7 +242,9 @@ def test_zero_length_segments_take_no_time() -> None:
     segs = [
         line((0, 0, 0), (10, 0, 0), 600.0),
         line((10, 0, 0), (10, 0, 0), 600.0),
-        Segment(MotionKind.LINEAR, 5, (10, 0, 0), (10, 0, 0), 600.0, 0.0, STATE, end_abc_deg=(0, 0, 90)),
+        Segment(
+            MotionKind.LINEAR, 5, (10, 0, 0), (10, 0, 0), 600.0, 0.0, STATE, end_abc_deg=(0, 0, 90)
+        ),
         dwell((10, 0, 0), 0.0),
         line((10, 0, 0), (10, 5, 0), 600.0),
     ]
@@ -242,14 +266,19 @@ def test_streaming_in_small_pieces_equals_one_piece() -> None:
     for lim in (None, limits):
         whole, d = sample_program(segs, rapid_mm_min=RAPID, cycle_s=0.004, limits=lim)
         sampler = TrajectorySampler(
-            iter(segs), rapid_mm_min=RAPID, cycle_s=0.004, limits=lim,
-            chunk_samples=7, batch_segments=2, lookahead=2,
+            iter(segs),
+            rapid_mm_min=RAPID,
+            cycle_s=0.004,
+            limits=lim,
+            chunk_samples=7,
+            batch_segments=2,
+            lookahead=2,
         )
         chunks = list(sampler)
         assert all(len(ch.t_s) == 7 for ch in chunks[:-1])
-        pieces = SampleChunk(*(np.concatenate(p) for p in zip(*chunks)))
+        pieces = SampleChunk(*(np.concatenate(p) for p in zip(*chunks, strict=True)))
         assert sampler.duration_s == pytest.approx(d, rel=1e-14)
-        for a, b in zip(whole, pieces):
+        for a, b in zip(whole, pieces, strict=True):
             np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-12)
 
 
@@ -280,7 +309,9 @@ def test_trapezoid_on_long_line_matches_closed_form() -> None:
     assert c.path_speed_mm_min.max() == pytest.approx(3000.0, rel=1e-12)
     t = c.t_s
     speed = c.path_speed_mm_min / 60.0
-    np.testing.assert_allclose(speed, np.minimum.reduce([a * t, np.full_like(t, v), a * (d - t)]), atol=1e-9)
+    np.testing.assert_allclose(
+        speed, np.minimum.reduce([a * t, np.full_like(t, v), a * (d - t)]), atol=1e-9
+    )
     assert_axis_limits(c, 0.001, (a, 1000.0, 1000.0))
 
 
@@ -302,18 +333,23 @@ def test_diagonal_line_uses_axis_limits() -> None:
 def test_short_line_triangle_profile() -> None:
     # L < v^2/a: peak speed sqrt(a L), t = 2 sqrt(L/a).
     lim = AxisLimits((500.0, 500.0, 500.0))
-    c, d = sample_program([line((0, 0, 0), (0, 0, 2.0), 3000.0)], rapid_mm_min=RAPID, cycle_s=0.0005, limits=lim)
+    c, d = sample_program(
+        [line((0, 0, 0), (0, 0, 2.0), 3000.0)], rapid_mm_min=RAPID, cycle_s=0.0005, limits=lim
+    )
     assert d == pytest.approx(2.0 * math.sqrt(2.0 / 500.0), rel=1e-12)
     assert c.path_speed_mm_min.max() / 60.0 <= math.sqrt(500.0 * 2.0) * (1 + 1e-12)
 
 
 def test_corner_speed_follows_junction_deviation() -> None:
-    # 90 degree corner: theta = 90 deg, bisector (-1, 1, 0)/sqrt 2 -> junction acceleration a sqrt 2.
+    # 90 degree corner: theta = 90 deg, bisector (-1, 1, 0)/sqrt 2, junction acceleration a sqrt 2.
     a, v, length, dev = 500.0, 20.0, 50.0, 0.05
     s = math.sin(math.pi / 4)
     vj = math.sqrt(a * math.sqrt(2.0) * dev * s / (1.0 - s))
     lim = AxisLimits((a, a, a), junction_deviation_mm=dev)
-    segs = [line((0, 0, 0), (length, 0, 0), 60 * v), line((length, 0, 0), (length, length, 0), 60 * v)]
+    segs = [
+        line((0, 0, 0), (length, 0, 0), 60 * v),
+        line((length, 0, 0), (length, length, 0), 60 * v),
+    ]
     _, d = sample_program(segs, rapid_mm_min=RAPID, cycle_s=0.001, limits=lim)
     one = v / a + (v - vj) / a + (length - v * v / (2 * a) - (v * v - vj * vj) / (2 * a)) / v
     assert d == pytest.approx(2.0 * one, rel=1e-12)
@@ -369,7 +405,11 @@ def test_override_change_is_reached_within_acceleration() -> None:
     lim = AxisLimits((a, a, a))
     ov = FeedOverride([1.0, 0.5], times_s=[0.0, 2.0])
     c, d = sample_program(
-        [line((0, 0, 0), (300, 0, 0), 3000.0)], rapid_mm_min=RAPID, cycle_s=0.001, limits=lim, feed_override=ov
+        [line((0, 0, 0), (300, 0, 0), 3000.0)],
+        rapid_mm_min=RAPID,
+        cycle_s=0.001,
+        limits=lim,
+        feed_override=ov,
     )
     assert d == pytest.approx(10.1, rel=1e-12)
     speed = c.path_speed_mm_min / 60.0
@@ -386,7 +426,9 @@ def test_override_change_is_reached_within_acceleration() -> None:
 def many_segments(n: int) -> Iterator[Segment]:
     for i in range(n):
         x = float(i % 100)
-        yield Segment(MotionKind.LINEAR, i + 1, (x, 0.0, 0.0), (x + 1.0, 0.0, 0.0), 6000.0, 1000.0, STATE)
+        yield Segment(
+            MotionKind.LINEAR, i + 1, (x, 0.0, 0.0), (x + 1.0, 0.0, 0.0), 6000.0, 1000.0, STATE
+        )
 
 
 def peak_memory(n: int, limits: AxisLimits | None) -> tuple[int, int]:
@@ -415,8 +457,15 @@ def test_memory_does_not_grow_with_program_length(limits: AxisLimits | None) -> 
 
 @pytest.mark.parametrize(
     ("values", "times"),
-    [(-0.1, None), ([1.0, 0.5], [0.0, 0.0]), ([1.0, 0.5], [1.0, 0.5]), ([1.0, 0.0], [0.0, 1.0]),
-     ([1.0], [0.0, 1.0]), (math.nan, None), ([1.0, 2.0], None)],
+    [
+        (-0.1, None),
+        ([1.0, 0.5], [0.0, 0.0]),
+        ([1.0, 0.5], [1.0, 0.5]),
+        ([1.0, 0.0], [0.0, 1.0]),
+        ([1.0], [0.0, 1.0]),
+        (math.nan, None),
+        ([1.0, 2.0], None),
+    ],
 )
 def test_bad_override_raises_config_error(values: object, times: object) -> None:
     with pytest.raises(ConfigError):
@@ -444,3 +493,5 @@ def test_feed_move_without_feed_is_an_nc_error_with_its_line() -> None:
     bad_arc = Segment(MotionKind.ARC, 9, (0, 0, 0), (1, 0, 0), 600.0, 0.0, STATE, turns=1)
     with pytest.raises(NCError, match="centre"):
         sample_program([bad_arc], rapid_mm_min=RAPID)
+    with pytest.raises(NCError, match=r"dwell_s=-1\.0"):
+        sample_program([dwell((0, 0, 0), -1.0, n=2)], rapid_mm_min=RAPID)

@@ -6,7 +6,7 @@ import math
 from collections.abc import Iterator
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from cnctwin.errors import ConfigError
@@ -189,6 +189,7 @@ def test_rapid_rate_must_be_positive(rate: float) -> None:
     turns=st.sampled_from([-2, -1, 1, 2]),
     plane=st.sampled_from(list(Plane)),
 )
+@example(a0=math.pi, a1=-math.pi, turns=1, plane=Plane.XY)  # start and end 1 ulp across +-pi
 def test_arc_box_is_the_sampled_box(a0: float, a1: float, turns: int, plane: Plane) -> None:
     """The exact box contains every point of the arc and is no larger than the dense samples'."""
     from cnctwin.nc.segments import PLANE_AXES

@@ -24,7 +24,9 @@ def test_words_comments_and_blank_lines() -> None:
 
 def test_inch_lengths_are_converted_to_mm_and_angles_are_not() -> None:
     tools = parse_tool_table("T2 P2 Z1 X-0.5 D0.25 I95 J155 Q3 A10", units="inch")
-    assert tools[2] == ToolEntry(number=2, length_mm=25.4, x_offset_mm=-12.7, diameter_mm=6.35)
+    assert tools[2] == ToolEntry(
+        number=2, length_mm=25.4, x_offset_mm=-12.7, diameter_mm=6.35, orientation=3
+    )
 
 
 def test_only_the_tool_word_is_required() -> None:
@@ -87,5 +89,7 @@ def test_golden_tables_values_in_mm(shared_data) -> None:
     assert sorted(mill) == [1, 2, 3, 4, 32]
     lathe = read_tool_table(root / "ccomp" / "lathe-comp" / "test.tbl", units="mm")
     # "T6 P6 Z0.5 X0.5 D0.1 I120.0 J60.0 Q6;"
-    assert lathe[6] == ToolEntry(number=6, length_mm=0.5, x_offset_mm=0.5, diameter_mm=0.1)
+    assert lathe[6] == ToolEntry(
+        number=6, length_mm=0.5, x_offset_mm=0.5, diameter_mm=0.1, orientation=6
+    )
     assert len(lathe) == 19

@@ -36,7 +36,6 @@ N_RAW = 15
 S_OFFSET = 0
 S_PLANE = 3
 S_TOOL = 4
-N_STATE = 5
 
 # Geometry rows (float64), tool-tip (TCP) frame.
 G_KIND = 0
@@ -62,7 +61,6 @@ G_TOUT = 25  # 3 columns: unit tangent at the end
 N_GEO = 28
 
 KIND_RAPID = 0
-KIND_LINEAR = 1
 KIND_ARC = 2
 KIND_DWELL = 3
 
@@ -264,7 +262,9 @@ def build_geometry(
                 acc = _axis_limited(math.inf, tin, acc_mm_s2)
             junc = 0.0
             if prev[P_HAS] != 0.0 and prev[P_DWELL] == 0.0:
-                junc = _junction_speed(prev[P_TOUT : P_TOUT + 3], tin, acc_mm_s2, junction_deviation_mm)
+                junc = _junction_speed(
+                    prev[P_TOUT : P_TOUT + 3], tin, acc_mm_s2, junction_deviation_mm
+                )
                 junc = min(junc, vcap, prev[P_VCAP])
         else:
             vcap = math.inf
@@ -298,7 +298,9 @@ def _arc_tangent(
 
 
 @njit(cache=True)
-def _arc_limits(row: np.ndarray, acc_mm_s2: np.ndarray, vmax_mm_s: np.ndarray) -> tuple[float, float]:
+def _arc_limits(
+    row: np.ndarray, acc_mm_s2: np.ndarray, vmax_mm_s: np.ndarray
+) -> tuple[float, float]:
     """(speed limit mm/s, path acceleration limit mm/s^2) of an arc, worst case over a full turn.
 
     The tangent makes the angle alpha with the plane; an in-plane axis sees at most

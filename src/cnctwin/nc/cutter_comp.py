@@ -17,21 +17,29 @@ against LinuxCNC's canonical-call traces (``gcode_golden/linuxcnc/ccomp/*``,
   line from the programmed centre through that end, equidistant from the start and the
   end, so that it meets the offset arc tangentially. The entry's end then takes part
   in the corner with the next move like any other end.
-* **Tangent junctions**: the offset end of one move is the offset start of the next;
-  nothing is inserted.
-* **Convex (outside) corners**: both moves keep their offset ends; an arc of radius
-  ``r`` centred on the programmed corner joins them (clockwise for G41, counter-
-  clockwise for G42). It lies at the height (normal-axis position) of the corner and
-  takes the line number, feed and state of the *following* move.
-* **Concave (inside) corners**: the two offset paths (lines, or circles about the
-  programmed centres) are intersected; the first move ends and the next starts at the
-  intersection nearest the programmed corner. At a cusp (the path reverses) the
-  curvatures decide whether the corner is concave or convex.
+* **Tangent junctions**: the offset end of one move is the offset start of the next
+  (closer than 0.0025 mm: LinuxCNC leaves gaps of 0.0007 mm alone, and inserts arcs
+  from 0.0136 mm on); nothing is inserted and the next move starts exactly where the
+  previous one ended.
+* **Convex (outside) corners**, where the path turns away from the tool: both moves keep
+  their offset ends; an arc of radius ``r`` centred on the programmed corner joins them
+  (clockwise for G41, counter-clockwise for G42). It lies at the height (normal-axis
+  position) of the corner and takes the line number, feed and state of the *following*
+  move, and is emitted with the move before it.
+* **Concave (inside) corners**, where the path turns toward the tool: the two offset
+  paths (lines, or circles about the programmed centres through the offset *ends*) are
+  intersected; the held move ends and the next starts at the intersection nearest the
+  programmed corner.
+* **Reversals** (the path turns back within 0.05 rad of 180 degrees, e.g. at a cusp
+  between two arcs): the direction of the turn says little, so the corner is concave
+  when the offset paths cut each other within both moves, and convex otherwise
+  (``interp/inside-corners`` and ``interp/crazy-paths`` have both kinds).
 * Moves without motion in the plane (e.g. Z-only moves in G17, dwells) pass through at
   the held position: they are emitted after the held move, at its final in-plane end.
-* Errors (:class:`~cnctwin.errors.NCError`): an arc on whose inside the tool does not
-  fit (``R <= r``); a concave corner whose offset paths do not meet, or whose trimming
-  would reverse a move (gouging); an arc in a plane other than the compensation plane.
+* Errors (:class:`~cnctwin.errors.NCError`, with the move's file and line): an arc on
+  whose inside the tool does not fit (``R <= r``); a concave corner whose offset paths do
+  not meet, or whose trimming would run a move backwards (gouging); an arc in a plane
+  other than the compensation plane.
 
 Lathe tools (tool-table orientation ``Q`` 1-8) control their imaginary tool tip, not the
 centre of the nose radius: in the ZX plane the compensated path of the nose centre is
@@ -54,7 +62,7 @@ from cnctwin.nc.segments import (
     arc_sweep_rad,
 )
 
-__all__ = ["CutterCompensator", "LATHE_TIP_SHIFT"]
+__all__ = ["LATHE_TIP_SHIFT", "CutterCompensator"]
 
 _Vec2 = tuple[float, float]
 
@@ -144,7 +152,6 @@ class _Path:
     comp_end: _Vec2
     t_start: _Vec2  # unit tangent at the start
     t_end: _Vec2  # unit tangent at the end
-    rho_start: float  # arcs: offset radius through ``comp_start``, mm; 0 for lines
     rho_end: float  # arcs: offset radius through ``comp_end``, mm; 0 for lines
     sweep: float  # arcs: programmed swept angle, rad (signed); 0 for lines
     length: float  # length of the offset path, mm
@@ -204,9 +211,13 @@ class CutterCompensator:
         orientation: int = 0,
     ) -> None:
         if side not in (CutterComp.LEFT, CutterComp.RIGHT):
-            raise NCError(f"cutter radius compensation side must be LEFT (G41) or RIGHT (G42); got {side!r}")
+            raise NCError(
+                f"cutter radius compensation side must be LEFT (G41) or RIGHT (G42); got {side!r}"
+            )
         if not math.isfinite(radius_mm):
-            raise NCError(f"cutter radius compensation radius must be finite; got {radius_mm!r} mm")
+            raise NCError(
+                f"cutter radius compensation radius must be finite; got {radius_mm!r} mm"
+            )
         if orientation not in LATHE_TIP_SHIFT:
             raise NCError(f"lathe tool orientation must be 0 to 9; got {orientation!r}")
         sign = 1 if side == CutterComp.LEFT else -1
@@ -260,9 +271,13 @@ class CutterCompensator:
                 f"arc in plane G{int(seg.state.plane)} while cutter radius compensation is on in "
                 f"plane G{int(self._plane)}; turn compensation off (G40) before changing planes",
             )
-        planar = seg.kind == MotionKind.ARC or math.hypot(
-            seg.end_mm[i0] - seg.start_mm[i0], seg.end_mm[i1] - seg.start_mm[i1]
-        ) > _NO_MOTION_MM
+        planar = (
+            seg.kind == MotionKind.ARC
+            or math.hypot(
+                seg.end_mm[i0] - seg.start_mm[i0], seg.end_mm[i1] - seg.start_mm[i1]
+            )
+            > _NO_MOTION_MM
+        )
         if not planar:
             if self._held is None:
                 return [self._emit_through(seg)]
@@ -329,7 +344,20 @@ class CutterCompensator:
         if seg.kind != MotionKind.ARC:
             d = _unit(_sub(end, start))
             n = _scale(_perp(d), self._side * self._r)
-            return _Path(start, end, d, None, 0, _add(start, n), _add(end, n), d, d, 0.0, 0.0, 0.0, _norm(_sub(end, start)))
+            return _Path(
+                start,
+                end,
+                d,
+                None,
+                0,
+                _add(start, n),
+                _add(end, n),
+                d,
+                d,
+                0.0,
+                0.0,
+                _norm(_sub(end, start)),
+            )
         if seg.center_mm is None:
             raise self._error(seg, "arc segment without a centre")
         c = self._p2(seg.center_mm)
@@ -337,11 +365,15 @@ class CutterCompensator:
         u_start, u_end = _sub(start, c), _sub(end, c)
         r_start, r_end = _norm(u_start), _norm(u_end)
         if r_start == 0.0 or r_end == 0.0:
-            raise self._error(seg, "arc of zero radius under cutter radius compensation")
+            raise self._error(
+                seg, "arc of zero radius under cutter radius compensation"
+            )
         rho_start = self._offset_radius(seg, r_start, sense, "start")
         rho_end = self._offset_radius(seg, r_end, sense, "end")
         u_start, u_end = _scale(u_start, 1.0 / r_start), _scale(u_end, 1.0 / r_end)
-        sweep = arc_sweep_rad(seg.start_mm, seg.end_mm, seg.center_mm, seg.turns, self._plane)[2]
+        sweep = arc_sweep_rad(
+            seg.start_mm, seg.end_mm, seg.center_mm, seg.turns, self._plane
+        )[2]
         return _Path(
             start,
             end,
@@ -352,7 +384,6 @@ class CutterCompensator:
             _add(c, _scale(u_end, rho_end)),
             _scale(_perp(u_start), sense),
             _scale(_perp(u_end), sense),
-            rho_start,
             rho_end,
             sweep,
             abs(sweep) * rho_end,
@@ -365,7 +396,9 @@ class CutterCompensator:
         its end; an arc entry is offset like the programmed arc (its centre is replaced
         when it is emitted, see :meth:`_entry_centre`).
         """
-        here = self._p2(self._pos)
+        here = self._p2(
+            self._to_tip(self._pos)
+        )  # the actual point, in program geometry
         if seg.kind == MotionKind.ARC:
             path = self._path(seg, self._p2(seg.start_mm))
         elif _norm(_sub(self._p2(seg.end_mm), here)) <= _NO_MOTION_MM:
@@ -386,23 +419,7 @@ class CutterCompensator:
         if _norm(_sub(held.end, start)) <= _TANGENT_GAP_MM:
             start = held.end
         else:
-            t1, t2 = held.path.t_end, b.t_start
-            cross = _cross(t1, t2)
-            candidates = self._meet(held, b)
-            if _dot(t1, t2) < 0.0 and abs(cross) <= _CUSP_SIN:
-                # Near a reversal the first-order turn says little: the corner is concave
-                # when the offset paths cut each other within both moves.
-                point = self._nearest(
-                    [p for p in candidates if -held.path.length <= _along(held.path, held.end, p) < 0.0
-                     and 0.0 < _along(b, b.comp_start, p) <= b.length],
-                    b.start,
-                )
-            elif self._side * cross > 0.0:
-                point = self._nearest(candidates, b.start)
-                if point is None:
-                    raise self._gouge(seg)
-            else:
-                point = None
+            point = self._concave_point(held, b, seg)
             if point is None:
                 arc_from = held.end
             else:
@@ -410,13 +427,34 @@ class CutterCompensator:
         out = self._release(held)
         if arc_from is not None:
             out.append(self._corner_arc(seg, b.start, arc_from, start))
-        self._held = _Held(seg, b, self._p3(start, self._pos[self._axes[2]]), b.comp_end, entry=False)
+        self._held = _Held(
+            seg, b, self._p3(start, self._pos[self._axes[2]]), b.comp_end, entry=False
+        )
         return out
 
-    @staticmethod
-    def _nearest(points: list[_Vec2], corner: _Vec2) -> _Vec2 | None:
-        """The point nearest the programmed corner, or None."""
-        return min(points, key=lambda p: _norm(_sub(p, corner)), default=None)
+    def _concave_point(self, held: _Held, b: _Path, seg: Segment) -> _Vec2 | None:
+        """Where the held move must end at a concave corner; None at a convex one."""
+        a = held.path
+        cross = _cross(a.t_end, b.t_start)
+        if _dot(a.t_end, b.t_start) < 0.0 and abs(cross) <= _CUSP_SIN:
+            # Near a reversal the sign of the turn says little: the corner is concave when
+            # the offset paths cut each other within both moves.
+            cuts = [
+                p
+                for p in self._meet(held, b)
+                if -a.length
+                <= _along(a, held.end, p)
+                < 0.0
+                < _along(b, b.comp_start, p)
+                <= b.length
+            ]
+            return _nearest(cuts, b.start)
+        if self._side * cross <= 0.0:
+            return None
+        point = _nearest(self._meet(held, b), b.start)
+        if point is None:
+            raise self._gouge(seg)
+        return point
 
     def _meet(self, held: _Held, b: _Path) -> list[_Vec2]:
         """Points where the held move's offset path meets the next one's (0, 1 or 2)."""
@@ -444,9 +482,11 @@ class CutterCompensator:
         start = held.start
         end = self._p3(held.end, seg.end_mm[normal])
         if path.centre is not None:
-            centre = self._entry_centre(held) if held.entry else path.centre
-            if not held.entry:
-                self._check_arc_trim(held, path.centre)
+            if held.entry:
+                centre = self._entry_centre(held)
+            else:
+                centre = path.centre
+                self._check_arc_trim(held, centre)
             emitted = replace(
                 seg,
                 start_mm=self._to_tip(start),
@@ -456,7 +496,9 @@ class CutterCompensator:
         else:
             if _dot(_sub(held.end, self._p2(start)), _direction(path)) < 0.0:
                 raise self._gouge(seg)
-            emitted = replace(seg, start_mm=self._to_tip(start), end_mm=self._to_tip(end))
+            emitted = replace(
+                seg, start_mm=self._to_tip(start), end_mm=self._to_tip(end)
+            )
         out = [emitted]
         self._pos = end
         out.extend(self._emit_through(wait) for wait in self._waiting)
@@ -472,7 +514,9 @@ class CutterCompensator:
         self._pos = end
         return replace(seg, start_mm=self._to_tip(start), end_mm=self._to_tip(end))
 
-    def _corner_arc(self, following: Segment, corner: _Vec2, start: _Vec2, end: _Vec2) -> Segment:
+    def _corner_arc(
+        self, following: Segment, corner: _Vec2, start: _Vec2, end: _Vec2
+    ) -> Segment:
         """The arc of radius r about a convex corner, with the following move's attributes."""
         h = self._pos[self._axes[2]]
         return replace(
@@ -514,8 +558,13 @@ class CutterCompensator:
     def _check_arc_trim(self, held: _Held, centre: _Vec2) -> None:
         """Raise if trimming an arc at concave corners used it up (gouging)."""
         path = held.path
-        lost_start = _wrap(_angle(_sub(self._p2(held.start), centre)) - _angle(_sub(path.start, centre)))
-        lost_end = _wrap(_angle(_sub(path.end, centre)) - _angle(_sub(held.end, centre)))
+        lost_start = _wrap(
+            _angle(_sub(self._p2(held.start), centre))
+            - _angle(_sub(path.start, centre))
+        )
+        lost_end = _wrap(
+            _angle(_sub(path.end, centre)) - _angle(_sub(held.end, centre))
+        )
         if path.sense * (lost_start + lost_end) >= abs(path.sweep):
             raise self._gouge(held.seg)
 
@@ -533,6 +582,11 @@ class CutterCompensator:
 
 def _angle(v: _Vec2) -> float:
     return math.atan2(v[1], v[0])
+
+
+def _nearest(points: list[_Vec2], corner: _Vec2) -> _Vec2 | None:
+    """The point nearest the programmed corner, or None if there is none."""
+    return min(points, key=lambda p: _norm(_sub(p, corner)), default=None)
 
 
 def _along(path: _Path, origin: _Vec2, p: _Vec2) -> float:

@@ -188,6 +188,7 @@ class Interpreter:
         self._g28 = [*self.setup.g28_home_mm, 0.0, 0.0, 0.0]
         self._g30 = [*self.setup.g30_home_mm, 0.0, 0.0, 0.0]
         self._comp: CutterCompensator | None = None
+        self._exit_base: list[float] | None = None
         self._diameter_mode = lathe
         self._state = MachineState(
             plane=Plane.ZX if lathe else Plane.XY,
@@ -301,6 +302,34 @@ class Interpreter:
             params["_" + _AXES[i]] = here[i] / f
             params["_abs_" + _AXES[i]] = pos[i] / f
 
+    def _expand(self, text: str) -> str:
+        """DEBUG/PRINT text with each #n, #<name> or #[expr] replaced by its value (%.6f)."""
+        out: list[str] = []
+        pos = 0
+        while True:
+            at = text.find("#", pos)
+            if at < 0:
+                out.append(text[pos:])
+                return "".join(out)
+            out.append(text[pos:at])
+            end = at + 1
+            if text[end : end + 1] == "<":
+                close = text.find(">", end)
+                end = close + 1 if close > 0 else len(text)
+            elif text[end : end + 1] == "[":
+                close = text.find("]", end)
+                end = close + 1 if close > 0 else len(text)
+            else:
+                while end < len(text) and (text[end].isdigit() or text[end] == "."):
+                    end += 1
+            ref = "".join(text[at:end].split()).lower()
+            try:
+                value, used = read_value(ref, 0, self.params)
+                out.append(f"{value:.6f}" + ref[used:])
+            except NCError:
+                out.append(text[at:end])
+            pos = end
+
     def _locate(self, err: NCError) -> NCError:
         if err.line:
             return err
@@ -316,8 +345,8 @@ class Interpreter:
     def _execute(self, block: Block) -> None:
         for key, value in block.assignments:
             self.params[key] = value
-        if block.messages:
-            self.messages.extend(block.messages)
+        for kind, text in block.messages:
+            self.messages.append(text if kind == "msg" else self._expand(text))
         gcodes = block.gcodes
         words = block.words
         if not block.mcodes and self._comp is None and words.keys() <= _FAST_WORDS:
@@ -344,7 +373,7 @@ class Interpreter:
             if len(words) == 1:
                 return
         state = self._state
-        if self._diameter_mode or state.xy_rotation_deg or state.css:
+        if self._diameter_mode or state.xy_rotation_deg or state.css or self._exit_base:
             if motion == 10:
                 self._require_feed(words)
             kind = MotionKind.LINEAR if motion == 10 else MotionKind.RAPID
@@ -695,10 +724,17 @@ class Interpreter:
 
     # ------------------------------------------------------------------ positions
     def _target(self, words: dict[str, float], g53: bool = False) -> list[float]:
-        """Machine target of the axis words of a block, mm."""
+        """Machine target of the axis words of a block, mm.
+
+        Axes the block does not name keep their programmed position, which differs from
+        the tool's after cutter compensation ends (see :meth:`_finish_comp`).
+        """
         if "@" in words or "^" in words:
             words = self._polar(words, g53)
         pos = self._pos
+        if self._exit_base is not None:
+            pos = self._exit_base
+            self._exit_base = None
         target = [pos[0], pos[1], pos[2]]
         f = self._factor
         if self._state.xy_rotation_deg and not g53:
@@ -868,10 +904,20 @@ class Interpreter:
         )
 
     def _emit(self, seg: Segment) -> None:
-        if self._comp is not None and seg.kind != MotionKind.DWELL:
-            self._out.extend(self._comp.push(seg))
-        else:
+        if self._comp is None:
             self._out.append(seg)
+            return
+        for out in self._comp.push(seg):
+            if out.kind == MotionKind.ARC and out.feed_mm_min <= 0.0:
+                # A corner arc inserted next to a rapid is cut at the programmed feed.
+                feed = out.state.programmed_feed * self._factor
+                if feed <= 0.0 or out.state.feed_mode != FeedMode.UNITS_PER_MINUTE:
+                    raise self._error(
+                        "cutter compensation inserts a corner arc next to a rapid here, "
+                        "and no feed rate (G94 F) is programmed to cut it"
+                    )
+                out = replace(out, feed_mm_min=feed)
+            self._out.append(out)
 
     def _straight(
         self, kind: MotionKind, target: list[float], abc: list[float] | None = None
@@ -1047,7 +1093,7 @@ class Interpreter:
         abc = (self._abc[0], self._abc[1], self._abc[2])
         state = self._state
         rpm = self._spindle_rpm() if state.spindle_direction else 0.0
-        self._out.append(
+        self._emit(
             Segment(MotionKind.DWELL, self._line, pos, pos, 0.0, rpm, state, None, 0,
                     seconds, abc, abc, self._file)
         )
@@ -1182,6 +1228,7 @@ class Interpreter:
                 "cutter compensation is already on: turn it off with G40 before G41/G42"
             )
         side = CutterComp.LEFT if code in (410, 411) else CutterComp.RIGHT
+        orientation = 0
         if code in (411, 421):
             if "d" not in words:
                 raise self._error(f"G{_g(code)} needs D<diameter>")
@@ -1192,6 +1239,7 @@ class Interpreter:
                 raise self._error(f"D{number:g} must be a tool number")
             entry = self._tool_entry(int(number), "cutter compensation uses radius 0")
             radius = entry.diameter_mm / 2.0
+            orientation = entry.orientation
         if radius < 0:
             # A negative diameter compensates on the other side (as LinuxCNC does).
             side = CutterComp.RIGHT if side == CutterComp.LEFT else CutterComp.LEFT
@@ -1199,9 +1247,16 @@ class Interpreter:
         self._state = replace(self._state, cutter_comp=side, comp_radius_mm=radius)
         if radius > 0:
             pos = self._pos
-            self._comp = CutterCompensator(side, radius, self._state.plane, (pos[0], pos[1], pos[2]))
+            self._comp = CutterCompensator(
+                side, radius, self._state.plane, (pos[0], pos[1], pos[2]), orientation
+            )
 
     def _finish_comp(self) -> None:
+        """G40 or program end: flush the compensator.
+
+        The tool stays where compensation left it; the next (exit) move starts there,
+        while the axes its block does not name keep their programmed values (LinuxCNC).
+        """
         if self._comp is None:
             return
         out = self._comp.finish()
@@ -1209,6 +1264,7 @@ class Interpreter:
         self._out.extend(out)
         if out:
             end = out[-1].end_mm
+            self._exit_base = self._pos
             self._pos = [end[0], end[1], end[2]]
 
     # ------------------------------------------------------------------ canned cycles
@@ -1219,6 +1275,14 @@ class Interpreter:
         if plane != Plane.XY and self._state.xy_rotation_deg:
             raise self._error(
                 f"canned cycle G{code} in G18/G19 with a rotated coordinate system is not supported"
+            )
+        if self._state.feed_mode == FeedMode.INVERSE_TIME:
+            raise self._error(
+                f"canned cycle G{code} cannot run in G93 inverse time mode: use G94 or G95"
+            )
+        if self._state.programmed_feed <= 0.0:
+            raise self._error(
+                f"canned cycle G{code} with feed rate 0: program F (e.g. F100) first"
             )
         i0, i1, n = PLANE_AXES[plane]
         letter_n = _AXES[n]

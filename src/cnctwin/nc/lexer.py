@@ -86,7 +86,8 @@ class Block:
     assignments
         Parameter assignments ``(key, value)`` to apply after the block is read.
     messages
-        Texts of ``(MSG,...)``, ``(DEBUG,...)`` and ``(PRINT,...)`` comments.
+        ``(kind, text)`` of ``(MSG,...)``, ``(DEBUG,...)`` and ``(PRINT,...)`` comments,
+        kind lower-cased (``"msg"``, ``"debug"``, ``"print"``).
     oword
         The block's O-word statement, if any.
     """
@@ -95,11 +96,11 @@ class Block:
     mcodes: list[int] = field(default_factory=list)
     words: dict[str, float] = field(default_factory=dict)
     assignments: list[tuple[int | str, float]] = field(default_factory=list)
-    messages: list[str] = field(default_factory=list)
+    messages: list[tuple[str, str]] = field(default_factory=list)
     oword: OWord | None = None
 
 
-def strip_comments(raw: str, messages: list[str] | None = None) -> str:
+def strip_comments(raw: str, messages: list[tuple[str, str]] | None = None) -> str:
     """Remove ``(...)`` and ``;`` comments from a line.
 
     Parameters
@@ -107,8 +108,8 @@ def strip_comments(raw: str, messages: list[str] | None = None) -> str:
     raw
         The line as read from the file.
     messages
-        If given, the texts of ``(MSG, ...)``/``(DEBUG, ...)``/``(PRINT, ...)`` comments
-        and of Sinumerik ``MSG("...")`` are appended to it.
+        If given, ``(kind, text)`` of each ``(MSG, ...)``, ``(DEBUG, ...)`` or
+        ``(PRINT, ...)`` comment is appended to it.
 
     Returns
     -------
@@ -147,7 +148,7 @@ def strip_comments(raw: str, messages: list[str] | None = None) -> str:
         if messages is not None:
             found = _MESSAGE.match(body)
             if found:
-                messages.append(found.group(2).strip())
+                messages.append((found.group(1).lower(), found.group(2).strip()))
         i = close + 1
     return "".join(out)
 
@@ -174,7 +175,7 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
         For anything that is not valid RS274NGC; ``line`` is left 0 and ``column`` refers
         to the comment-free, space-free text.
     """
-    messages: list[str] = []
+    messages: list[tuple[str, str]] = []
     text = strip_comments(raw, messages) if "(" in raw or ";" in raw else raw
     text = text.replace(" ", "")
     if "\t" in text or "\f" in text or "\v" in text:
@@ -212,7 +213,9 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
     return _lex_general(text, params, messages)
 
 
-def _lex_general(text: str, params: Parameters, messages: list[str]) -> Block:
+def _lex_general(
+    text: str, params: Parameters, messages: list[tuple[str, str]]
+) -> Block:
     """Slow path: parameters, expressions, O-words."""
     block = Block(messages=messages)
     if text[0] == "o":

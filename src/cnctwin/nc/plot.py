@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 from matplotlib.figure import Figure
 
+from cnctwin.errors import ConfigError
 from cnctwin.nc.segments import PLANE_AXES, MotionKind, Segment, Vec3, arc_sweep_rad
 
 __all__ = ["ToolpathPlot"]
@@ -58,9 +59,13 @@ class ToolpathPlot:
     """
 
     max_points: int = 200_000
-    _runs: list[_Run] = field(default_factory=list)
-    _stride: int = 1
-    _kept: int = 0
+    _runs: list[_Run] = field(default_factory=list, init=False)
+    _stride: int = field(default=1, init=False)
+    _kept: int = field(default=0, init=False)
+
+    def __post_init__(self) -> None:
+        if self.max_points < 2:
+            raise ConfigError(f"ToolpathPlot max_points must be >= 2; got {self.max_points!r}")
 
     def add(self, seg: Segment) -> None:
         """Add one segment (dwells add nothing)."""
@@ -77,6 +82,10 @@ class ToolpathPlot:
             self._kept += run.add(point, self._stride)
         if self._kept > self.max_points:
             self._thin()
+
+    def polylines(self) -> list[tuple[bool, list[Vec3]]]:
+        """The path so far as ``(rapid, points)`` runs of connected tool-tip points in mm."""
+        return [(run.rapid, run.points()) for run in self._runs]
 
     def save(self, path: str | os.PathLike[str], *, title: str = "") -> None:
         """Write the picture.
@@ -96,10 +105,10 @@ class ToolpathPlot:
             xs: list[float] = []
             ys: list[float] = []
             zs: list[float] = []
-            for run in self._runs:
-                if run.rapid != rapid:
+            for run_rapid, points in self.polylines():
+                if run_rapid != rapid:
                     continue
-                for x, y, z in run.points():
+                for x, y, z in points:
                     xs.append(x)
                     ys.append(y)
                     zs.append(z)

@@ -97,7 +97,9 @@ class FeedOverride:
 
     __slots__ = ("_times_s", "_values")
 
-    def __init__(self, values: float | Sequence[float], times_s: Sequence[float] | None = None) -> None:
+    def __init__(
+        self, values: float | Sequence[float], times_s: Sequence[float] | None = None
+    ) -> None:
         if times_s is None:
             vals = np.array(values, dtype=np.float64).reshape(-1)
             if vals.size != 1:
@@ -117,9 +119,7 @@ class FeedOverride:
             if not np.all(np.isfinite(times)):
                 raise ConfigError(f"override times_s={times.tolist()!r}; times must be finite")
             if np.any(np.diff(times) <= 0.0):
-                raise ConfigError(
-                    f"override times_s={times.tolist()!r} are not strictly ascending"
-                )
+                raise ConfigError(f"override times_s={times.tolist()!r} are not strictly ascending")
         if not np.all(np.isfinite(vals)) or np.any(vals < 0.0):
             raise ConfigError(f"override values={vals.tolist()!r}; each must be finite and >= 0")
         if vals[-1] == 0.0:
@@ -179,7 +179,9 @@ class AxisLimits:
         if len(acc) != 3 or not all(math.isfinite(a) and a > 0.0 for a in acc):
             raise ConfigError(f"accel_mm_s2={acc!r}; give three finite accelerations > 0 mm/s^2")
         if len(vel) != 3 or not all(v > 0.0 for v in vel):
-            raise ConfigError(f"velocity_mm_s={vel!r}; give three velocities > 0 mm/s (inf for none)")
+            raise ConfigError(
+                f"velocity_mm_s={vel!r}; give three velocities > 0 mm/s (inf for none)"
+            )
         dev = self.junction_deviation_mm
         if not (math.isfinite(dev) and dev >= 0.0):
             raise ConfigError(f"junction_deviation_mm={dev!r}; give a finite deviation >= 0 mm")
@@ -415,8 +417,20 @@ class TrajectorySampler:
                 ist[_k.I_PLANNED] = 0
                 continue
             n_out = _k.run(
-                geo, n_buf, n_exec, vexit, feed_t, feed_v, rapid_t, rapid_v, limited, self._dt,
-                fs, ist, *out, n_out,
+                geo,
+                n_buf,
+                n_exec,
+                vexit,
+                feed_t,
+                feed_v,
+                rapid_t,
+                rapid_v,
+                limited,
+                self._dt,
+                fs,
+                ist,
+                *out,
+                n_out,
             )
             if n_out == self._chunk:
                 yield out
@@ -460,4 +474,6 @@ def sample_program(
     chunks = list(sampler)
     if not chunks:
         return _empty_chunk(0), sampler._duration_s
-    return SampleChunk(*(np.concatenate(parts) for parts in zip(*chunks))), sampler._duration_s
+    return SampleChunk(
+        *(np.concatenate(parts) for parts in zip(*chunks, strict=True))
+    ), sampler._duration_s

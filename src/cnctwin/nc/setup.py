@@ -9,15 +9,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal
-
 from cnctwin.nc.segments import Vec3
 
-__all__ = ["NCSetup", "ToolEntry", "Dialect"]
-
-#: Dialects the interpreter knows. ``"auto"`` picks Sinumerik for ``.mpf``/``.spf`` files and
-#: RS274NGC (LinuxCNC/Fanuc/Haas/grbl) otherwise.
-Dialect = Literal["auto", "rs274ngc", "sinumerik"]
+__all__ = ["NCSetup", "ToolEntry"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -34,12 +28,16 @@ class ToolEntry:
         Lathe X offset in mm (radius value), applied by G43 / T0101-style offsets.
     diameter_mm
         Cutter diameter in mm; its half is the cutter radius compensation (D word).
+    orientation
+        Lathe tool orientation 0-9 (LinuxCNC's Q): which imaginary tip point is
+        programmed; 0 for mill tools (the cutter's centre is compensated).
     """
 
     number: int
     length_mm: float = 0.0
     x_offset_mm: float = 0.0
     diameter_mm: float = 0.0
+    orientation: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -59,8 +57,6 @@ class NCSetup:
         Machine positions of the G28 and G30 reference points in mm.
     initial_position_mm
         Machine position of the controlled point when the program starts, in mm.
-    dialect
-        Program dialect.
     max_spindle_rpm
         Highest spindle speed of the machine in rpm; limits constant surface speed (G96).
     """
@@ -71,5 +67,4 @@ class NCSetup:
     g28_home_mm: Vec3 = (0.0, 0.0, 0.0)
     g30_home_mm: Vec3 = (0.0, 0.0, 0.0)
     initial_position_mm: Vec3 = (0.0, 0.0, 0.0)
-    dialect: Dialect = "auto"
     max_spindle_rpm: float = math.inf

@@ -195,7 +195,7 @@ def arc_extreme_points(seg: Segment) -> Iterator[Vec3]:
     k_first = math.ceil(lo / _QUARTER)
     k_last = min(math.floor(hi / _QUARTER), k_first + 3)
     for k in range(k_first, k_last + 1):
-        fraction = (k * _QUARTER - a0) / sweep
+        fraction = (k * _QUARTER - a0) / sweep if sweep else 0.0
         point = [0.0, 0.0, 0.0]
         point[first_axis] = center[first_axis] + radius * _COS[k % 4]
         point[second_axis] = center[second_axis] + radius * _SIN[k % 4]

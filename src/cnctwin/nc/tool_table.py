@@ -105,6 +105,7 @@ def parse_tool_table(
             length_mm=words.get("Z", 0.0) * scale,
             x_offset_mm=words.get("X", 0.0) * scale,
             diameter_mm=words.get("D", 0.0) * scale,
+            orientation=int(words.get("Q", 0)),
         )
     return tools
 
