@@ -20,6 +20,7 @@ tool_table_units = "inch"
 name = "VF-2"
 kind = "mill"
 rapid_mm_min = 25400.0
+max_spindle_rpm = 8100.0
 g28_home_mm = [0.0, 0.0, 0.0]
 g30_home_mm = [-100.0, -50.0, -10.0]
 
@@ -113,6 +114,7 @@ def test_nc_setup_merges_table_and_tools(full_config: Path) -> None:
         work_offsets_mm={1: (-400.0, -250.0, -300.0), 9: (1.0, 2.0, 3.0)},
         g28_home_mm=(0.0, 0.0, 0.0),
         g30_home_mm=(-100.0, -50.0, -10.0),
+        max_spindle_rpm=8100.0,
     )
 
 
@@ -124,8 +126,10 @@ def test_empty_file_is_the_defaults(tmp_path: Path) -> None:
 
 
 def test_lathe_kind_sets_the_lathe_flag(tmp_path: Path) -> None:
-    config = load_config(write(tmp_path, '[machine]\nkind = "lathe"\n'))
-    assert config.nc_setup().lathe is True
+    text = '[machine]\nkind = "lathe"\n[[tools]]\nnumber = 1\ndiameter_mm = 0.8\norientation = 3\n'
+    setup = load_config(write(tmp_path, text)).nc_setup()
+    assert setup.lathe is True
+    assert setup.tools[1].orientation == 3
 
 
 def test_relative_tool_table_is_relative_to_the_config_file(
@@ -167,7 +171,8 @@ def test_missing_tool_table_names_the_key(tmp_path: Path) -> None:
             "[[tools]]\nnumber = 1\ndiameter_mm = 3\n"
             "[[tools]]\nnumber = 2\ndiameter_mm = 3\ncolour = 1\n",
             "tools[1].colour: unknown key; valid keys: number, kind, diameter_mm, "
-            "corner_radius_mm, flutes, helix_deg, flute_length_mm, length_mm, x_offset_mm",
+            "corner_radius_mm, flutes, helix_deg, flute_length_mm, length_mm, x_offset_mm, "
+            "orientation",
         ),
     ],
 )
@@ -219,6 +224,14 @@ def test_unknown_keys_are_named_with_their_path(tmp_path: Path, text: str, expec
         (
             "[stock]\nmin_mm = [0, 0, 0]\nmax_mm = [10, 10, -5]\n",
             "stock.max_mm: z must be greater than min_mm's z (0.0)",
+        ),
+        (
+            "[[tools]]\nnumber = 1\ndiameter_mm = 1\norientation = 10\n",
+            "tools[0].orientation: must be less than or equal to 9; got 10",
+        ),
+        (
+            "[machine]\nmax_spindle_rpm = 0\n",
+            "machine.max_spindle_rpm: must be greater than 0; got 0",
         ),
         ("tool_table_units = 'cm'\n", "tool_table_units: must be 'mm' or 'inch'; got 'cm'"),
         (

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import sys
 from collections.abc import Callable, Iterable, Iterator
+from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -121,15 +122,33 @@ def inspect(
         warn.print(f"warning: {warning}", style="yellow", markup=False, highlight=False)
 
 
+class Frame(str, Enum):
+    """Coordinates of a trace."""
+
+    program = "program"
+    machine = "machine"
+
+
 @app.command()
-def trace(program: ProgramArg, config: ConfigOpt = None) -> None:
-    """Print the canonical motion trace of a program, one call a line."""
+def trace(
+    program: ProgramArg,
+    config: ConfigOpt = None,
+    frame: Annotated[
+        Frame,
+        typer.Option(
+            "--frame",
+            help="program: program frame and units, comparable with LinuxCNC's traces; "
+            "machine: machine coordinates in mm.",
+        ),
+    ] = Frame.program,
+) -> None:
+    """Print the canonical motion trace of a program, one call a line: source line, call."""
     from cnctwin.nc.interpreter import Interpreter
     from cnctwin.nc.trace import format_trace
 
     interpreter = Interpreter(_load(config).nc_setup())
     out = sys.stdout
-    for line in format_trace(interpreter.run_file(program)):
+    for line in format_trace(interpreter.run_file(program), frame.value):
         out.write(f"{line}\n")
 
 

@@ -85,6 +85,9 @@ class MachineConfig(Section):
         ``"mill"`` or ``"lathe"`` (a lathe interprets programs with lathe conventions).
     rapid_mm_min
         Rapid traverse rate in mm/min, used for rapid-move times.
+    max_spindle_rpm
+        Highest spindle speed in rpm, which limits constant surface speed (G96);
+        ``None`` for no limit.
     axes
         Limits of the X, Y and Z axes.
     g28_home_mm, g30_home_mm
@@ -96,6 +99,7 @@ class MachineConfig(Section):
     name: str = "cnctwin machine"
     kind: Literal["mill", "lathe"] = "mill"
     rapid_mm_min: float = Field(default=10_000.0, gt=0)
+    max_spindle_rpm: float | None = Field(default=None, gt=0)
     axes: AxesConfig = Field(default_factory=AxesConfig)
     g28_home_mm: Vec3Mm = (0.0, 0.0, 0.0)
     g30_home_mm: Vec3Mm = (0.0, 0.0, 0.0)

@@ -38,6 +38,9 @@ class ToolConfig(Section):
         Tool length offset along Z in mm (applied by G43).
     x_offset_mm
         Lathe X offset in mm.
+    orientation
+        Lathe tool orientation 0-9 (LinuxCNC's Q: which imaginary tip point is programmed);
+        0 for mill tools.
     """
 
     number: int = Field(ge=0)
@@ -49,6 +52,7 @@ class ToolConfig(Section):
     flute_length_mm: float | None = Field(default=None, gt=0)
     length_mm: float = 0.0
     x_offset_mm: float = 0.0
+    orientation: int = Field(default=0, ge=0, le=9)
 
     @field_validator("corner_radius_mm")
     @classmethod
@@ -83,10 +87,11 @@ class ToolConfig(Section):
         return value
 
     def tool_entry(self) -> ToolEntry:
-        """The interpreter's view of this tool: number, offsets and diameter in mm."""
+        """The interpreter's view of this tool: number, offsets and diameter in mm, orientation."""
         return ToolEntry(
             number=self.number,
             length_mm=self.length_mm,
             x_offset_mm=self.x_offset_mm,
             diameter_mm=self.diameter_mm,
+            orientation=self.orientation,
         )

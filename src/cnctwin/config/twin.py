@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import math
 from pathlib import Path
 from typing import Literal
 
@@ -79,7 +80,7 @@ class TwinConfig(Section):
         return path
 
     def nc_setup(self) -> NCSetup:
-        """The interpreter's set-up: tools, lathe flag, work offsets and reference points.
+        """The interpreter's set-up: tools, lathe flag, work offsets, reference points, spindle.
 
         Tools come from ``tool_table`` first; a ``[[tools]]`` entry with the same number
         replaces the table's entry.
@@ -110,4 +111,7 @@ class TwinConfig(Section):
             work_offsets_mm=machine.work_offsets.by_system(),
             g28_home_mm=machine.g28_home_mm,
             g30_home_mm=machine.g30_home_mm,
+            max_spindle_rpm=(
+                machine.max_spindle_rpm if machine.max_spindle_rpm is not None else math.inf
+            ),
         )

@@ -61,7 +61,7 @@ class CycleSpec:
     peck_mm
         Peck increment Q (G73, G83), mm, > 0.
     dwell_s
-        Dwell P at the bottom (G82, G89; also G84 when given), s.
+        Dwell P at the bottom (G82, G86, G89; also G84 when given), s.
     spindle_direction
         Spindle direction before the cycle (G84 reverses it to retract).
     """
@@ -150,14 +150,22 @@ def expand_cycle(
             dwell(spec.dwell_s, reverse)
         # The tap feeds out with the spindle reversed, straight to the clearance level.
         go(MotionKind.LINEAR, spec.clear_mm, reverse)
-    elif code in (85, 89):
+    elif code == 85:
+        # Feed out to R, then rapid to the clearance level.
         go(MotionKind.LINEAR, bottom)
-        if code == 89 and spec.dwell_s > 0.0:
-            dwell(spec.dwell_s)
         go(MotionKind.LINEAR, r)
         go(MotionKind.RAPID, spec.clear_mm)
-    elif code == 86:
+    elif code == 89:
+        # Dwell at the bottom, then feed straight out to the clearance level.
         go(MotionKind.LINEAR, bottom)
+        if spec.dwell_s > 0.0:
+            dwell(spec.dwell_s)
+        go(MotionKind.LINEAR, spec.clear_mm)
+    elif code == 86:
+        # Dwell, stop the spindle, rapid out; the spindle restarts after the retract.
+        go(MotionKind.LINEAR, bottom)
+        if spec.dwell_s > 0.0:
+            dwell(spec.dwell_s)
         go(MotionKind.RAPID, spec.clear_mm, 0)
     else:
         raise ValueError(f"not a drilling cycle: G{code}")

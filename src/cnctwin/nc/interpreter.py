@@ -244,7 +244,7 @@ class Interpreter:
                     if main and lineno > self.lines_read:
                         self.lines_read = lineno
                     try:
-                        if "#" in raw:
+                        if "#5" in raw or "#<_" in raw:
                             self._sync_parameters()
                         block = lex_block(raw, self.params)
                         if block is None:
@@ -286,17 +286,32 @@ class Interpreter:
     def _sync_parameters(self) -> None:
         """Refresh the read-only system parameters a program may read.
 
-        #5220 coordinate system (1-9), #5400 tool number, #5420-#5425 current position
-        X Y Z A B C in the program frame and units, and the named #<_x> #<_y> #<_z>
-        (same) and #<_abs_x> #<_abs_y> #<_abs_z> (machine position, program units).
+        Only lines that mention ``#5`` or ``#<_`` refresh them (it costs a few
+        microseconds). Lengths are in the program's current units:
+
+        - #5210 G92 active (1/0), #5211-#5216 the G92/G52 offset (X Y Z A B C);
+        - #5220 coordinate system (1-9); #5221 + 20 (n - 1) + i the origin of system n
+          (G54 = 1 ... G59.3 = 9) on axis i (X Y Z A B C), #5230 + 20 (n - 1) its rotation;
+        - #5400 tool number, #5401-#5403 its offsets X Y Z;
+        - #5420-#5425 the current position X Y Z A B C in the program frame;
+        - #<_x> #<_y> #<_z> (same) and #<_abs_x> #<_abs_y> #<_abs_z> (machine position).
         """
         params = self.params
         f = self._factor
         pos = (self._pos[0], self._pos[1], self._pos[2])
         here = self._state.to_program(pos)
+        params[5210] = 1.0 if any(self._g92) else 0.0
+        for i in range(6):
+            scale = f if i < 3 else 1.0
+            params[5211 + i] = self._g92[i] / scale
+            for n in range(1, 10):
+                params[5201 + 20 * n + i] = self._g5x[n][i] / scale
+        for n in range(1, 10):
+            params[5210 + 20 * n] = self._rotation_deg[n]
         params[5220] = float(self._cs)
         params[5400] = float(self._state.tool)
         for i in range(3):
+            params[5401 + i] = self._tool_offset[i] / f
             params[5420 + i] = here[i] / f
             params[5423 + i] = self._abc[i] - self._off[3 + i]
             params["_" + _AXES[i]] = here[i] / f
@@ -555,7 +570,7 @@ class Interpreter:
                 self._cycle_bottom = None
             else:
                 self._motion = motion_code
-        if non_modal not in _NON_MODAL_WITH_AXES:
+        if non_modal not in _NON_MODAL_WITH_AXES and seen_groups.get(8) != 431:
             motion = self._motion
             if (
                 axis_words
@@ -1338,7 +1353,7 @@ class Interpreter:
             bottom_mm,
             clear,
             self._cycle_q,
-            self._cycle_p if code in (82, 84, 89) else 0.0,
+            self._cycle_p if code in (82, 84, 86, 89) else 0.0,
             state_before.spindle_direction or 1,
         )
         hole_words = {k: v for k, v in words.items() if k in (_AXES[i0], _AXES[i1], "@", "^")}

@@ -272,17 +272,17 @@ def arc_sweep_rad(
     a1 = math.atan2(v1, u1)
     radius = math.hypot(u0, v0)
     extra = (abs(turns) - 1) * 2.0 * math.pi if turns else 0.0
+    # Angle to travel counter-clockwise, in [0, 2 pi); an end at the start (within
+    # float noise, also across the +-pi cut) is a full circle.
+    ccw = (a1 - a0) % (2.0 * math.pi)
     if turns >= 0:
-        sweep = a1 - a0
-        if sweep <= 1e-12:
-            sweep += 2.0 * math.pi
-        sweep += extra
-    else:
-        sweep = a1 - a0
-        if sweep >= -1e-12:
-            sweep -= 2.0 * math.pi
-        sweep -= extra
-    return radius, a0, sweep
+        if ccw <= 1e-12 or ccw >= 2.0 * math.pi - 1e-12:
+            ccw = 2.0 * math.pi
+        return radius, a0, ccw + extra
+    cw = 2.0 * math.pi - ccw
+    if cw <= 1e-12 or cw >= 2.0 * math.pi - 1e-12:
+        cw = 2.0 * math.pi
+    return radius, a0, -(cw + extra)
 
 
 def segment_length_mm(seg: Segment) -> float:

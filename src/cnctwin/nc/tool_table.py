@@ -4,7 +4,9 @@ A tool table has one tool a line, as whitespace-separated words, then an optiona
 ``;`` comment, e.g. ``T4 P4 Z0.7 D1.0 ;comment``. Words: ``T`` tool number (required),
 ``P`` pocket, ``X Y Z U V W`` offsets, ``A B C`` rotary offsets, ``D`` diameter,
 ``I J`` lathe front and back angles (degrees), ``Q`` lathe orientation (0-9).
-Letters may be lower case. Blank and comment-only lines are skipped.
+Letters may be lower case. Blank and comment-only lines are skipped. An entry keeps
+``Z`` (length offset), ``X`` (lathe X offset), ``D`` and ``Q``; the other words are checked
+but not used.
 """
 
 from __future__ import annotations
