@@ -94,14 +94,31 @@ _NUMBER = st.one_of(
     st.floats(-500, 500, allow_nan=False).map(lambda v: f"{v:.4f}"),
     st.sampled_from(["0", ".5", "-.5", "1.", "+2", "-0", "0.0001", "1234.5678"]),
 )
-_POSITIVE = st.one_of(
-    st.integers(1, 3000).map(str), st.floats(0.01, 500).map(lambda v: f"{v:.3f}")
+_POSITIVE = st.one_of(st.integers(1, 3000).map(str), st.floats(0.01, 500).map(lambda v: f"{v:.3f}"))
+_EXPRESSION = st.sampled_from(
+    [
+        "#1",
+        "#2",
+        "#<a>",
+        "#<_g>",
+        "[#1*2]",
+        "[#1+#<a>]",
+        "[#<a>/4]",
+        "[sin[30]*10]",
+        "[sqrt[2]]",
+        "[#1 mod 3]",
+        "-[2**3]",
+        "[atan[1]/[1]]",
+        "[#2-#1]",
+        "[abs[#<a>]]",
+        "[fix[#1]]",
+        "[cos[#1]*#<a>]",
+        "#5220",
+        "#5420",
+        "#<_x>",
+        "[#5422+1]",
+    ]
 )
-_EXPRESSION = st.sampled_from([
-    "#1", "#2", "#<a>", "#<_g>", "[#1*2]", "[#1+#<a>]", "[#<a>/4]", "[sin[30]*10]",
-    "[sqrt[2]]", "[#1 mod 3]", "-[2**3]", "[atan[1]/[1]]", "[#2-#1]", "[abs[#<a>]]",
-    "[fix[#1]]", "[cos[#1]*#<a>]", "#5220", "#5420", "#<_x>", "[#5422+1]",
-])
 _VALUE = st.one_of(_NUMBER, _NUMBER, _EXPRESSION)
 _HEADER = "G21 G17 G90 G94 F300 S1000 M3\n#1=1.5\n#2=-2\n#<a>=3\n#<_g>=4\nG0 X0 Y0 Z10"
 
@@ -114,22 +131,41 @@ def _words(letters: str, max_size: int = 4) -> st.SearchStrategy[list[str]]:
 
 
 def _turn(i: float, j: float, angle: float) -> tuple[float, float]:
-    """Incremental end of an arc that starts at centre - (i, j)... rotated by ``angle``."""
+    """Incremental end of an arc whose centre is (i, j) from its start, after turning by
+    ``angle`` (rad) about the centre."""
     c, s_ = math.cos(angle), math.sin(angle)
     return i + (c * -i - s_ * -j), j + (s_ * -i + c * -j)
 
 
 _OFFSET = st.floats(-50, 50).filter(lambda v: abs(v) > 0.01)
-# Arcs that are consistent wherever they start: incremental end, incremental centre.
+
+
+def _ij_arc(code: str, i: float, j: float, angle: float, z: str, p: str) -> str:
+    x, y = _turn(i, j, angle)
+    return f"G17 G91 G91.1 {code} X{x:.6f} Y{y:.6f} I{i:.6f} J{j:.6f}{z}{p}\nG90"
+
+
+def _r_arc(code: str, dx: float, dy: float, scale: float, sign: int) -> str:
+    return f"G17 G91 {code} X{dx:.6f} Y{dy:.6f} R{sign * scale * math.hypot(dx, dy):.6f}\nG90"
+
+
+# Arcs that are consistent wherever they start: incremental end, incremental centre (or
+# a radius at least half the chord).
 _IJ_ARC = st.tuples(
-    st.sampled_from(["G2", "G3"]), _OFFSET, _OFFSET, st.floats(0, 2 * math.pi),
-    st.sampled_from(["", " Z-1", " Z2.5"]), st.sampled_from(["", " P2", " P3"]),
-).map(lambda t: "G17 G91 G91.1 {} X{:.6f} Y{:.6f} I{:.6f} J{:.6f}{}{}\nG90".format(
-    t[0], *_turn(t[1], t[2], t[3]), t[1], t[2], t[4], t[5]))
+    st.sampled_from(["G2", "G3"]),
+    _OFFSET,
+    _OFFSET,
+    st.floats(0, 2 * math.pi),
+    st.sampled_from(["", " Z-1", " Z2.5"]),
+    st.sampled_from(["", " P2", " P3"]),
+).map(lambda t: _ij_arc(*t))
 _R_ARC = st.tuples(
-    st.sampled_from(["G2", "G3"]), _OFFSET, _OFFSET, st.floats(0.5, 5), st.sampled_from([1, -1]),
-).map(lambda t: "G17 G91 {} X{:.6f} Y{:.6f} R{:.6f}\nG90".format(
-    t[0], t[1], t[2], t[4] * t[3] * math.hypot(t[1], t[2])))
+    st.sampled_from(["G2", "G3"]),
+    _OFFSET,
+    _OFFSET,
+    st.floats(0.5, 5),
+    st.sampled_from([1, -1]),
+).map(lambda t: _r_arc(*t))
 _MOTION = st.tuples(st.sampled_from(["G0", "G1", "G00", "G01"]), _words("XYZABC")).map(
     lambda t: " ".join([t[0], *t[1]])
 )
@@ -140,17 +176,79 @@ _POLAR = st.tuples(st.sampled_from(["G0", "G1", ""]), _NUMBER, _NUMBER).map(
     lambda t: f"{t[0]} @{t[1]} ^{t[2]}"
 )
 _MODAL = st.one_of(
-    st.sampled_from([
-        "G17", "G18", "G19", "G20", "G21", "G90", "G91", "G90.1", "G91.1", "G93 G1 X1 F2",
-        "G94", "G95", "M3", "M4", "M5", "M7", "M8", "M9", "M6 T1", "T2 M6", "M6 T3",
-        "G43 H1", "G43", "G49", "G43.1 Z1", "G10 L2 P1 X10 Y-5 Z2", "G10 L2 P2 X-20",
-        "G10 L20 P1 X0", "G10 L1 P2 Z3", "G10 L10 P1 Z0", "G54", "G55", "G59.3",
-        "G92 X0 Y0", "G92.1", "G92.2", "G92.3", "G52 X5", "G28", "G30", "G28 Z5", "G28.1",
-        "G53 G0 Z0", "G40", "G41", "G42", "G41 D1", "G42 D2", "G41.1 D4", "G42.1 D1", "G80",
-        "G98", "G99", "G4 P0.5", "G61", "G64 P0.01", "G7", "G8", "G96 S100 D2000", "G97",
-        "G5.1 X5 I2 J3", "G33.1 Z-1 K1", "M0", "M1", "M60", "/G0 X1", "N100 G0 X1",
-        "%", "G91 G28 Z0",
-    ]),
+    st.sampled_from(
+        [
+            "G17",
+            "G18",
+            "G19",
+            "G20",
+            "G21",
+            "G90",
+            "G91",
+            "G90.1",
+            "G91.1",
+            "G93 G1 X1 F2",
+            "G94",
+            "G95",
+            "M3",
+            "M4",
+            "M5",
+            "M7",
+            "M8",
+            "M9",
+            "M6 T1",
+            "T2 M6",
+            "M6 T3",
+            "G43 H1",
+            "G43",
+            "G49",
+            "G43.1 Z1",
+            "G10 L2 P1 X10 Y-5 Z2",
+            "G10 L2 P2 X-20",
+            "G10 L20 P1 X0",
+            "G10 L1 P2 Z3",
+            "G10 L10 P1 Z0",
+            "G54",
+            "G55",
+            "G59.3",
+            "G92 X0 Y0",
+            "G92.1",
+            "G92.2",
+            "G92.3",
+            "G52 X5",
+            "G28",
+            "G30",
+            "G28 Z5",
+            "G28.1",
+            "G53 G0 Z0",
+            "G40",
+            "G41",
+            "G42",
+            "G41 D1",
+            "G42 D2",
+            "G41.1 D4",
+            "G42.1 D1",
+            "G80",
+            "G98",
+            "G99",
+            "G4 P0.5",
+            "G61",
+            "G64 P0.01",
+            "G7",
+            "G8",
+            "G96 S100 D2000",
+            "G97",
+            "G5.1 X5 I2 J3",
+            "G33.1 Z-1 K1",
+            "M0",
+            "M1",
+            "M60",
+            "/G0 X1",
+            "N100 G0 X1",
+            "%",
+            "G91 G28 Z0",
+        ]
+    ),
     _POSITIVE.map(lambda v: f"F{v}"),
     _POSITIVE.map(lambda v: f"S{v}"),
 )
@@ -166,31 +264,69 @@ _CYCLE = st.tuples(
 _ASSIGNMENT = st.tuples(
     st.sampled_from(["#1", "#2", "#<a>", "#<_g>", "#31", "#<_value>"]), _VALUE
 ).map(lambda t: f"{t[0]}={t[1]}")
-_COMMENT = st.sampled_from([
-    "(plain comment)", "; semicolon comment", "(MSG, hello)", "(DEBUG, a=#1 b=#<a>)",
-    "(PRINT,#<_x>)", "()", "G0 X1 (inline) Y2", "(debug,#5420 #[1+1])",
-])
-_CONTROL = st.sampled_from([
-    "o10 if [#1 gt 0]\nG0 X1\no10 else\nG0 X2\no10 endif",
-    "o11 repeat [3]\nG91 G0 X1\nG90\no11 endrepeat",
-    "#3=0\no12 while [#3 lt 2]\nG1 X#3 F100\n#3=[#3+1]\no12 endwhile",
-    "o13 sub\nG0 X#1 Y#2\no13 return [#1]\no13 endsub\no13 call [1] [2]",
-    "o14 call [1]",
-])
-_RARE = st.sampled_from([
-    "(unclosed", "(nested (x))", "G0 X#<undefined>", "G0 X[1/0]", "G0 X[ln[0]]", "G1 X1 X2",
-    "G0 G1 X1", "S-5", "G2 X1 Y1 R0.1", "G12.5", "G76 P1", "M98 P1", "G0 X1 $", "G1 X1 F-1",
-    "M2", "M30",
-])
+_COMMENT = st.sampled_from(
+    [
+        "(plain comment)",
+        "; semicolon comment",
+        "(MSG, hello)",
+        "(DEBUG, a=#1 b=#<a>)",
+        "(PRINT,#<_x>)",
+        "()",
+        "G0 X1 (inline) Y2",
+        "(debug,#5420 #[1+1])",
+    ]
+)
+_CONTROL = st.sampled_from(
+    [
+        "o10 if [#1 gt 0]\nG0 X1\no10 else\nG0 X2\no10 endif",
+        "o11 repeat [3]\nG91 G0 X1\nG90\no11 endrepeat",
+        "#3=0\no12 while [#3 lt 2]\nG1 X#3 F100\n#3=[#3+1]\no12 endwhile",
+        "o13 sub\nG0 X#1 Y#2\no13 return [#1]\no13 endsub\no13 call [1] [2]",
+        "o14 call [1]",
+    ]
+)
+_RARE = st.sampled_from(
+    [
+        "(unclosed",
+        "(nested (x))",
+        "G0 X#<undefined>",
+        "G0 X[1/0]",
+        "G0 X[ln[0]]",
+        "G1 X1 X2",
+        "G0 G1 X1",
+        "S-5",
+        "G2 X1 Y1 R0.1",
+        "G12.5",
+        "G76 P1",
+        "M98 P1",
+        "G0 X1 $",
+        "G1 X1 F-1",
+        "M2",
+        "M30",
+    ]
+)
 _LINE = st.one_of(
-    _MOTION, _MOTION, _MOTION, _IJ_ARC, _IJ_ARC, _R_ARC, _RANDOM_ARC, _POLAR, _MODAL, _MODAL,
-    _MODAL, _CYCLE, _ASSIGNMENT, _COMMENT, _CONTROL, _words("XYZ").map(" ".join), _RARE,
+    _MOTION,
+    _MOTION,
+    _MOTION,
+    _IJ_ARC,
+    _IJ_ARC,
+    _R_ARC,
+    _RANDOM_ARC,
+    _POLAR,
+    _MODAL,
+    _MODAL,
+    _MODAL,
+    _CYCLE,
+    _ASSIGNMENT,
+    _COMMENT,
+    _CONTROL,
+    _words("XYZ").map(" ".join),
+    _RARE,
 )
 _PROGRAM = st.tuples(
     st.sampled_from([True, True, True, False]), st.lists(_LINE, min_size=6, max_size=30)
-).map(
-    lambda t: "\n".join(([_HEADER] if t[0] else []) + t[1])
-)
+).map(lambda t: "\n".join(([_HEADER] if t[0] else []) + t[1]))
 
 
 @settings(FUZZ, max_examples=250)
@@ -200,7 +336,11 @@ def test_grammar_programs_fail_only_with_ncerror(text: str) -> None:
 
 
 @settings(FUZZ, max_examples=100)
-@given(st.lists(_LINE, min_size=6, max_size=30).map(lambda ls: "\n".join(["G20 G0 X0 F10 S500 M3", *ls])))
+@given(
+    st.lists(_LINE, min_size=6, max_size=30).map(
+        lambda ls: "\n".join(["G20 G0 X0 F10 S500 M3", *ls])
+    )
+)
 def test_grammar_programs_in_inch_fail_only_with_ncerror(text: str) -> None:
     check_program(text)
 
@@ -209,6 +349,88 @@ def test_grammar_programs_in_inch_fail_only_with_ncerror(text: str) -> None:
 @given(_PROGRAM)
 def test_grammar_programs_on_a_lathe_fail_only_with_ncerror(text: str) -> None:
     check_program(text, setup=NCSetup(lathe=True, tools={1: ToolEntry(1, 2.0, 1.0, 0.8)}))
+
+
+# ---------------------------------------------------------------------------- (c) metamorphic
+# One random path (straight moves and IJ arcs, absolute mm) written three more ways must
+# give the same machine path: in inches (G20, every value / 25.4), incrementally (G91),
+# and under a G54 origin (every point shifted by the origin). The oracle is the path
+# itself, built here in Python, not an earlier interpreter output.
+_COORD = st.floats(-200, 200)
+_STEP = st.one_of(
+    st.tuples(st.sampled_from(["G0", "G1"]), _COORD, _COORD, _COORD),
+    st.tuples(st.sampled_from(["G2", "G3"]), _OFFSET, _OFFSET, st.floats(0.1, 6.18), _COORD),
+)
+
+
+def _build(steps: list[tuple]) -> list[tuple[str, tuple[float, float, float], tuple | None]]:
+    """(code, absolute end, centre offset or None) for each step, starting at the origin."""
+    cur = (0.0, 0.0, 0.0)
+    moves = []
+    for step in steps:
+        if step[0] in ("G0", "G1"):
+            end, ij = (step[1], step[2], step[3]), None
+        else:
+            i, j, angle, z = step[1:]
+            dx, dy = _turn(i, j, angle)
+            end, ij = (cur[0] + dx, cur[1] + dy, z), (i, j)
+        moves.append((step[0], end, ij))
+        cur = end
+    return moves
+
+
+def _render(moves: list, scale: float = 1.0, incremental: bool = False, origin=None) -> str:
+    lines = ["G20" if scale != 1.0 else "G21", "G17 G90 G91.1 G94 F100"]
+    if origin is not None:
+        lines.append("G10 L2 P1 X{:.10f} Y{:.10f} Z{:.10f}".format(*(v / scale for v in origin)))
+    if incremental:
+        lines.append("G91")
+    prev = (0.0, 0.0, 0.0)
+    for code, end, ij in moves:
+        v = [e - p for e, p in zip(end, prev, strict=True)] if incremental else list(end)
+        words = " ".join(f"{a}{x / scale:.10f}" for a, x in zip("XYZ", v, strict=True))
+        if ij is not None:
+            words += f" I{ij[0] / scale:.10f} J{ij[1] / scale:.10f}"
+        lines.append(f"{code} {words}")
+        prev = end
+    return "\n".join(lines)
+
+
+def _path(text: str):
+    return list(Interpreter().run_text(text, "meta.ngc"))
+
+
+def _same(a, b, shift=(0.0, 0.0, 0.0), tol: float = 1e-6) -> None:
+    assert len(a) == len(b)
+    for k, (s, t) in enumerate(zip(a, b, strict=True)):
+        assert s.kind == t.kind and s.turns == t.turns, (k, s, t)
+        assert all(abs(x + d - y) <= tol for x, d, y in zip(s.end_mm, shift, t.end_mm)), (k, s, t)
+        if s.center_mm is not None:
+            assert all(abs(x + d - y) <= tol for x, d, y in zip(s.center_mm, shift, t.center_mm)), (
+                k,
+                s,
+                t,
+            )
+        if k > 0 or shift == (0.0, 0.0, 0.0):  # the first move starts at machine zero
+            assert abs(s.length_mm - t.length_mm) <= tol, (k, s, t)
+
+
+@settings(FUZZ, max_examples=150)
+@given(st.lists(_STEP, min_size=1, max_size=12), st.tuples(_COORD, _COORD, _COORD))
+def test_units_distance_mode_and_offsets_do_not_change_the_path(
+    steps: list[tuple], origin: tuple[float, float, float]
+) -> None:
+    # Start with a move to the program origin, so that under the G54 origin every move
+    # starts at a shifted point.
+    moves = _build([("G0", 0.0, 0.0, 0.0), *steps])
+    base = _path(_render(moves))
+    # The absolute mm program reproduces the path it was written from.
+    for seg, (_, end, _) in zip(base, moves, strict=True):
+        assert all(abs(x - y) <= 1e-9 for x, y in zip(seg.end_mm, end, strict=True))
+    _same(base, _path(_render(moves, scale=25.4)))
+    _same(base, _path(_render(moves, incremental=True)))
+    _same(base, _path(_render(moves, scale=25.4, incremental=True)))
+    _same(base, _path(_render(moves, origin=origin)), shift=origin)
 
 
 # ---------------------------------------------------------------------------- (b) mutations
@@ -231,9 +453,20 @@ def real_programs(shared_data: Path) -> dict[str, list[str]]:
 def _mutate(data: st.DataObject, lines: list[str]) -> list[str]:
     lines = list(lines)
     for _ in range(data.draw(st.integers(1, 6), label="mutations")):
-        op = data.draw(st.sampled_from(
-            ["delete_line", "dup_line", "insert_line", "delete_char", "insert_char",
-             "swap_chars", "replace_char"]), label="op")
+        op = data.draw(
+            st.sampled_from(
+                [
+                    "delete_line",
+                    "dup_line",
+                    "insert_line",
+                    "delete_char",
+                    "insert_char",
+                    "swap_chars",
+                    "replace_char",
+                ]
+            ),
+            label="op",
+        )
         if not lines:
             lines.append("")
         i = data.draw(st.integers(0, len(lines) - 1), label="line")
@@ -261,7 +494,11 @@ def _mutate(data: st.DataObject, lines: list[str]) -> list[str]:
 
 
 @pytest.mark.validation
-@settings(FUZZ, max_examples=200, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@settings(
+    FUZZ,
+    max_examples=200,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 @given(st.data())
 def test_mutated_real_programs_fail_only_with_ncerror(
     real_programs: dict[str, list[str]], data: st.DataObject

@@ -14,6 +14,7 @@ Conventions of the checks: machine coordinates of the controlled point in mm
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -32,7 +33,9 @@ RAPID, LINEAR, ARC, DWELL = MotionKind.RAPID, MotionKind.LINEAR, MotionKind.ARC,
 
 
 # ---------------------------------------------------------------------------- helpers
-def run(text: str, setup: NCSetup | None = None, name: str = "job.ngc") -> tuple[Interpreter, list[Segment]]:
+def run(
+    text: str, setup: NCSetup | None = None, name: str = "job.ngc"
+) -> tuple[Interpreter, list[Segment]]:
     """Interpret ``text`` completely; return the interpreter and all segments."""
     interp = Interpreter(setup)
     return interp, list(interp.run_text(text, name))
@@ -44,7 +47,7 @@ def segments(text: str, setup: NCSetup | None = None) -> list[Segment]:
 
 def moving(segs: list[Segment]) -> list[Segment]:
     """Segments that move the controlled point (zero-length moves and dwells dropped)."""
-    return [s for s in segs if s.kind != DWELL and s.start_mm != s.end_mm or s.kind == ARC]
+    return [s for s in segs if (s.kind != DWELL and s.start_mm != s.end_mm) or s.kind == ARC]
 
 
 def ends(segs: list[Segment]) -> list[tuple[float, float, float]]:
@@ -69,8 +72,9 @@ def assert_moves(segs: list[Segment], expected: list[tuple], tol: float = TOL) -
             assert_point(seg.end_mm, exp[1], tol)
 
 
-def expect_error(text: str, line: int, *phrases: str, setup: NCSetup | None = None,
-                 name: str = "job.ngc") -> NCError:
+def expect_error(
+    text: str, line: int, *phrases: str, setup: NCSetup | None = None, name: str = "job.ngc"
+) -> NCError:
     """The program must fail with an NCError at ``line`` whose text has every phrase."""
     with pytest.raises(NCError) as info:
         run(text, setup, name)
@@ -124,22 +128,47 @@ ARC_CASES = {
     "full-g2-no-axis-words": ("G0 X10 Y0\nG2 I-10", (0, 0, 0), (10, 0, 0), -1, 20 * PI),
     "full-g18": ("G18\nG0 X0 Z10\nG2 Z10 K-10", (0, 0, 0), (0, 0, 10), -1, 20 * PI),
     # P-word helix: 3 full turns of r=10 while Z falls 6: sqrt((2*pi*10*3)^2 + 6^2).
-    "helix-p3": ("G0 X10 Y0 Z0\nG3 X10 Y0 Z-6 I-10 P3", (0, 0, 0), (10, 0, -6), 3,
-                 math.hypot(60 * PI, 6)),
+    "helix-p3": (
+        "G0 X10 Y0 Z0\nG3 X10 Y0 Z-6 I-10 P3",
+        (0, 0, 0),
+        (10, 0, -6),
+        3,
+        math.hypot(60 * PI, 6),
+    ),
     # P2 with a partial end: CW from +X to +Y is 270 deg, plus one extra turn: 630 deg.
-    "helix-p2-partial": ("G0 X10 Y0 Z0\nG2 X0 Y10 Z-3 I-10 P2", (0, 0, 0), (0, 10, -3), -2,
-                         math.hypot(10 * 3.5 * PI, 3)),
+    "helix-p2-partial": (
+        "G0 X10 Y0 Z0\nG2 X0 Y10 Z-3 I-10 P2",
+        (0, 0, 0),
+        (0, 10, -3),
+        -2,
+        math.hypot(10 * 3.5 * PI, 3),
+    ),
     # Quarter helix.
-    "helix-quarter": ("G0 X10 Y0 Z0\nG3 X0 Y10 Z-3 I-10", (0, 0, 0), (0, 10, -3), 1,
-                      math.hypot(5 * PI, 3)),
+    "helix-quarter": (
+        "G0 X10 Y0 Z0\nG3 X0 Y10 Z-3 I-10",
+        (0, 0, 0),
+        (0, 10, -3),
+        1,
+        math.hypot(5 * PI, 3),
+    ),
     # G90.1: I/J are absolute centre coordinates in the program frame.
     "g90.1": ("G90.1\nG0 X10 Y0\nG3 X0 Y10 I0 J0", (0, 0, 0), (0, 10, 0), 1, 5 * PI),
     # ... and follow the work offset: G54 at (100, 50) puts the centre at machine (100, 50).
-    "g90.1-offset": ("G10 L2 P1 X100 Y50\nG54 G90.1\nG0 X10 Y0\nG3 X0 Y10 I0 J0",
-                     (100, 50, 0), (100, 60, 0), 1, 5 * PI),
+    "g90.1-offset": (
+        "G10 L2 P1 X100 Y50\nG54 G90.1\nG0 X10 Y0\nG3 X0 Y10 I0 J0",
+        (100, 50, 0),
+        (100, 60, 0),
+        1,
+        5 * PI,
+    ),
     # The same arc with G91.1 incremental centre offsets.
-    "g91.1-offset": ("G10 L2 P1 X100 Y50\nG54 G91.1\nG0 X10 Y0\nG3 X0 Y10 I-10 J0",
-                     (100, 50, 0), (100, 60, 0), 1, 5 * PI),
+    "g91.1-offset": (
+        "G10 L2 P1 X100 Y50\nG54 G91.1\nG0 X10 Y0\nG3 X0 Y10 I-10 J0",
+        (100, 50, 0),
+        (100, 60, 0),
+        1,
+        5 * PI,
+    ),
 }
 
 
@@ -187,7 +216,10 @@ ARC_ERRORS = {
     "radius-mismatch": ("G21 F100\nG0 X10 Y0\nG3 X0 Y11 I-10", 3, ("10.0000", "11.0000")),
     # G90.1 makes I-10 an absolute centre (-10, 0): start radius 20, end sqrt(200).
     "g90.1-with-incremental-centre": (
-        "G21 F100 G90.1\nG0 X10 Y0\nG3 X0 Y10 I-10 J0", 3, ("20.0000", "14.1421")),
+        "G21 F100 G90.1\nG0 X10 Y0\nG3 X0 Y10 I-10 J0",
+        3,
+        ("20.0000", "14.1421"),
+    ),
     # Chord 10, R4 < 5.
     "r-too-small": ("G21 F100\nG0 X0 Y0\nG2 X10 Y0 R4", 3, ("R4", "smaller")),
     "full-circle-with-r": ("G21 F100\nG0 X0 Y0\nG2 X0 Y0 R5", 3, ("full circle",)),
@@ -223,12 +255,15 @@ def test_inch_program_values_are_converted_to_mm() -> None:
 def test_units_switch_mid_program() -> None:
     # The position is kept across a switch; only the meaning of new numbers changes.
     interp, segs = run("G20 G0 X1\nG21 G0 Y1\nG20 G91 G0 X1\nG21 X1 Z-2")
-    assert_moves(segs, [
-        (RAPID, (25.4, 0, 0)),
-        (RAPID, (25.4, 1, 0)),
-        (RAPID, (50.8, 1, 0)),
-        (RAPID, (51.8, 1, -2)),
-    ])
+    assert_moves(
+        segs,
+        [
+            (RAPID, (25.4, 0, 0)),
+            (RAPID, (25.4, 1, 0)),
+            (RAPID, (50.8, 1, 0)),
+            (RAPID, (51.8, 1, -2)),
+        ],
+    )
     assert [s.state.units for s in segs] == ["inch", "mm", "inch", "mm"]
     assert interp.units == "inch"  # the first units the program selected
 
@@ -270,12 +305,15 @@ def test_inch_work_offset_and_g92() -> None:
 # ---------------------------------------------------------------------------- distance and feed modes
 def test_absolute_and_incremental_distance() -> None:
     segs = segments("G21 G90 G0 X10 Y10 Z5\nG91 G0 X5 Y-2\nZ-1\nG90 X0")
-    assert_moves(segs, [
-        (RAPID, (10, 10, 5)),
-        (RAPID, (15, 8, 5)),
-        (RAPID, (15, 8, 4)),
-        (RAPID, (0, 8, 4)),
-    ])
+    assert_moves(
+        segs,
+        [
+            (RAPID, (10, 10, 5)),
+            (RAPID, (15, 8, 5)),
+            (RAPID, (15, 8, 4)),
+            (RAPID, (0, 8, 4)),
+        ],
+    )
 
 
 def test_g93_inverse_time_straight() -> None:
@@ -316,8 +354,17 @@ def test_rapids_have_no_feed_and_feed_move_needs_f() -> None:
 
 
 # ---------------------------------------------------------------------------- offsets
-WORK_SYSTEMS = [("54", 1), ("55", 2), ("56", 3), ("57", 4), ("58", 5), ("59", 6),
-                ("59.1", 7), ("59.2", 8), ("59.3", 9)]
+WORK_SYSTEMS = [
+    ("54", 1),
+    ("55", 2),
+    ("56", 3),
+    ("57", 4),
+    ("58", 5),
+    ("59", 6),
+    ("59.1", 7),
+    ("59.2", 8),
+    ("59.3", 9),
+]
 
 
 @pytest.mark.parametrize(("code", "p"), WORK_SYSTEMS)
@@ -358,14 +405,17 @@ def test_g92_family() -> None:
         "G92.1\nG0 X5 Y5\n"  # cleared -> (105, 5)
         "G92.3\nG0 X6 Y6\n"  # G92.1 zeroed the saved values too -> (106, 6)
     )
-    assert_moves(segs, [
-        (RAPID, (110, 10, 0)),
-        (RAPID, (115, 15, 0)),
-        (RAPID, (105, 5, 0)),
-        (RAPID, (115, 15, 0)),
-        (RAPID, (105, 5, 0)),
-        (RAPID, (106, 6, 0)),
-    ])
+    assert_moves(
+        segs,
+        [
+            (RAPID, (110, 10, 0)),
+            (RAPID, (115, 15, 0)),
+            (RAPID, (105, 5, 0)),
+            (RAPID, (115, 15, 0)),
+            (RAPID, (105, 5, 0)),
+            (RAPID, (106, 6, 0)),
+        ],
+    )
     assert_point(segs[1].state.axis_offset_mm, (10, 10, 0))
     assert_point(segs[2].state.axis_offset_mm, (0, 0, 0))
 
@@ -386,12 +436,15 @@ def test_g53_machine_coordinates_are_non_modal() -> None:
         "G53 G1 Z-1 F100\n"  # machine Z -1
         "G0 X0\n"  # G53 is not modal: program X0 = machine 100
     )
-    assert_moves(segs, [
-        (RAPID, (100, 100, 10)),
-        (RAPID, (5, 6, 10)),
-        (LINEAR, (5, 6, -1)),
-        (RAPID, (100, 6, -1)),
-    ])
+    assert_moves(
+        segs,
+        [
+            (RAPID, (100, 100, 10)),
+            (RAPID, (5, 6, 10)),
+            (LINEAR, (5, 6, -1)),
+            (RAPID, (100, 6, -1)),
+        ],
+    )
     expect_error("G21 F100\nG53 G2 X1 Y1 I1", 2, "G53")
 
 
@@ -425,7 +478,6 @@ def test_g43_with_inch_program_and_work_offset() -> None:
     assert segs[-1].tcp_end_mm[2] == pytest.approx(25.4 - 100)
 
 
-@pytest.mark.xfail(strict=True, reason="interpreter bug: G43.1 axis words are taken as a motion target (a move, or 'no active motion mode') instead of only the offset")
 def test_g43_1_dynamic_offset_in_program_units() -> None:
     # LinuxCNC: "G43.1 does not cause any motion"; the offset applies to the next move.
     # Offset Z0.5 in = 12.7 mm; the next G0 Z1 ends at machine 25.4 + 12.7.
@@ -468,7 +520,9 @@ def test_g28_g30(program: str, expected: list) -> None:
 
 def test_g28_intermediate_point_is_in_program_coordinates() -> None:
     segs = segments("G21\nG10 L2 P1 Z100\nG0 X10 Y10 Z10\nG28 Z20", HOMES)
-    assert_moves(moving(segs), [(RAPID, (10, 10, 110)), (RAPID, (10, 10, 120)), (RAPID, (10, 10, 3))])
+    assert_moves(
+        moving(segs), [(RAPID, (10, 10, 110)), (RAPID, (10, 10, 120)), (RAPID, (10, 10, 3))]
+    )
 
 
 def test_g28_1_stores_the_current_position() -> None:
@@ -487,74 +541,149 @@ OVER, AT_R = (RAPID, (5, 6, 10)), (RAPID, (5, 6, 2))
 CYCLES = {
     "g81-g98": ("G98 G81 X5 Y6 R2 Z-5", [OVER, AT_R, (LINEAR, (5, 6, -5)), (RAPID, (5, 6, 10))]),
     "g81-g99": ("G99 G81 X5 Y6 R2 Z-5", [OVER, AT_R, (LINEAR, (5, 6, -5)), (RAPID, (5, 6, 2))]),
-    "g82-g98": ("G98 G82 X5 Y6 R2 Z-5 P0.5",
-                [OVER, AT_R, (LINEAR, (5, 6, -5)), (DWELL, 0.5), (RAPID, (5, 6, 10))]),
+    "g82-g98": (
+        "G98 G82 X5 Y6 R2 Z-5 P0.5",
+        [OVER, AT_R, (LINEAR, (5, 6, -5)), (DWELL, 0.5), (RAPID, (5, 6, 10))],
+    ),
     # Pecks Q3 from R=2: -1, -4, then the bottom -5; back off 0.254 after each peck.
-    "g73-g98": ("G98 G73 X5 Y6 R2 Z-5 Q3", [
-        OVER, AT_R,
-        (LINEAR, (5, 6, -1)), (RAPID, (5, 6, -0.746)),
-        (LINEAR, (5, 6, -4)), (RAPID, (5, 6, -3.746)),
-        (LINEAR, (5, 6, -5)), (RAPID, (5, 6, 10))]),
+    "g73-g98": (
+        "G98 G73 X5 Y6 R2 Z-5 Q3",
+        [
+            OVER,
+            AT_R,
+            (LINEAR, (5, 6, -1)),
+            (RAPID, (5, 6, -0.746)),
+            (LINEAR, (5, 6, -4)),
+            (RAPID, (5, 6, -3.746)),
+            (LINEAR, (5, 6, -5)),
+            (RAPID, (5, 6, 10)),
+        ],
+    ),
     # G83: out to R after each peck, then rapid back down to 0.254 above the last depth.
-    "g83-g99": ("G99 G83 X5 Y6 R2 Z-5 Q3", [
-        OVER, AT_R,
-        (LINEAR, (5, 6, -1)), (RAPID, (5, 6, 2)), (RAPID, (5, 6, -0.746)),
-        (LINEAR, (5, 6, -4)), (RAPID, (5, 6, 2)), (RAPID, (5, 6, -3.746)),
-        (LINEAR, (5, 6, -5)), (RAPID, (5, 6, 2))]),
+    "g83-g99": (
+        "G99 G83 X5 Y6 R2 Z-5 Q3",
+        [
+            OVER,
+            AT_R,
+            (LINEAR, (5, 6, -1)),
+            (RAPID, (5, 6, 2)),
+            (RAPID, (5, 6, -0.746)),
+            (LINEAR, (5, 6, -4)),
+            (RAPID, (5, 6, 2)),
+            (RAPID, (5, 6, -3.746)),
+            (LINEAR, (5, 6, -5)),
+            (RAPID, (5, 6, 2)),
+        ],
+    ),
     # G85 (LinuxCNC): feed in, feed out to R, rapid to the clearance level.
-    "g85-g98": ("G98 G85 X5 Y6 R2 Z-5",
-                [OVER, AT_R, (LINEAR, (5, 6, -5)), (LINEAR, (5, 6, 2)), (RAPID, (5, 6, 10))]),
+    "g85-g98": (
+        "G98 G85 X5 Y6 R2 Z-5",
+        [OVER, AT_R, (LINEAR, (5, 6, -5)), (LINEAR, (5, 6, 2)), (RAPID, (5, 6, 10))],
+    ),
     "g85-g99": ("G99 G85 X5 Y6 R2 Z-5", [OVER, AT_R, (LINEAR, (5, 6, -5)), (LINEAR, (5, 6, 2))]),
     # G86: feed in, dwell P, spindle stop, rapid out.
-    "g86-g98": ("G98 G86 X5 Y6 R2 Z-5 P0.5",
-                [OVER, AT_R, (LINEAR, (5, 6, -5)), (DWELL, 0.5), (RAPID, (5, 6, 10))]),
+    "g86-g98": (
+        "G98 G86 X5 Y6 R2 Z-5 P0.5",
+        [OVER, AT_R, (LINEAR, (5, 6, -5)), (DWELL, 0.5), (RAPID, (5, 6, 10))],
+    ),
     # G89: feed in, dwell P, feed out *to the clearance level* (RS274NGC 3.5.25).
-    "g89-g99": ("G99 G89 X5 Y6 R2 Z-5 P0.5",
-                [OVER, AT_R, (LINEAR, (5, 6, -5)), (DWELL, 0.5), (LINEAR, (5, 6, 2))]),
-    "g89-g98": ("G98 G89 X5 Y6 R2 Z-5 P0.5",
-                [OVER, AT_R, (LINEAR, (5, 6, -5)), (DWELL, 0.5), (LINEAR, (5, 6, 10))]),
+    "g89-g99": (
+        "G99 G89 X5 Y6 R2 Z-5 P0.5",
+        [OVER, AT_R, (LINEAR, (5, 6, -5)), (DWELL, 0.5), (LINEAR, (5, 6, 2))],
+    ),
+    "g89-g98": (
+        "G98 G89 X5 Y6 R2 Z-5 P0.5",
+        [OVER, AT_R, (LINEAR, (5, 6, -5)), (DWELL, 0.5), (LINEAR, (5, 6, 10))],
+    ),
     # G84: feed in, spindle reversed, feed out to the clearance level.
     "g84-g98": ("G98 G84 X5 Y6 R2 Z-5", [OVER, AT_R, (LINEAR, (5, 6, -5)), (LINEAR, (5, 6, 10))]),
     # Start below R: first up to R, and the clearance level is R even under G98.
-    "below-r": ("G0 Z0\nG98 G81 X5 Y6 R2 Z-5",
-                [(RAPID, (0, 0, 0)), (RAPID, (0, 0, 2)), AT_R, (LINEAR, (5, 6, -5)), (RAPID, (5, 6, 2))]),
+    "below-r": (
+        "G0 Z0\nG98 G81 X5 Y6 R2 Z-5",
+        [(RAPID, (0, 0, 0)), (RAPID, (0, 0, 2)), AT_R, (LINEAR, (5, 6, -5)), (RAPID, (5, 6, 2))],
+    ),
     # Modal: the next block drills another hole with the same R and Z; G80 ends it.
-    "modal": ("G99 G81 X5 Y6 R2 Z-5\nX15\nG80\nG0 X0", [
-        OVER, AT_R, (LINEAR, (5, 6, -5)), (RAPID, (5, 6, 2)),
-        (RAPID, (15, 6, 2)), (LINEAR, (15, 6, -5)), (RAPID, (15, 6, 2)),
-        (RAPID, (0, 6, 2))]),
+    "modal": (
+        "G99 G81 X5 Y6 R2 Z-5\nX15\nG80\nG0 X0",
+        [
+            OVER,
+            AT_R,
+            (LINEAR, (5, 6, -5)),
+            (RAPID, (5, 6, 2)),
+            (RAPID, (15, 6, 2)),
+            (LINEAR, (15, 6, -5)),
+            (RAPID, (15, 6, 2)),
+            (RAPID, (0, 6, 2)),
+        ],
+    ),
     # G91 with L3: R is relative to the start level (10-8 = 2), Z to R (2-7 = -5), and X
     # steps 10 per repeat.
-    "g91-l3-g98": ("G91 G98 G81 X10 Y0 R-8 Z-7 L3", [
-        step
-        for x in (10, 20, 30)
-        for step in ((RAPID, (x, 0, 10)), (RAPID, (x, 0, 2)), (LINEAR, (x, 0, -5)), (RAPID, (x, 0, 10)))
-    ]),
+    "g91-l3-g98": (
+        "G91 G98 G81 X10 Y0 R-8 Z-7 L3",
+        [
+            step
+            for x in (10, 20, 30)
+            for step in (
+                (RAPID, (x, 0, 10)),
+                (RAPID, (x, 0, 2)),
+                (LINEAR, (x, 0, -5)),
+                (RAPID, (x, 0, 10)),
+            )
+        ],
+    ),
     # G99: after the first hole the tool travels at the R level.
-    "g91-l3-g99": ("G91 G99 G81 X10 Y0 R-8 Z-7 L3", [
-        (RAPID, (10, 0, 10)), (RAPID, (10, 0, 2)), (LINEAR, (10, 0, -5)), (RAPID, (10, 0, 2)),
-        (RAPID, (20, 0, 2)), (LINEAR, (20, 0, -5)), (RAPID, (20, 0, 2)),
-        (RAPID, (30, 0, 2)), (LINEAR, (30, 0, -5)), (RAPID, (30, 0, 2))]),
+    "g91-l3-g99": (
+        "G91 G99 G81 X10 Y0 R-8 Z-7 L3",
+        [
+            (RAPID, (10, 0, 10)),
+            (RAPID, (10, 0, 2)),
+            (LINEAR, (10, 0, -5)),
+            (RAPID, (10, 0, 2)),
+            (RAPID, (20, 0, 2)),
+            (LINEAR, (20, 0, -5)),
+            (RAPID, (20, 0, 2)),
+            (RAPID, (30, 0, 2)),
+            (LINEAR, (30, 0, -5)),
+            (RAPID, (30, 0, 2)),
+        ],
+    ),
     # G18: the drilling axis is Y.
-    "g18": ("G0 Y10 Z0\nG18 G98 G81 X5 Z6 R2 Y-5", [
-        (RAPID, (0, 10, 0)), (RAPID, (5, 10, 6)), (RAPID, (5, 2, 6)), (LINEAR, (5, -5, 6)),
-        (RAPID, (5, 10, 6))]),
+    "g18": (
+        "G0 Y10 Z0\nG18 G98 G81 X5 Z6 R2 Y-5",
+        [
+            (RAPID, (0, 10, 0)),
+            (RAPID, (5, 10, 6)),
+            (RAPID, (5, 2, 6)),
+            (LINEAR, (5, -5, 6)),
+            (RAPID, (5, 10, 6)),
+        ],
+    ),
     # R and Z are program coordinates: with a G54 Z origin of -100 they are -98 and -105.
-    "work-offset": ("G10 L2 P1 Z-100\nG0 Z10\nG99 G81 X5 Y6 R2 Z-5", [
-        (RAPID, (0, 0, -90)), (RAPID, (5, 6, -90)), (RAPID, (5, 6, -98)), (LINEAR, (5, 6, -105)),
-        (RAPID, (5, 6, -98))]),
+    "work-offset": (
+        "G10 L2 P1 Z-100\nG0 Z10\nG99 G81 X5 Y6 R2 Z-5",
+        [
+            (RAPID, (0, 0, -90)),
+            (RAPID, (5, 6, -90)),
+            (RAPID, (5, 6, -98)),
+            (LINEAR, (5, 6, -105)),
+            (RAPID, (5, 6, -98)),
+        ],
+    ),
     # Inch: R0.1 = 2.54 mm, Z-0.2 = -5.08 mm, X1 Y1 = 25.4 mm.
-    "inch": ("G20 G99 G81 X1 Y1 R0.1 Z-0.2", [
-        (RAPID, (25.4, 25.4, 10)), (RAPID, (25.4, 25.4, 2.54)), (LINEAR, (25.4, 25.4, -5.08)),
-        (RAPID, (25.4, 25.4, 2.54))]),
+    "inch": (
+        "G20 G99 G81 X1 Y1 R0.1 Z-0.2",
+        [
+            (RAPID, (25.4, 25.4, 10)),
+            (RAPID, (25.4, 25.4, 2.54)),
+            (LINEAR, (25.4, 25.4, -5.08)),
+            (RAPID, (25.4, 25.4, 2.54)),
+        ],
+    ),
 }
 
 
-CYCLE_BUGS = {
-    "g86-g98": "interpreter bug: G86 ignores the P dwell at the hole bottom",
-    "g89-g98": "interpreter bug: G89 under G98 feeds out to R and rapids to the initial "
-               "level instead of feeding out to the clearance level",
-}
+#: Expectations the interpreter does not meet yet: name -> "interpreter bug: ...".
+CYCLE_BUGS: dict[str, str] = {}
 
 
 @pytest.mark.parametrize(
@@ -585,9 +714,6 @@ def test_g84_reverses_the_spindle_to_retract() -> None:
     assert up.end_mm[2] == pytest.approx(10.0)
     # After the cycle the spindle turns forward again.
     assert segs[-1].state.spindle_direction == 1
-    # M4 before the cycle: the retract turns clockwise.
-    segs = segments(CYCLE_HEAD + "M4\nG98 G84 X5 Y6 R2 Z-5")
-    assert [s.state.spindle_direction for s in segs if s.kind == LINEAR] == [-1, 1]
 
 
 def test_g86_stops_the_spindle_for_the_retract() -> None:
@@ -614,13 +740,31 @@ def test_canned_cycle_errors(name: str) -> None:
     expect_error(program, line, *phrases)
 
 
-@pytest.mark.xfail(strict=True, reason="interpreter bug: canned cycles feed with F0 instead of failing like G1 without F")
+# LinuxCNC interp_cycles: G84 (right-hand tapping) needs the spindle turning clockwise
+# ("Spindle not turning in G84", "Spindle turning counterclockwise in G84"); G86 needs
+# it turning (NCE_SPINDLE_NOT_TURNING_IN_G86).
+SPINDLE_CYCLE_ERRORS = {
+    "g84-stopped": "G21 F100\nG0 Z10\nG84 X0 Y0 R2 Z-5",
+    "g84-ccw": "G21 F100 S500 M4\nG0 Z10\nG84 X0 Y0 R2 Z-5",
+    "g86-stopped": "G21 F100\nG0 Z10\nG86 X0 Y0 R2 Z-5 P1",
+}
+
+
+@pytest.mark.parametrize("name", list(SPINDLE_CYCLE_ERRORS))
+@pytest.mark.xfail(
+    strict=True,
+    reason="interpreter bug: G84/G86 run with the spindle stopped "
+    "(G84 also counter-clockwise) instead of failing as in LinuxCNC",
+)
+def test_tapping_and_boring_need_the_spindle_turning(name: str) -> None:
+    expect_error(SPINDLE_CYCLE_ERRORS[name], 3, "spindle")
+
+
 def test_canned_cycle_without_feed_is_an_error() -> None:
     # LinuxCNC convert_cycle: "Cannot feed with zero feed rate".
     expect_error("G21\nG0 Z10\nG81 X1 Y1 R1 Z-2", 3, "feed")
 
 
-@pytest.mark.xfail(strict=True, reason="interpreter bug: canned cycles run under G93 and read F as inverse time")
 def test_canned_cycle_in_inverse_time_is_an_error() -> None:
     # LinuxCNC convert_cycle: "Cannot use inverse time feed with canned cycles".
     expect_error("G21 F100\nG0 Z10\nG93 G81 X1 Y1 R1 Z-2 F2", 3, "inverse time")
@@ -653,7 +797,11 @@ def test_sub_with_arguments_and_local_scope() -> None:
 
 def test_while_loop() -> None:
     assert xs("#1=1\no101 while [#1 le 3]\nG0 X#1\n#1=[#1+1]\no101 endwhile\nG0 X0") == [
-        1.0, 2.0, 3.0, 0.0]
+        1.0,
+        2.0,
+        3.0,
+        0.0,
+    ]
 
 
 def test_do_while_runs_the_body_once_even_if_false() -> None:
@@ -755,6 +903,94 @@ O_ERRORS = {
 def test_o_word_errors(name: str) -> None:
     program, line, phrases = O_ERRORS[name]
     expect_error(program, line, *phrases)
+
+
+# ---------------------------------------------------------------------------- RS274NGC block rules
+# NIST RS274NGC v3, 3.4: "It is an error to put a G-code from group 1 and a G-code from
+# group 0 on the same line if both of them use axis words" (LinuxCNC:
+# NCE_CANNOT_USE_TWO_G_CODES_THAT_BOTH_USE_AXIS_VALUES). cnctwin silently drops one.
+TWO_AXIS_CODES = {
+    "g1-g92": "G21 F100\nG1 G92 X5",
+    "g0-g28": "G21\nG0 G28 X5",
+    "g0-g10": "G21\nG0 G10 L2 P1 X5",
+    "g1-g52": "G21 F100\nG1 G52 X1",
+}
+
+
+@pytest.mark.parametrize("name", list(TWO_AXIS_CODES))
+@pytest.mark.xfail(
+    strict=True,
+    reason="interpreter bug: a motion G-code and G10/G28/G30/G52/G92 "
+    "sharing a block's axis words is accepted; one of them is silently dropped",
+)
+def test_two_g_codes_that_use_axis_words(name: str) -> None:
+    expect_error(TWO_AXIS_CODES[name], 2, "axis")
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="interpreter bug: G53 under G91 moves to absolute machine "
+    "coordinates instead of failing (LinuxCNC NCE_CANNOT_USE_G53_INCREMENTAL)",
+)
+def test_g53_in_incremental_mode_is_an_error() -> None:
+    err = expect_error("G21\nG0 X1\nG91 G53 G0 X5", 3, "G53")
+    assert "g91" in str(err).lower() or "incremental" in str(err).lower()
+
+
+# NCE_TWO_M_CODES_USED_FROM_SAME_MODAL_GROUP: M3/M4/M5 are one group.
+@pytest.mark.parametrize("program", ["G21 S100 M3 M4", "G21 S100 M3 M5"])
+@pytest.mark.xfail(
+    strict=True,
+    reason="interpreter bug: two spindle M-codes in one block are "
+    "accepted (the last wins) instead of failing",
+)
+def test_two_m_codes_from_one_group(program: str) -> None:
+    expect_error(program, 1, "M")
+
+
+# LinuxCNC check_other_codes: NCE_R_WORD_WITH_NO_G_CODE_THAT_USES_IT,
+# NCE_I_WORD_WITH_NO_G2_OR_G3_OR_G87_TO_USE_IT, Q without G73/G83. A word that nothing
+# uses is usually a typo (G1 where G2 was meant).
+STRAY_WORDS = {
+    "r-with-g0": ("G21\nG0 X1 R5", "R"),
+    "i-with-g1": ("G21 F100\nG1 X1 I5", "I"),
+    "q-with-g1": ("G21 F100\nG1 X1 Q2", "Q"),
+}
+
+
+@pytest.mark.parametrize("name", list(STRAY_WORDS))
+@pytest.mark.xfail(
+    strict=True,
+    reason="interpreter bug: words no code of the block uses "
+    "(R, I, Q with G0/G1) are silently ignored",
+)
+def test_words_without_a_code_that_uses_them(name: str) -> None:
+    program, letter = STRAY_WORDS[name]
+    expect_error(program, 2, letter)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="interpreter bug: U/V/W words are silently ignored: no "
+    "error on a mill (no such axes), no motion on a Fanuc lathe (U/W incremental)",
+)
+def test_u_v_w_words() -> None:
+    expect_error("G21\nG0 X1 V2", 2, "V")
+    # Fanuc/Haas lathe (G-code system A): U and W are incremental X and Z, U on the
+    # diameter. From X1 (radius 12.7 mm) Z0: U-0.2 W-0.1 ends at radius 0.4 in, Z -0.1 in.
+    segs = lathe("G20\nG0 X1 Z0\nG0 U-0.2 W-0.1")
+    assert_point(segs[-1].end_mm, (0.4 * 25.4, 0, -0.1 * 25.4))
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="interpreter bug: lines after the closing '%' of a percent-delimited file are executed",
+)
+def test_percent_delimited_file_ends_at_the_second_percent() -> None:
+    # RS274NGC v3 (3.3.1): "The useful contents of a file demarcated by percents stop after
+    # the second percent line. Anything after that is ignored."
+    segs = segments("%\nG21\nG0 X1\n%\nG0 X2\nnot G-code at all\n")
+    assert ends(segs) == [(1.0, 0.0, 0.0)]
 
 
 # ---------------------------------------------------------------------------- lathe
@@ -932,7 +1168,7 @@ def test_segments_carry_line_file_feed_and_spindle() -> None:
     assert [s.spindle_rpm for s in segs[:3]] == [1200.0, 1200.0, 0.0]
     assert segs[-1].kind == DWELL and segs[-1].dwell_s == 1.5 and segs[-1].length_mm == 0.0
     # Consecutive segments are continuous.
-    for a, b in zip(segs, segs[1:], strict=False):
+    for a, b in itertools.pairwise(segs):
         assert a.end_mm == b.start_mm
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -77,6 +78,10 @@ for _group, _codes in {
         _GROUPS[_code] = _group
 
 _FAST_WORDS = frozenset("xyzf")
+_READ_ONLY = frozenset(("_x", "_y", "_z", "_abs_x", "_abs_y", "_abs_z"))
+_NUM = r"\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+))\s*"
+#: A raw line of only an optional N word and X, Y, Z words in that order.
+_XYZ_LINE = re.compile(rf"\s*(?:[nN]\d+\s*)?(?:[xX]{_NUM})?(?:[yY]{_NUM})?(?:[zZ]{_NUM})?")
 _NON_MODAL_WITH_AXES = {100, 280, 300, 520, 920}
 _CYCLES = {730, 810, 820, 830, 840, 850, 860, 890}
 _COORD_SYSTEMS = {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8, 593: 9}
@@ -177,6 +182,7 @@ class Interpreter:
         self._off = [0.0] * 6
         self._g92 = [0.0] * 6
         self._g92_saved = [0.0] * 6
+        self._g92_enabled = False
         self._tool_offset = [0.0, 0.0, 0.0]
         self._tools: dict[int, ToolEntry] = dict(self.setup.tools)
         self._selected_tool = 0
@@ -243,6 +249,26 @@ class Interpreter:
                     self._line_start = start
                     if main and lineno > self.lines_read:
                         self.lines_read = lineno
+                    motion = self._motion
+                    if (motion == 10 or motion == 0) and self._comp is None:
+                        # Fastest path: a line of only (N) X Y Z words, in that order.
+                        plain = _XYZ_LINE.fullmatch(raw)
+                        if plain is not None:
+                            gx, gy, gz = plain.groups()
+                            if gx is None and gy is None and gz is None:
+                                continue
+                            try:
+                                self._xyz_move(
+                                    motion,
+                                    None if gx is None else float(gx),
+                                    None if gy is None else float(gy),
+                                    None if gz is None else float(gz),
+                                    False,
+                                )
+                            except NCError as err:
+                                raise self._locate(err) from None
+                            yield self._out.pop()
+                            continue
                     try:
                         if "#5" in raw or "#<_" in raw:
                             self._sync_parameters()
@@ -289,7 +315,8 @@ class Interpreter:
         Only lines that mention ``#5`` or ``#<_`` refresh them (it costs a few
         microseconds). Lengths are in the program's current units:
 
-        - #5210 G92 active (1/0), #5211-#5216 the G92/G52 offset (X Y Z A B C);
+        - #5210 G92 enabled (1/0), #5211-#5216 the stored G92/G52 offset (X Y Z A B C,
+          kept while G92.2 suspends it);
         - #5220 coordinate system (1-9); #5221 + 20 (n - 1) + i the origin of system n
           (G54 = 1 ... G59.3 = 9) on axis i (X Y Z A B C), #5230 + 20 (n - 1) its rotation;
         - #5400 tool number, #5401-#5403 its offsets X Y Z;
@@ -300,10 +327,10 @@ class Interpreter:
         f = self._factor
         pos = (self._pos[0], self._pos[1], self._pos[2])
         here = self._state.to_program(pos)
-        params[5210] = 1.0 if any(self._g92) else 0.0
+        params[5210] = 1.0 if self._g92_enabled else 0.0
         for i in range(6):
             scale = f if i < 3 else 1.0
-            params[5211 + i] = self._g92[i] / scale
+            params[5211 + i] = self._g92_saved[i] / scale
             for n in range(1, 10):
                 params[5201 + 20 * n + i] = self._g5x[n][i] / scale
         for n in range(1, 10):
@@ -359,6 +386,8 @@ class Interpreter:
     # ------------------------------------------------------------------ blocks
     def _execute(self, block: Block) -> None:
         for key, value in block.assignments:
+            if key in _READ_ONLY:
+                raise self._error(f"#<{key}> is a read-only system parameter and cannot be set")
             self.params[key] = value
         for kind, text in block.messages:
             self.messages.append(text if kind == "msg" else self._expand(text))
@@ -387,8 +416,17 @@ class Interpreter:
             self._set_feed(words["f"])
             if len(words) == 1:
                 return
+        self._xyz_move(motion, words.get("x"), words.get("y"), words.get("z"), "f" in words)
+
+    def _xyz_move(
+        self, motion: int, vx: float | None, vy: float | None, vz: float | None, has_f: bool
+    ) -> None:
+        """Straight G0/G1 move to X, Y, Z words (program units, ``None`` if absent)."""
         state = self._state
         if self._diameter_mode or state.xy_rotation_deg or state.css or self._exit_base:
+            words = {k: v for k, v in zip("xyz", (vx, vy, vz), strict=True) if v is not None}
+            if has_f:
+                words["f"] = state.programmed_feed
             if motion == 10:
                 self._require_feed(words)
             kind = MotionKind.LINEAR if motion == 10 else MotionKind.RAPID
@@ -400,21 +438,18 @@ class Interpreter:
         off = self._off
         inc = self._incremental
         x, y, z = x0, y0, z0
-        v = words.get("x")
-        if v is not None:
-            x = x0 + v * f if inc else v * f + off[0]
-        v = words.get("y")
-        if v is not None:
-            y = y0 + v * f if inc else v * f + off[1]
-        v = words.get("z")
-        if v is not None:
-            z = z0 + v * f if inc else v * f + off[2]
+        if vx is not None:
+            x = x0 + vx * f if inc else vx * f + off[0]
+        if vy is not None:
+            y = y0 + vy * f if inc else vy * f + off[1]
+        if vz is not None:
+            z = z0 + vz * f if inc else vz * f + off[2]
         if motion == 10:
             kind = MotionKind.LINEAR
             if state.feed_mode == FeedMode.UNITS_PER_MINUTE and state.programmed_feed > 0.0:
                 feed = state.programmed_feed * f
             else:
-                self._require_feed(words)
+                self._require_feed({"f": state.programmed_feed} if has_f else {})
                 feed = self._feed_mm_min(
                     math.sqrt((x - x0) ** 2 + (y - y0) ** 2 + (z - z0) ** 2)
                 )
@@ -1229,6 +1264,7 @@ class Interpreter:
             self._g92 = [0.0] * 6
         elif code == 923:
             self._g92 = list(self._g92_saved)
+        self._g92_enabled = code in (920, 520, 923)
         self._update_offsets()
 
     # ------------------------------------------------------------------ cutter comp
