@@ -2,7 +2,7 @@
 
 Each case in ``gcode_golden/camotics/<suite>/<case>`` holds ``data/stdin`` (a program) and
 ``expect/stdout``, what CAMotics' ``gcodetool`` printed for it. The output format, read
-from all 16 cases:
+from all 15 cases:
 
 - a first line ``G21`` or ``G20``: the units of the numbers that follow (every case here
   runs in mm; CAMotics defaults to G21);
@@ -40,8 +40,8 @@ from cnctwin.nc.segments import MotionKind, Segment
 
 pytestmark = pytest.mark.validation
 
-#: CAMotics prints coordinates with at most 4 decimals (none here have more than one);
-#: half a printed digit plus float noise.
+#: CAMotics prints coordinates as %g-like decimals (none here has more than one decimal);
+#: the tolerance is float noise well below the printed precision.
 TOLERANCE = 6e-5
 
 CASES = [
@@ -86,8 +86,9 @@ DIVERGENCES = {
     ("offsetTests/ToolRelativeOffsetTest", 0, "Z"): 1.5,
 }
 
-#: Parameters cnctwin maintains, whose DEBUG values are compared in
-#: test_debug_position_values: #5220 coordinate system, #5420-#5422 current position.
+#: DEBUG parameters of the position, compared in test_debug_position_values: #5220
+#: coordinate system, #5420-#5422 current position. Every other field (offsets) is
+#: compared in test_debug_offset_values.
 POSITION_PARAMETERS = {"#5220", "#5420", "#5421", "#5422"}
 
 _MOVE = re.compile(r"^N(\d+)\s+G([0-3])\s+(.*)$")
@@ -161,13 +162,7 @@ def test_oracle_exits_cleanly(root: Path, case: str) -> None:
 
 
 #: Cases whose expectations the interpreter does not meet yet.
-MOVE_BUGS = {
-    "varRefTests/GlobalNamedTest": (
-        "interpreter bug: assigning the predefined read-only #<_x> is accepted and then "
-        "silently overwritten with the current X (cnctwin moves to X0; LinuxCNC rejects "
-        "the assignment)"
-    ),
-}
+MOVE_BUGS: dict[str, str] = {}
 
 
 @pytest.mark.parametrize(
@@ -278,13 +273,7 @@ def test_debug_position_values(root: Path, case: str) -> None:
 
 
 #: DEBUG cases whose expectations the interpreter does not meet yet.
-DEBUG_BUGS = {
-    # After G92.2 LinuxCNC (like CAMotics) keeps #5211-#5213: G92.2 only suspends the
-    # offset ("reset axis offsets to zero"), G92.1 also zeroes the parameters, and G92.3
-    # restores the offset from them.
-    "offsetTests/GlobalTest": "interpreter bug: G92.2 zeroes #5211-#5213; it must keep "
-    "the stored G92 values (only G92.1 zeroes them)",
-}
+DEBUG_BUGS: dict[str, str] = {}
 
 
 @pytest.mark.parametrize(
@@ -298,5 +287,7 @@ DEBUG_BUGS = {
 )
 def test_debug_offset_values(root: Path, case: str) -> None:
     # Every other DEBUG field: #5210 (G92 active), #5211-#5212 (G92/G52 offset),
-    # #5241-#5242 (G55 origin), #5403 (tool Z offset).
+    # #5241-#5242 (G55 origin), #5403 (tool Z offset). GlobalTest checks that G92.2 keeps
+    # #5211/#5212 (it only suspends the offset) while G92.1 zeroes them, and that G92.3
+    # restores the offset from them.
     assert _compare_fields(root, case, None) > 0

@@ -286,6 +286,16 @@ def test_feed_units(program: str, feed: float) -> None:
     assert segments(program)[-1].feed_mm_min == pytest.approx(feed)
 
 
+def test_units_switch_keeps_the_physical_feed_rate() -> None:
+    # LinuxCNC convert_length_units: "feed rate ... in effect [is] converted by rereading
+    # [it] from the canon level": the machine keeps feeding at the same speed, F254 mm/min
+    # becomes F10 in/min. Both directions.
+    segs = segments("G21 F254\nG1 X1\nG20\nG1 X1")
+    assert [s.feed_mm_min for s in segs] == pytest.approx([254.0, 254.0])
+    segs = segments("G20 F10\nG1 X1\nG21\nG1 X30")
+    assert [s.feed_mm_min for s in segs] == pytest.approx([254.0, 254.0])
+
+
 def test_sinumerik_g700_g710() -> None:
     # Sinumerik G700 = inch (lengths and feeds), G710 = metric.
     interp = Interpreter()
@@ -490,6 +500,23 @@ def test_g43_1_dynamic_offset_in_program_units() -> None:
     assert segs[-1].end_mm[2] == pytest.approx(38.1)
 
 
+@pytest.mark.parametrize(
+    ("program", "z"),
+    [
+        # G10 L1: tool 1 length 5 mm; G43 H1 then Z0 is machine 5.
+        ("G21\nT1 M6\nG10 L1 P1 Z5\nG43 H1\nG0 Z0", 5.0),
+        # Inch: length 1 in.
+        ("G20\nT1 M6\nG10 L1 P1 Z1\nG43 H1\nG0 Z0", 25.4),
+        # G10 L10: the length that makes the current point Z10. At machine Z-100 with a
+        # G54 Z origin of -100 (program Z0): -100 = 10 - 100 + L, L = -10; G43 H1 Z10
+        # returns to machine -100.
+        ("G21\nG10 L2 P1 Z-100\nG0 Z0\nG10 L10 P1 Z10\nG43 H1\nG0 Z10", -100.0),
+    ],
+)
+def test_g10_l1_l10_set_the_tool_table(program: str, z: float) -> None:
+    assert segments(program)[-1].end_mm[2] == pytest.approx(z)
+
+
 def test_g43_unknown_tool_warns_with_file_and_line() -> None:
     interp, _ = run("G21\nG43 H7\nG0 Z1")
     assert any(w.startswith("job.ngc:2: ") and "7" in w for w in interp.warnings), interp.warnings
@@ -683,17 +710,9 @@ CYCLES = {
 
 
 #: Expectations the interpreter does not meet yet: name -> "interpreter bug: ...".
-CYCLE_BUGS: dict[str, str] = {}
-
-
 @pytest.mark.parametrize(
     "name",
-    [
-        pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=CYCLE_BUGS[n]))
-        if n in CYCLE_BUGS
-        else n
-        for n in CYCLES
-    ],
+    CYCLES,
 )
 def test_canned_cycle_moves(name: str) -> None:
     program, expected = CYCLES[name]
@@ -751,11 +770,6 @@ SPINDLE_CYCLE_ERRORS = {
 
 
 @pytest.mark.parametrize("name", list(SPINDLE_CYCLE_ERRORS))
-@pytest.mark.xfail(
-    strict=True,
-    reason="interpreter bug: G84/G86 run with the spindle stopped "
-    "(G84 also counter-clockwise) instead of failing as in LinuxCNC",
-)
 def test_tapping_and_boring_need_the_spindle_turning(name: str) -> None:
     expect_error(SPINDLE_CYCLE_ERRORS[name], 3, "spindle")
 
@@ -918,20 +932,10 @@ TWO_AXIS_CODES = {
 
 
 @pytest.mark.parametrize("name", list(TWO_AXIS_CODES))
-@pytest.mark.xfail(
-    strict=True,
-    reason="interpreter bug: a motion G-code and G10/G28/G30/G52/G92 "
-    "sharing a block's axis words is accepted; one of them is silently dropped",
-)
 def test_two_g_codes_that_use_axis_words(name: str) -> None:
     expect_error(TWO_AXIS_CODES[name], 2, "axis")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="interpreter bug: G53 under G91 moves to absolute machine "
-    "coordinates instead of failing (LinuxCNC NCE_CANNOT_USE_G53_INCREMENTAL)",
-)
 def test_g53_in_incremental_mode_is_an_error() -> None:
     err = expect_error("G21\nG0 X1\nG91 G53 G0 X5", 3, "G53")
     assert "g91" in str(err).lower() or "incremental" in str(err).lower()
@@ -939,11 +943,6 @@ def test_g53_in_incremental_mode_is_an_error() -> None:
 
 # NCE_TWO_M_CODES_USED_FROM_SAME_MODAL_GROUP: M3/M4/M5 are one group.
 @pytest.mark.parametrize("program", ["G21 S100 M3 M4", "G21 S100 M3 M5"])
-@pytest.mark.xfail(
-    strict=True,
-    reason="interpreter bug: two spindle M-codes in one block are "
-    "accepted (the last wins) instead of failing",
-)
 def test_two_m_codes_from_one_group(program: str) -> None:
     expect_error(program, 1, "M")
 
@@ -959,21 +958,11 @@ STRAY_WORDS = {
 
 
 @pytest.mark.parametrize("name", list(STRAY_WORDS))
-@pytest.mark.xfail(
-    strict=True,
-    reason="interpreter bug: words no code of the block uses "
-    "(R, I, Q with G0/G1) are silently ignored",
-)
 def test_words_without_a_code_that_uses_them(name: str) -> None:
     program, letter = STRAY_WORDS[name]
     expect_error(program, 2, letter)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="interpreter bug: U/V/W words are silently ignored: no "
-    "error on a mill (no such axes), no motion on a Fanuc lathe (U/W incremental)",
-)
 def test_u_v_w_words() -> None:
     expect_error("G21\nG0 X1 V2", 2, "V")
     # Fanuc/Haas lathe (G-code system A): U and W are incremental X and Z, U on the
@@ -982,10 +971,6 @@ def test_u_v_w_words() -> None:
     assert_point(segs[-1].end_mm, (0.4 * 25.4, 0, -0.1 * 25.4))
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="interpreter bug: lines after the closing '%' of a percent-delimited file are executed",
-)
 def test_percent_delimited_file_ends_at_the_second_percent() -> None:
     # RS274NGC v3 (3.3.1): "The useful contents of a file demarcated by percents stop after
     # the second percent line. Anything after that is ignored."
@@ -1026,6 +1011,24 @@ def test_lathe_css_rpm_and_clamp() -> None:
     # ... and so does the machine's limit.
     segs = lathe("G21\nG0 X50 Z0\nG96 S200 M3\nG95 G1 Z-10 F0.1", max_spindle_rpm=900.0)
     assert segs[-1].spindle_rpm == pytest.approx(900.0)
+
+
+def test_lathe_css_clamped_by_g96_d() -> None:
+    # LinuxCNC form of the clamp: G96 D<max rpm>.
+    segs = lathe("G21\nG0 X50 Z0\nG96 D1000 S200 M3\nG95 G1 Z-10 F0.1")
+    assert segs[-1].spindle_rpm == pytest.approx(1000.0)
+
+
+def test_lathe_arc_in_diameter_mode() -> None:
+    # Haas lathe_hp_2.nc, P3-P4: Z-0.85 at diameter 0.48, then "G02 X0.58 Z-0.9 R0.05".
+    # Radii 0.24 -> 0.29 in; a fillet of R0.05 tangent to the shaft (X 0.24) at Z-0.85 and
+    # to the shoulder (Z-0.9) at X 0.29 has its centre at (X 0.29, Z -0.85); the quarter
+    # arc is 0.05*pi/2 in long.
+    arc = lathe("G20 F10\nG0 X0.48 Z-0.85\nG2 X0.58 Z-0.9 R0.05")[-1]
+    assert arc.kind == ARC and arc.turns == -1
+    assert_point(arc.center_mm, (0.29 * 25.4, 0, -0.85 * 25.4), 1e-9)
+    assert_point(arc.end_mm, (0.29 * 25.4, 0, -0.9 * 25.4), 1e-9)
+    assert arc.length_mm == pytest.approx(0.05 * PI / 2 * 25.4)
 
 
 def test_lathe_css_in_inch() -> None:

@@ -78,6 +78,10 @@ for _group, _codes in {
         _GROUPS[_code] = _group
 
 _FAST_WORDS = frozenset("xyzf")
+#: Words that every block may carry (feed, speed, tool, axes).
+_PLAIN_WORDS = frozenset("fstxyzabc@^")
+#: Modal groups of M-codes (RS274NGC): stops, tool change, spindle, coolant, overrides.
+_M_GROUPS = {0: 4, 1: 4, 2: 4, 30: 4, 60: 4, 6: 6, 3: 7, 4: 7, 5: 7, 7: 8, 8: 8, 9: 8, 48: 9, 49: 9}
 _READ_ONLY = frozenset(("_x", "_y", "_z", "_abs_x", "_abs_y", "_abs_z"))
 _NUM = r"\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+))\s*"
 #: A raw line of only an optional N word and X, Y, Z words in that order.
@@ -140,7 +144,8 @@ class Interpreter:
     lines_read
         Lines read so far (every line, including those skipped by control flow).
     units
-        Units the program first selected, ``"mm"`` or ``"inch"`` (``"mm"`` if it never does).
+        Units the program first selected, ``"mm"`` or ``"inch"``; ``None`` if it never
+        selects any (then it runs in mm).
     warnings
         ``"FILE:LINE: message"`` for everything accepted but worth a look.
     messages
@@ -201,6 +206,7 @@ class Interpreter:
             diameter_mode=lathe,
         )
         self._ended = False
+        self._started = False
         self._frames: list[tuple] = []
         self._subs: dict[str, tuple[LineSource, int, int]] = {}
         self._sources: list[LineSource] = []
@@ -257,6 +263,7 @@ class Interpreter:
                             gx, gy, gz = plain.groups()
                             if gx is None and gy is None and gz is None:
                                 continue
+                            self._started = True
                             try:
                                 self._xyz_move(
                                     motion,
@@ -274,7 +281,12 @@ class Interpreter:
                             self._sync_parameters()
                         block = lex_block(raw, self.params)
                         if block is None:
+                            if self._started and raw.strip() == "%":
+                                # The closing tape mark ends the program.
+                                self._ended = True
+                                break
                             continue
+                        self._started = True
                         if block.oword is not None:
                             if self._control(block.oword, src):
                                 finished = False
@@ -518,6 +530,15 @@ class Interpreter:
             code = seen_groups.pop(10)
             seen_groups[5] = 940 if code == 980 else 950
 
+        for m in block.mcodes:
+            if m not in _KNOWN_M:
+                if m in _UNSUPPORTED_M:
+                    raise self._error(f"{_UNSUPPORTED_M[m]} is not supported")
+                self._warn(f"M{m} is machine-specific and was ignored")
+        self._check_block(block, seen_groups, motion_code, non_modal, g53)
+        # Units first: the F, S and axis words of this block are in the new units.
+        if 6 in seen_groups:
+            self._set_units("inch" if seen_groups[6] in (200, 7000) else "mm")
         # 1-3: feed mode, feed, spindle speed.
         if 5 in seen_groups:
             mode = FeedMode(seen_groups[5] // 10)
@@ -530,11 +551,6 @@ class Interpreter:
         # 4-5: tool select and change.
         if "t" in words:
             self._select_tool(words["t"])
-        for m in block.mcodes:
-            if m not in _KNOWN_M:
-                if m in _UNSUPPORTED_M:
-                    raise self._error(f"{_UNSUPPORTED_M[m]} is not supported")
-                self._warn(f"M{m} is machine-specific and was ignored")
         if 6 in block.mcodes:
             self._change_tool()
         # 6: spindle.
@@ -548,15 +564,13 @@ class Interpreter:
         # 7: dwell.
         if non_modal == 40:
             self._dwell(words)
-        # 8: plane, units, diameter mode, css.
+        # 8: plane, diameter mode, css.
         if 2 in seen_groups:
             plane = Plane(seen_groups[2] // 10)
             if plane != self._state.plane:
                 if self._comp is not None:
                     raise self._error("cannot change the plane while cutter compensation is on")
                 self._state = replace(self._state, plane=plane)
-        if 6 in seen_groups:
-            self._set_units("inch" if seen_groups[6] in (200, 7000) else "mm")
         if 15 in seen_groups:
             self._diameter_mode = seen_groups[15] == 70
             self._state = replace(self._state, diameter_mode=self._diameter_mode)
@@ -587,7 +601,7 @@ class Interpreter:
         if 10 in seen_groups:
             self._retract_r = seen_groups[10] == 990
         # 14: reference points, offsets.
-        axis_words = any(k in words for k in "xyzabc@^")
+        axis_words = any(k in words for k in "xyzabcuw@^")
         if non_modal in (280, 300):
             self._go_home(non_modal, words)
         elif non_modal in (281, 301):
@@ -626,6 +640,80 @@ class Interpreter:
             elif m == 60:
                 pass
 
+    def _check_block(
+        self,
+        block: Block,
+        groups: dict[int, int],
+        motion_code: int | None,
+        non_modal: int | None,
+        g53: bool,
+    ) -> None:
+        """RS274NGC block rules: one M-code per modal group, one user of the axis words,
+        and no word that nothing in the block uses."""
+        words = block.words
+        if (
+            not block.mcodes
+            and not g53
+            and non_modal not in _NON_MODAL_WITH_AXES
+            and words.keys() <= _PLAIN_WORDS
+        ):
+            return
+        seen_m: dict[int, int] = {}
+        for m in block.mcodes:
+            group = _M_GROUPS.get(m)
+            if group is None:
+                continue
+            if group in seen_m and not (group == 8 and {m, seen_m[group]} == {7, 8}):
+                raise self._error(
+                    f"M{seen_m[group]} and M{m} are in the same modal group "
+                    "and cannot share a block"
+                )
+            seen_m[group] = m
+        if (
+            non_modal in _NON_MODAL_WITH_AXES
+            and motion_code not in (None, 800)
+            and any(k in words for k in "xyzabcuw@^")
+        ):
+            raise self._error(
+                f"G{_g(motion_code)} and G{_g(non_modal)} both use the axis words "
+                "and cannot share a block"
+            )
+        if g53 and (self._incremental and groups.get(3) != 900 or groups.get(3) == 910):
+            raise self._error("G53 cannot be used in incremental mode (G91): use G90")
+        motion = motion_code if motion_code not in (None, 800) else self._motion
+        moving = any(k in words for k in "xyzabcuw@^") or motion_code in _CYCLES
+        arc = motion in (20, 30) and (moving or any(k in words for k in "ijk"))
+        cycle = motion in _CYCLES and moving
+        allowed = set("fstxyzabc@^")
+        if self.setup.lathe:
+            allowed |= {"u", "w"}
+        if arc:
+            allowed |= {"i", "j", "k", "r", "p"}
+        if motion == 51 and moving:
+            allowed |= {"i", "j"}
+        if motion == 331 and moving:
+            allowed.add("k")
+        if cycle:
+            allowed |= {"r", "l", "p"}
+            if motion in (730, 830):
+                allowed.add("q")
+        if non_modal == 40:
+            allowed |= {"p", "x", "u"}
+        if non_modal == 100:
+            allowed |= {"l", "p", "r", "q"}
+        if groups.get(7) in (410, 420, 411, 421) or groups.get(14) == 960:
+            allowed.add("d")
+        if groups.get(8) in (430, 432):
+            allowed.add("h")
+        if groups.get(13) == 640:
+            allowed |= {"p", "q"}
+        for letter in words:
+            if letter not in allowed:
+                raise self._error(
+                    f"word {letter.upper()}{words[letter]:g} is not used by anything in this "
+                    "block; remove it or add the G-code that takes it"
+                )
+
     def _reject_g(self, code: int) -> None:
         if code in _UNSUPPORTED_G:
             raise self._error(f"{_UNSUPPORTED_G[code]} is not supported")
@@ -651,8 +739,12 @@ class Interpreter:
             self.units = units
         factor = MM_PER_INCH if units == "inch" else 1.0
         if factor != self._factor:
+            # The feed rate keeps its physical value (LinuxCNC): F is re-expressed.
+            feed = self._state.programmed_feed
+            if self._state.feed_mode != FeedMode.INVERSE_TIME:
+                feed = feed * self._factor / factor
             self._factor = factor
-            self._state = replace(self._state, units=units)  # type: ignore[arg-type]
+            self._state = replace(self._state, units=units, programmed_feed=feed)  # type: ignore[arg-type]
 
     def _set_css(self, on: bool, words: dict[str, float]) -> None:
         if on and "d" in words:
@@ -781,6 +873,8 @@ class Interpreter:
         """
         if "@" in words or "^" in words:
             words = self._polar(words, g53)
+        if "u" in words or "w" in words:
+            words = self._incremental_words(words)
         pos = self._pos
         if self._exit_base is not None:
             pos = self._exit_base
@@ -836,6 +930,27 @@ class Interpreter:
             out["x"], out["y"] = x / f, y / f
         return out
 
+    def _incremental_words(self, words: dict[str, float]) -> dict[str, float]:
+        """Fanuc lathe U and W (incremental X and Z, U in diameter in diameter mode)
+        replaced by X and Z in the current distance mode."""
+        out = {k: v for k, v in words.items() if k not in "uw"}
+        here = self._state.to_program((self._pos[0], self._pos[1], self._pos[2]))
+        for inc, axis, index in (("u", "x", 0), ("w", "z", 2)):
+            if inc not in words:
+                continue
+            if axis in words:
+                raise self._error(
+                    f"{axis.upper()} and {inc.upper()} in one block: use one of them"
+                )
+            if self._incremental:
+                out[axis] = words[inc]
+            else:
+                current = here[index] / self._factor
+                if index == 0 and self._diameter_mode:
+                    current *= 2.0
+                out[axis] = current + words[inc]
+        return out
+
     def _target_abc(self, words: dict[str, float], g53: bool = False) -> list[float]:
         target = list(self._abc)
         for i, letter in enumerate(_ROTARY):
@@ -874,13 +989,22 @@ class Interpreter:
             self._cycle(code // 10, words)
 
     def _require_feed(self, words: dict[str, float]) -> None:
-        mode = self._state.feed_mode
+        state = self._state
+        mode = state.feed_mode
         if mode == FeedMode.INVERSE_TIME:
             if "f" not in words:
                 raise self._error("G93 inverse time mode needs an F word on every feed move")
-        elif self._state.programmed_feed <= 0.0:
+            if state.programmed_feed <= 0.0:
+                raise self._error("G93 inverse time F0 would take forever: F must be > 0")
+        elif state.programmed_feed <= 0.0:
             raise self._error(
                 "feed move with feed rate 0: program F (e.g. F100) before G1/G2/G3"
+            )
+        elif mode == FeedMode.UNITS_PER_REV and (
+            state.spindle_direction == 0 or state.programmed_speed <= 0.0
+        ):
+            raise self._error(
+                "G95 feed per revolution with the spindle stopped: start it (M3/M4 S...)"
             )
 
     def _feed_mm_min(self, length_mm: float) -> float:
@@ -992,6 +1116,8 @@ class Interpreter:
         letters = "ijk"
         in_plane = {letters[i0], letters[i1]}
         turns_word = words.get("p", 1.0)
+        if abs(turns_word - round(turns_word)) < 1e-9:
+            turns_word = float(round(turns_word))
         if turns_word < 1 or turns_word != int(turns_word):
             raise self._error(f"arc turn count P{turns_word:g} must be a positive integer")
         turns = int(turns_word) * (1 if ccw else -1)
@@ -1339,8 +1465,15 @@ class Interpreter:
         letter_n = _AXES[n]
         f = self._factor
         repeats = words.get("l", 1.0)
-        if repeats < 0 or repeats != int(repeats):
-            raise self._error(f"canned cycle repeat L{repeats:g} must be a non-negative integer")
+        if repeats < 1 or repeats != int(repeats):
+            raise self._error(f"canned cycle repeat L{repeats:g} must be a whole number >= 1")
+        direction = self._state.spindle_direction
+        if code == 84 and direction != 1:
+            raise self._error(
+                "G84 right-hand tapping needs the spindle turning clockwise (M3) before the cycle"
+            )
+        if code == 86 and direction == 0:
+            raise self._error("G86 boring needs the spindle turning (M3/M4) before the cycle")
         if "r" in words:
             r_word = words["r"] * f
         elif self._cycle_r is not None:
