@@ -221,3 +221,19 @@ def test_arc_box_is_the_sampled_box(a0: float, a1: float, turns: int, plane: Pla
         assert result.bounds_min_mm[axis] >= low - slack
         assert result.bounds_max_mm[axis] <= high + slack
     assert len(list(arc_extreme_points(seg))) <= 4
+
+
+def test_travel_limits_warn_once_per_axis_end_with_the_line() -> None:
+    # Controlled point = tool tip + tool offset: a tip at z=-5 with a 100 mm tool reads 95.
+    state = MachineState(tool_offset_mm=(0.0, 0.0, 100.0))
+    moves = [
+        Segment(MotionKind.LINEAR, 7, (0.0, 0.0, 100.0), (120.0, 0.0, 95.0), 100.0, 0.0, state),
+        Segment(MotionKind.LINEAR, 8, (120.0, 0.0, 95.0), (130.0, 0.0, 95.0), 100.0, 0.0, state),
+    ]
+    result = summarize(moves, rapid_mm_min=1000.0, travel_mm=((0.0, 0.0, 96.0), (100.0, 50.0, 200.0)))
+    assert result.warnings == (
+        "<program>:7: X reaches 120.000 mm, beyond the machine's travel 0.000 .. 100.000 mm "
+        "(machine.axes.x)",
+        "<program>:7: Z reaches 95.000 mm, beyond the machine's travel 96.000 .. 200.000 mm "
+        "(machine.axes.z)",
+    )

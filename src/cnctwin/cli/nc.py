@@ -36,7 +36,11 @@ def _load(config: Path | None) -> TwinConfig:
 
 
 def inspect_report(
-    program: Path, config: TwinConfig, *, on_segment: Callable[[Segment], None] | None = None
+    program: Path,
+    config: TwinConfig,
+    *,
+    on_segment: Callable[[Segment], None] | None = None,
+    check_travel: bool = True,
 ) -> dict[str, Any]:
     """Interpret a program and summarize it, streaming.
 
@@ -48,6 +52,9 @@ def inspect_report(
         Machine and tools.
     on_segment
         Called with each segment as it streams by (e.g. to plot it).
+    check_travel
+        Warn about moves beyond the configured axis travel (off when the configuration
+        is only the defaults, whose travel is a placeholder).
 
     Returns
     -------
@@ -69,7 +76,18 @@ def inspect_report(
     segments: Iterable[Segment] = interpreter.run_file(program)
     if on_segment is not None:
         segments = _tap(segments, on_segment)
-    summary = summarize(segments, rapid_mm_min=config.machine.rapid_mm_min).to_dict()
+    axes = config.machine.axes
+    travel = (
+        (
+            (axes.x.min_mm, axes.y.min_mm, axes.z.min_mm),
+            (axes.x.max_mm, axes.y.max_mm, axes.z.max_mm),
+        )
+        if check_travel
+        else None
+    )
+    summary = summarize(
+        segments, rapid_mm_min=config.machine.rapid_mm_min, travel_mm=travel
+    ).to_dict()
     return {
         "lines": interpreter.lines_read,
         **{key: summary[key] for key in _SUMMARY_KEYS},
@@ -108,7 +126,12 @@ def inspect(
         from cnctwin.nc.plot import ToolpathPlot  # matplotlib only when asked for
 
         picture = ToolpathPlot()
-    report = inspect_report(program, settings, on_segment=picture.add if picture else None)
+    report = inspect_report(
+        program,
+        settings,
+        on_segment=picture.add if picture else None,
+        check_travel=config is not None,
+    )
     if picture is not None and plot is not None:
         picture.save(plot, title=program.name)
     if as_json:

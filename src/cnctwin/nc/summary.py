@@ -84,7 +84,12 @@ class ProgramSummary:
         }
 
 
-def summarize(segments: Iterable[Segment], *, rapid_mm_min: float) -> ProgramSummary:
+def summarize(
+    segments: Iterable[Segment],
+    *,
+    rapid_mm_min: float,
+    travel_mm: tuple[Vec3, Vec3] | None = None,
+) -> ProgramSummary:
     """Summarize a program's segments in one pass.
 
     Parameters
@@ -93,6 +98,10 @@ def summarize(segments: Iterable[Segment], *, rapid_mm_min: float) -> ProgramSum
         Segments from the interpreter, consumed once.
     rapid_mm_min
         The machine's rapid traverse rate in mm/min, > 0.
+    travel_mm
+        The machine's axis travel ``(min, max)`` in machine coordinates, mm. When given,
+        the controlled point (tool tip + tool offset: what the axes read) is checked
+        against it, arcs included, and the first move beyond each limit is warned about.
 
     Returns
     -------
@@ -113,6 +122,7 @@ def summarize(segments: Iterable[Segment], *, rapid_mm_min: float) -> ProgramSum
     tools: set[int] = set()
     zero_feed = 0
     first_zero_feed = ""
+    beyond: dict[tuple[int, int], str] = {}
     for seg in segments:
         if seg.kind == MotionKind.DWELL:
             dwell_time += seg.dwell_s
@@ -137,10 +147,12 @@ def summarize(segments: Iterable[Segment], *, rapid_mm_min: float) -> ProgramSum
             for axis in range(3):
                 low[axis] = min(low[axis], point[axis])
                 high[axis] = max(high[axis], point[axis])
+            if travel_mm is not None:
+                _check_travel(seg, point, travel_mm, beyond)
     rapid_time = 60.0 * rapid_length / rapid_mm_min
-    warnings: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = tuple(beyond[key] for key in sorted(beyond))
     if zero_feed:
-        warnings = (
+        warnings += (
             f"{first_zero_feed}: {zero_feed} feed move{'s' if zero_feed > 1 else ''} with feed 0 "
             "mm/min (the first here); their machining time is not counted",
         )
@@ -158,6 +170,24 @@ def summarize(segments: Iterable[Segment], *, rapid_mm_min: float) -> ProgramSum
         zero_feed_moves=zero_feed,
         warnings=warnings,
     )
+
+
+def _check_travel(
+    seg: Segment, tcp: Vec3, travel: tuple[Vec3, Vec3], beyond: dict[tuple[int, int], str]
+) -> None:
+    """Record the first point of the program beyond each end of each axis' travel."""
+    offset = seg.state.tool_offset_mm
+    for axis in range(3):
+        value = tcp[axis] + offset[axis]
+        lo, hi = travel[0][axis], travel[1][axis]
+        side = 0 if value < lo - 1e-9 else 1 if value > hi + 1e-9 else -1
+        if side < 0 or (axis, side) in beyond:
+            continue
+        name = "XYZ"[axis]
+        beyond[(axis, side)] = (
+            f"{seg.file or '<program>'}:{seg.line}: {name} reaches {value:.3f} mm, beyond the "
+            f"machine's travel {lo:.3f} .. {hi:.3f} mm (machine.axes.{name.lower()})"
+        )
 
 
 def arc_extreme_points(seg: Segment) -> Iterator[Vec3]:
