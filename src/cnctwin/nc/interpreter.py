@@ -127,10 +127,6 @@ _UNSUPPORTED_M: dict[int, str] = {
 _KNOWN_M = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 30, 48, 49, 60}
 
 
-class _Jump(Exception):
-    """Raised inside control flow to abandon the current line loop (never escapes)."""
-
-
 class Interpreter:
     """Interpret NC programs into :class:`~cnctwin.nc.segments.Segment` objects.
 
@@ -633,12 +629,9 @@ class Interpreter:
                         else "axis words with no active motion mode: add G0, G1, G2 or G3"
                     )
                 self._motion_block(motion, words, g53)
-        # 16: stops.
-        for m in block.mcodes:
-            if m in (2, 30):
-                self._ended = True
-            elif m == 60:
-                pass
+        # 16: program end (M0, M1 and M60 pauses do not change the path).
+        if 2 in block.mcodes or 30 in block.mcodes:
+            self._ended = True
 
     def _check_block(
         self,
@@ -1758,7 +1751,7 @@ class Interpreter:
             for candidate in (folder / f"{name}.ngc", folder / f"{name.upper()}.ngc"):
                 if candidate.is_file():
                     sub_src = LineSource.from_path(candidate)
-                    for lineno, _start, raw in sub_src:
+                    for _lineno, _start, raw in sub_src:
                         text = "".join(strip_comments(raw).split()).lower()
                         if text.startswith(f"o{label}sub"):
                             found = (sub_src, sub_src.offset, sub_src.lineno)

@@ -191,26 +191,31 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
     if _SIMPLE_LINE.fullmatch(text):
         if text[0] in "o:" and _PROGRAM_NUMBER.match(text):
             return None
-        gcodes: list[int] = []
-        mcodes: list[int] = []
-        words: dict[str, float] = {}
-        for letter, number in _WORD.findall(text):
-            value = float(number)
-            if letter == "g":
-                gcodes.append(_gcode_key(value))
-            elif letter == "m":
-                mcodes.append(_mcode_key(value))
-            elif letter == "n":
-                continue
-            elif letter in words:
-                raise NCError(
-                    f"word {letter.upper()} appears twice in one block "
-                    f"({letter.upper()}{_fmt(words[letter])} and {letter.upper()}{_fmt(value)})"
-                )
-            else:
-                words[letter] = value
-        return Block(gcodes, mcodes, words, _NO_ASSIGNMENTS, messages)
+        block = Block(messages=messages, assignments=_NO_ASSIGNMENTS)
+        _sort_words(block, [(letter, float(number)) for letter, number in _WORD.findall(text)])
+        return block
     return _lex_general(text, params, messages)
+
+
+def _sort_words(block: Block, pairs: list[tuple[str, float]]) -> None:
+    """File (letter, value) pairs into the block's G-codes, M-codes and other words."""
+    gcodes = block.gcodes
+    mcodes = block.mcodes
+    words = block.words
+    for letter, value in pairs:
+        if letter == "g":
+            gcodes.append(_gcode_key(value))
+        elif letter == "m":
+            mcodes.append(_mcode_key(value))
+        elif letter == "n":
+            continue
+        elif letter in words:
+            raise NCError(
+                f"word {letter.upper()} appears twice in one block "
+                f"({letter.upper()}{_fmt(words[letter])} and {letter.upper()}{_fmt(value)})"
+            )
+        else:
+            words[letter] = value
 
 
 def _lex_general(
@@ -247,20 +252,7 @@ def _lex_general(
             f"unexpected character '{ch}' in '{text}': expected a word letter (A-Z, @, ^) or '#'",
             column=pos + 1,
         )
-    gcodes = block.gcodes
-    mcodes = block.mcodes
-    words = block.words
-    for letter, value in pairs:
-        if letter == "g":
-            gcodes.append(_gcode_key(value))
-        elif letter == "m":
-            mcodes.append(_mcode_key(value))
-        elif letter == "n":
-            continue
-        elif letter in words:
-            raise NCError(f"word {letter.upper()} appears twice in one block")
-        else:
-            words[letter] = value
+    _sort_words(block, pairs)
     return block
 
 
