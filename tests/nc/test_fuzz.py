@@ -36,7 +36,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import cnctwin.nc.interpreter as interpreter_module
+import cnctwin.nc.owords as owords_module
 from cnctwin.errors import NCError
 from cnctwin.nc.interpreter import Interpreter
 from cnctwin.nc.setup import NCSetup, ToolEntry
@@ -65,7 +65,7 @@ SETUP = NCSetup(
 @pytest.fixture(scope="module", autouse=True)
 def _small_loop_guard() -> Iterator[None]:
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(interpreter_module, "MAX_LOOP_ITERATIONS", 500)
+        patch.setattr(owords_module, "MAX_LOOP_ITERATIONS", 500)
         yield
 
 

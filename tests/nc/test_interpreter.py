@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-import cnctwin.nc.interpreter as interpreter_module
+import cnctwin.nc.owords as owords_module
 from cnctwin.errors import NCError
 from cnctwin.nc.interpreter import Interpreter, interpret_text
 from cnctwin.nc.segments import MotionKind, Plane, Segment
@@ -894,7 +894,7 @@ def test_error_inside_a_subroutine_file_names_that_file(tmp_path: Path) -> None:
 
 
 def test_runaway_loop_is_stopped(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(interpreter_module, "MAX_LOOP_ITERATIONS", 1000)
+    monkeypatch.setattr(owords_module, "MAX_LOOP_ITERATIONS", 1000)
     expect_error("G21\no1 while [1]\n  #2=[#2+1]\no1 endwhile", 4, "runaway")
     expect_error("G21\no1 do\n  #2=[#2+1]\no1 while [1]", 4, "runaway")
 

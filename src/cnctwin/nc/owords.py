@@ -1,0 +1,285 @@
+"""O-word subroutines and control flow (LinuxCNC): sub/endsub/call/return, do/while,
+while/endwhile, if/elseif/else/endif, repeat/endrepeat, break/continue.
+
+Control flow works on the :class:`~cnctwin.nc.source.LineSource` being read: jumps back seek
+to remembered byte offsets, jumps forward read ahead to the matching statement, so a program
+is never held in memory. :class:`OWordControl` is mixed into the interpreter, which provides
+the attributes listed in its docstring.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from cnctwin.errors import NCError
+from cnctwin.nc.expressions import Parameters, read_value
+from cnctwin.nc.lexer import OWord, lex_block, strip_comments
+from cnctwin.nc.source import LineSource
+
+__all__ = ["OWordControl", "MAX_CALL_DEPTH", "MAX_LOOP_ITERATIONS"]
+
+#: Upper bound on the iterations of one O-word loop, against runaway programs.
+MAX_LOOP_ITERATIONS = 1_000_000
+#: Upper bound on nested subroutine calls.
+MAX_CALL_DEPTH = 100
+
+
+class OWordControl:
+    """O-word statements, for the interpreter to inherit.
+
+    The interpreter provides: ``params`` (:class:`Parameters`), ``_file`` and ``_line``
+    (where it reads), ``_line_start`` (byte offset of the current line), ``_sources``
+    (the stack of sources: the program, then subroutine files), ``_frames`` (open
+    call/loop/if frames), ``_subs`` (subroutine label -> (source, offset, line)) and
+    ``_error(message) -> NCError``.
+    """
+
+    params: Parameters
+    _file: str
+    _line: int
+    _line_start: int
+    _sources: list[LineSource]
+    _frames: list[tuple]
+    _subs: dict[str, tuple[LineSource, int, int]]
+    _error: Callable[[str], NCError]
+
+    def _control(self, ow: OWord, src: LineSource) -> bool:
+        """Execute an O-word statement. Returns True if the current source changed."""
+        kw = ow.keyword
+        label = ow.label
+        if kw == "sub":
+            known = self._subs.get(label)
+            if known is not None and known[0] is src and known[1] != src.offset:
+                raise self._error(f"o{label} sub is defined twice")
+            self._subs[label] = (src, src.offset, src.lineno)
+            self._skip_to(src, label, ("endsub",))
+            return False
+        if kw == "call":
+            return self._call(ow, src)
+        if kw in ("endsub", "return"):
+            return self._return(ow, src)
+        if kw == "if":
+            if self._condition(ow):
+                self._frames.append(("if", label, True))
+            else:
+                self._branch(src, label)
+            return False
+        if kw in ("elseif", "else"):
+            frame = self._top_frame("if", label, kw)
+            if frame[2]:
+                self._skip_to(src, label, ("endif",))
+                self._frames.pop()
+            else:
+                raise self._error(f"o{label} {kw} without a matching o{label} if")
+            return False
+        if kw == "endif":
+            self._top_frame("if", label, kw)
+            self._frames.pop()
+            return False
+        if kw == "do":
+            self._frames.append(("do", label, src.offset, src.lineno, 0))
+            return False
+        if kw == "while":
+            if self._frames and self._frames[-1][0] == "do" and self._frames[-1][1] == label:
+                frame = self._frames[-1]
+                if self._condition(ow):
+                    self._loop_back(src, frame)
+                else:
+                    self._frames.pop()
+                return False
+            if not (
+                self._frames and self._frames[-1][0] == "while" and self._frames[-1][1] == label
+            ):
+                # Remember where the while statement starts, to evaluate it again.
+                self._frames.append(("while", label, self._line_start, src.lineno - 1, 0))
+            if not self._condition(ow):
+                self._frames.pop()
+                self._skip_to(src, label, ("endwhile",))
+            return False
+        if kw == "endwhile":
+            frame = self._top_frame("while", label, kw)
+            self._loop_back(src, frame)
+            return False
+        if kw == "repeat":
+            count = self._argument(ow)
+            if count != int(count) or count < 0:
+                raise self._error(f"o{label} repeat count {count:g} must be a whole number >= 0")
+            if count == 0:
+                self._skip_to(src, label, ("endrepeat",))
+            else:
+                self._frames.append(("repeat", label, src.offset, src.lineno, int(count)))
+            return False
+        if kw == "endrepeat":
+            frame = self._top_frame("repeat", label, kw)
+            remaining = frame[4] - 1
+            self._frames.pop()
+            if remaining > 0:
+                self._frames.append((frame[0], frame[1], frame[2], frame[3], remaining))
+                src.seek(frame[2], frame[3])
+            return False
+        if kw == "break":
+            while self._frames:
+                frame = self._frames.pop()
+                if frame[1] == label and frame[0] in ("while", "do", "repeat"):
+                    end = {"while": ("endwhile",), "do": ("while",), "repeat": ("endrepeat",)}
+                    self._skip_to(src, label, end[frame[0]])
+                    return False
+                if frame[0] == "call":
+                    break
+            raise self._error(f"o{label} break outside an o{label} loop")
+        if kw == "continue":
+            for index in range(len(self._frames) - 1, -1, -1):
+                frame = self._frames[index]
+                if frame[1] == label and frame[0] in ("while", "do", "repeat"):
+                    del self._frames[index + 1 :]
+                    if frame[0] == "while":
+                        self._loop_back(src, frame)
+                        return False
+                    end = ("endrepeat",) if frame[0] == "repeat" else ("while",)
+                    self._skip_to(src, label, end, stop_before=True)
+                    return False
+                if frame[0] == "call":
+                    break
+            raise self._error(f"o{label} continue outside an o{label} loop")
+        raise self._error(f"o-word keyword '{kw}' is not supported")  # pragma: no cover
+
+    def _top_frame(self, kind: str, label: str, keyword: str) -> tuple:
+        if not self._frames or self._frames[-1][0] != kind or self._frames[-1][1] != label:
+            raise self._error(f"o{label} {keyword} without a matching o{label} {kind}")
+        return self._frames[-1]
+
+    def _loop_back(self, src: LineSource, frame: tuple) -> None:
+        count = frame[4] + 1
+        if count > MAX_LOOP_ITERATIONS:
+            raise self._error(
+                f"o{frame[1]} loop ran {MAX_LOOP_ITERATIONS} times: stopped as a runaway loop"
+            )
+        self._frames[-1] = (frame[0], frame[1], frame[2], frame[3], count)
+        src.seek(frame[2], frame[3])
+
+    def _condition(self, ow: OWord) -> bool:
+        return self._argument(ow) != 0.0
+
+    def _argument(self, ow: OWord) -> float:
+        if ow.args_pos >= len(ow.text):
+            raise self._error(f"o{ow.label} {ow.keyword} needs a [condition]")
+        value, pos = read_value(ow.text, ow.args_pos, self.params)
+        if pos != len(ow.text):
+            raise self._error(
+                f"unexpected text '{ow.text[pos:]}' after o{ow.label} {ow.keyword} [...]"
+            )
+        return value
+
+    def _branch(self, src: LineSource, label: str) -> None:
+        """The if (or elseif) condition was false: find the branch to run."""
+        while True:
+            ow = self._skip_to(src, label, ("elseif", "else", "endif"))
+            if ow.keyword == "endif":
+                return
+            if ow.keyword == "else":
+                self._frames.append(("if", label, True))
+                return
+            if self._condition(ow):
+                self._frames.append(("if", label, True))
+                return
+
+    def _skip_to(
+        self, src: LineSource, label: str, keywords: tuple[str, ...], stop_before: bool = False
+    ) -> OWord:
+        """Read forward to the O-word ``o<label> <keyword>``; return it."""
+        start_line = self._line
+        for lineno, start, raw in src:
+            self._line = lineno
+            low = raw.lower()
+            if "o" not in low:
+                continue
+            try:
+                text = "".join(strip_comments(raw).split()).lower()
+            except NCError:
+                continue
+            if not text.startswith("o"):
+                continue
+            block = lex_block(text, self.params) if text[1:2] else None
+            if block is None or block.oword is None or block.oword.label != label:
+                continue
+            if block.oword.keyword in keywords:
+                if stop_before:
+                    src.seek(start, lineno - 1)
+                return block.oword
+        self._line = start_line
+        raise self._error(f"o{label}: no matching o{label} {' or '.join(keywords)} found")
+
+    def _call(self, ow: OWord, src: LineSource) -> bool:
+        label = ow.label
+        return_to = (src.offset, src.lineno)
+        args: list[float] = []
+        pos = ow.args_pos
+        text = ow.text
+        while pos < len(text):
+            if text[pos] != "[":
+                raise self._error(
+                    f"o{label} call arguments must be bracketed expressions like [1.5]"
+                )
+            value, pos = read_value(text, pos, self.params)
+            args.append(value)
+        if len(args) > 30:
+            raise self._error(f"o{label} call has {len(args)} arguments; at most 30 are allowed")
+        if sum(1 for fr in self._frames if fr[0] == "call") >= MAX_CALL_DEPTH:
+            raise self._error(f"o{label} call nested deeper than {MAX_CALL_DEPTH} levels")
+        target = self._subs.get(label)
+        if target is None:
+            target = self._find_sub(label, src)
+        sub_src, offset, lineno = target
+        self._frames.append(("call", label, src, return_to[0], return_to[1], self._file))
+        self.params.push_call(args)
+        if sub_src is not src:
+            self._sources.append(sub_src)
+        sub_src.seek(offset, lineno)
+        return sub_src is not src
+
+    def _find_sub(self, label: str, src: LineSource) -> tuple[LineSource, int, int]:
+        """Find a subroutine defined later in the file or in a file named after it."""
+        here = (src.offset, src.lineno)
+        line = self._line
+        try:
+            self._skip_to(src, label, ("sub",))
+            found = (src, src.offset, src.lineno)
+            self._subs[label] = found
+            src.seek(*here)
+            self._line = line
+            return found
+        except NCError:
+            src.seek(*here)
+            self._line = line
+        if label.startswith("<"):
+            name = label[1:-1]
+            folder = Path(self._file).parent
+            for candidate in (folder / f"{name}.ngc", folder / f"{name.upper()}.ngc"):
+                if candidate.is_file():
+                    sub_src = LineSource.from_path(candidate)
+                    for _lineno, _start, raw in sub_src:
+                        text = "".join(strip_comments(raw).split()).lower()
+                        if text.startswith(f"o{label}sub"):
+                            found = (sub_src, sub_src.offset, sub_src.lineno)
+                            self._subs[label] = found
+                            return found
+                    sub_src.close()
+        raise self._error(f"o{label} call: no subroutine o{label} is defined")
+
+    def _return(self, ow: OWord, src: LineSource) -> bool:
+        while self._frames and self._frames[-1][0] != "call":
+            self._frames.pop()
+        if not self._frames:
+            if ow.keyword == "endsub":
+                raise self._error(f"o{ow.label} endsub without a matching o{ow.label} sub")
+            raise self._error(f"o{ow.label} return outside a subroutine")
+        if ow.args_pos < len(ow.text):
+            self.params["_value"] = self._argument(ow)
+        _, _, ret_src, offset, lineno, _file = self._frames.pop()
+        self.params.pop_call()
+        ret_src.seek(offset, lineno)
+        if ret_src is not src:
+            self._sources.pop()
+            return True
+        return False
