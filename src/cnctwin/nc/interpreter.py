@@ -17,6 +17,7 @@ import re
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
+from typing import NoReturn
 
 from cnctwin.errors import NCError
 from cnctwin.nc.canned_cycles import CycleSpec, expand_cycle
@@ -704,7 +705,7 @@ class Interpreter(OWordControl):
                     "block; remove it or add the G-code that takes it"
                 )
 
-    def _reject_g(self, code: int) -> None:
+    def _reject_g(self, code: int) -> NoReturn:
         if code in _UNSUPPORTED_G:
             raise self._error(f"{_UNSUPPORTED_G[code]} is not supported")
         raise self._error(
@@ -800,12 +801,11 @@ class Interpreter(OWordControl):
                 words.get("z", 0.0) * f,
             ]
         elif code == 432:
-            number = words.get("h")
-            entry = self._tools.get(int(number)) if number is not None else None
-            if entry is None:
+            extra = self._tools.get(int(words.get("h", -1.0)))
+            if extra is None:
                 raise self._error("G43.2 needs H<tool> with a tool in the tool table")
-            self._tool_offset[0] += entry.x_offset_mm
-            self._tool_offset[2] += entry.length_mm
+            self._tool_offset[0] += extra.x_offset_mm
+            self._tool_offset[2] += extra.length_mm
         self._update_offsets()
 
     def _tool_entry(self, number: int, consequence: str) -> ToolEntry:
@@ -1230,24 +1230,20 @@ class Interpreter(OWordControl):
         state = self._state
         if state.spindle_direction == 0 or state.programmed_speed <= 0:
             raise self._error("G33.1 rigid tapping needs the spindle turning (M3/M4 with S)")
-        start = list(self._pos)
-        target = self._target(words)
+        start: Vec3 = (self._pos[0], self._pos[1], self._pos[2])
+        end = self._target(words)
+        target: Vec3 = (end[0], end[1], end[2])
         pitch_mm = words["k"] * self._factor
         rpm = self._spindle_rpm()
         feed = pitch_mm * rpm
-        length = math.dist(start, target)
-        down = Segment(
-            MotionKind.LINEAR, self._line, tuple(start), tuple(target), feed, rpm, state,
-            start_abc_deg=tuple(self._abc), end_abc_deg=tuple(self._abc), file=self._file,
-        )  # type: ignore[arg-type]
-        reverse = replace(state, spindle_direction=-state.spindle_direction)
-        up = Segment(
-            MotionKind.LINEAR, self._line, tuple(target), tuple(start), feed, rpm, reverse,
-            start_abc_deg=tuple(self._abc), end_abc_deg=tuple(self._abc), file=self._file,
-        )  # type: ignore[arg-type]
-        if length > 0:
-            self._emit(down)
-            self._emit(up)
+        abc = self._abc
+        if math.dist(start, target) > 0:
+            reverse = replace(state, spindle_direction=-state.spindle_direction)
+            for a, b, st in ((start, target, state), (target, start, reverse)):
+                self._emit(
+                    Segment(MotionKind.LINEAR, self._line, a, b, feed, rpm, st,
+                            start_abc_deg=abc, end_abc_deg=abc, file=self._file)
+                )
 
     def _dwell(self, words: dict[str, float]) -> None:
         seconds = words.get("p")

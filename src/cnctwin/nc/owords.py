@@ -136,8 +136,8 @@ class OWordControl:
                     if frame[0] == "while":
                         self._loop_back(src, frame)
                         return False
-                    end = ("endrepeat",) if frame[0] == "repeat" else ("while",)
-                    self._skip_to(src, label, end, stop_before=True)
+                    closing = ("endrepeat",) if frame[0] == "repeat" else ("while",)
+                    self._skip_to(src, label, closing, stop_before=True)
                     return False
                 if frame[0] == "call":
                     break
