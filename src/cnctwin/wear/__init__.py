@@ -1,8 +1,22 @@
-"""Tool condition twins: wear estimation from spindle torque, wear stages and remaining life.
+"""Tool condition twins: wear estimation from spindle torque, wear stages and remaining life;
+wear compensation in turning from part measurements (tool twin, lathe twin, heritage).
 
-Units follow the papers, named in every argument: wear in mm, material in mm^3, torque in N m.
+Units of the torque-based twins follow their paper, named in every argument: wear in mm,
+material in mm^3, torque in N m. The compensation twins (Bolyn 2023) are in SI: deviations and
+corrections in m, drifts in m per part.
 """
 
+from cnctwin.wear.compensation import (
+    STABILITY_CRITERION,
+    EndOfLifeSigns,
+    Heritage,
+    LatheTwin,
+    ManufacturingParameters,
+    Observation,
+    ToolTwin,
+    drift_fit,
+    round_to_resolution,
+)
 from cnctwin.wear.ekf import (
     CHRISTIAND2024,
     EKFPreset,
@@ -13,21 +27,36 @@ from cnctwin.wear.ekf import (
     material_removed_mm3,
 )
 from cnctwin.wear.fitting import LogisticFit, fit_logistic_wear, logistic_wear_curve
+from cnctwin.wear.lathe_simulator import TESTS, LatheRun, LatheScenario, run_test, simulate
 from cnctwin.wear.stages import RemainingLife, StageEvent, StageMonitor, remaining_life
 
 __all__ = [
     "CHRISTIAND2024",
+    "STABILITY_CRITERION",
+    "TESTS",
     "EKFPreset",
     "EKFStep",
+    "EndOfLifeSigns",
+    "Heritage",
+    "LatheRun",
+    "LatheScenario",
+    "LatheTwin",
     "LogisticFit",
     "LogisticWear",
+    "ManufacturingParameters",
+    "Observation",
     "RemainingLife",
     "StageEvent",
     "StageMonitor",
+    "ToolTwin",
     "WearEKF",
     "WearTorque",
+    "drift_fit",
     "fit_logistic_wear",
     "logistic_wear_curve",
     "material_removed_mm3",
     "remaining_life",
+    "round_to_resolution",
+    "run_test",
+    "simulate",
 ]

@@ -29,10 +29,13 @@ only), so a registry can store and restore twins.
 from __future__ import annotations
 
 import math
+import numbers
 import operator
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, SupportsIndex
+
+import numpy as np
 
 from cnctwin.errors import ConfigError, DataError
 
@@ -56,6 +59,9 @@ STABILITY_CRITERION = 0.05
 #: serve as heritage. The paper asks only that the parameters "do not change significantly";
 #: 10 % is our choice.
 MAX_PARAMETER_DISTANCE = 0.10
+
+#: Where the drift a correction is based on comes from.
+Source = Literal["own", "heritage", "none"]
 
 
 def round_to_resolution(value: float, resolution: float) -> float:
@@ -291,7 +297,7 @@ class Observation:
     sigma: float | None
     trusted: bool
     slope_in_use: float | None
-    source: str
+    source: Source
     correction: float
     offset: float
 
@@ -373,6 +379,7 @@ class ToolTwin:
     trusted: list[bool] = field(default_factory=list)
     corrections: list[float] = field(default_factory=list)
     _offsets: list[float] = field(default_factory=list, init=False, repr=False)
+    _offset: float = field(default=0.0, init=False, repr=False)
     _s_id: float = field(default=0.0, init=False, repr=False)
     _s_ii: float = field(default=0.0, init=False, repr=False)
     _s_dd: float = field(default=0.0, init=False, repr=False)
@@ -393,13 +400,13 @@ class ToolTwin:
         )
         if any(len(column) != len(self.parts) for column in history):
             raise DataError(f"tool twin {self.tool_id!r}: history columns differ in length")
-        offset = self.initial_correction
+        self._offset = self.initial_correction
         for part, measured, correction in zip(
             self.parts, self.measured, self.corrections, strict=True
         ):
-            self._offsets.append(offset)
-            self._accumulate(part, measured - offset)
-            offset += correction
+            self._offsets.append(self._offset)
+            self._accumulate(part, measured - self._offset)
+            self._offset += correction
 
     # -- state ------------------------------------------------------------------------------
 
@@ -411,7 +418,7 @@ class ToolTwin:
     @property
     def offset(self) -> float:
         """Cumulative correction in force for the next part, m."""
-        return self.initial_correction + math.fsum(self.corrections)
+        return self._offset
 
     @property
     def deviations(self) -> list[float]:
@@ -450,7 +457,7 @@ class ToolTwin:
         """The drift corrections are based on now: own if trusted, else inherited, else None."""
         return self._slope_in_use()[0]
 
-    def _slope_in_use(self) -> tuple[float | None, str]:
+    def _slope_in_use(self) -> tuple[float | None, Source]:
         if self.is_trusted:
             return self.slopes[-1], "own"
         if self.heritage is not None:
@@ -479,9 +486,10 @@ class ToolTwin:
             )
         correction = self._correction_for(1)
         self.initial_correction += correction
+        self._offset += correction
         return correction
 
-    def observe(self, measured_deviation: float, part: int | None = None) -> Observation:
+    def observe(self, measured_deviation: float, part: SupportsIndex | None = None) -> Observation:
         """Take one measured part, update the drift and return the correction to apply.
 
         The correction returned is counted as applied: the lathe applies it before the
@@ -531,6 +539,7 @@ class ToolTwin:
         self.trusted.append(change is not None and change < self.criterion)
         correction = self._correction_for(number + 1)
         self.corrections.append(correction)
+        self._offset += correction
         in_use, source = self._slope_in_use()
         return Observation(
             part=number,
@@ -543,7 +552,7 @@ class ToolTwin:
             slope_in_use=in_use,
             source=source,
             correction=correction,
-            offset=offset + correction,
+            offset=self._offset,
         )
 
     def end_of_life(self, window: int = 10, confidence: float = 0.99) -> EndOfLifeSigns | None:
@@ -574,22 +583,17 @@ class ToolTwin:
             raise ConfigError(f"end-of-life confidence must be in (0.5, 1); got {confidence!r}")
         if self.count < 2 * window:
             return None
-        x = [float(p) for p in self.parts]
-        d = self.deviations
+        x = np.asarray(self.parts, dtype=float)
+        d = np.asarray(self.measured) - np.asarray(self._offsets)
         ref_x, ref_d, win_x, win_d = x[:-window], d[:-window], x[-window:], d[-window:]
-        ref_slope, _ = drift_fit(ref_x, ref_d)
-        ref_ii = math.fsum(i * i for i in ref_x)
-        ref_rss = math.fsum((di - ref_slope * i) ** 2 for i, di in zip(ref_x, ref_d, strict=True))
-        ref_dof = len(ref_x) - 1
-        ref_sigma = math.sqrt(ref_rss / ref_dof)
-        mean_x, mean_d = math.fsum(win_x) / window, math.fsum(win_d) / window
-        sxx = math.fsum((i - mean_x) ** 2 for i in win_x)
-        recent = math.fsum((i - mean_x) * (di - mean_d) for i, di in zip(win_x, win_d, strict=True))
-        recent /= sxx
-        win_rss = math.fsum(
-            (di - mean_d - recent * (i - mean_x)) ** 2 for i, di in zip(win_x, win_d, strict=True)
-        )
-        recent_sigma = math.sqrt(win_rss / (window - 2))
+        ref_ii = float(ref_x @ ref_x)
+        ref_slope = float(ref_x @ ref_d) / ref_ii
+        ref_dof = ref_x.size - 1
+        ref_sigma = math.sqrt(float(np.sum((ref_d - ref_slope * ref_x) ** 2)) / ref_dof)
+        dx, dd = win_x - win_x.mean(), win_d - win_d.mean()
+        sxx = float(dx @ dx)
+        recent = float(dx @ dd) / sxx
+        recent_sigma = math.sqrt(float(np.sum((dd - recent * dx) ** 2)) / (window - 2))
         direction = 1.0 if ref_slope >= 0 else -1.0
         if ref_sigma > 0:
             t = direction * (recent - ref_slope) / (ref_sigma * math.sqrt(1 / sxx + 1 / ref_ii))
@@ -765,9 +769,7 @@ class LatheTwin:
         """
         if tool_id in self.active:
             raise ConfigError(f"tool {tool_id!r} is already mounted; retire it first")
-        heritage = (
-            self.select_heritage(parameters) if inherit and parameters is not None else None
-        )
+        heritage = self.select_heritage(parameters) if inherit and parameters is not None else None
         twin = ToolTwin(
             tool_id,
             parameters,
@@ -780,7 +782,7 @@ class LatheTwin:
         return twin
 
     def measure(
-        self, tool_id: str, measured_deviation: float, part: int | None = None
+        self, tool_id: str, measured_deviation: float, part: SupportsIndex | None = None
     ) -> Observation:
         """Feed a measured part to the tool's twin (see :meth:`ToolTwin.observe`).
 
@@ -825,7 +827,9 @@ class LatheTwin:
     def from_dict(cls, data: Mapping[str, Any]) -> LatheTwin:
         """Rebuild a lathe twin from :meth:`to_dict`."""
         values = _pick(
-            data, cls.__name__, ("resolution", "criterion", "max_parameter_distance", "active", "retired")
+            data,
+            cls.__name__,
+            ("resolution", "criterion", "max_parameter_distance", "active", "retired"),
         )
         active = [ToolTwin.from_dict(item) for item in values.pop("active")]
         retired = [ToolTwin.from_dict(item) for item in values.pop("retired")]
@@ -839,11 +843,10 @@ def _check_resolution(value: float, name: str) -> None:
 
 def _finite(value: object, what: str) -> float:
     """``value`` as a finite float; DataError naming ``what`` otherwise."""
-    try:
-        number = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        number = math.nan
-    if isinstance(value, bool) or not math.isfinite(number):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise DataError(f"{what} must be a finite number; got {value!r}")
+    number = float(value)
+    if not math.isfinite(number):
         raise DataError(f"{what} must be a finite number; got {value!r}")
     return number
 
