@@ -17,7 +17,7 @@ from typing import Annotated
 import typer
 
 from cnctwin import __version__
-from cnctwin.cli import demo, nc, wear
+from cnctwin.cli import demo, nc, wear, wear_ekf
 from cnctwin.errors import CnctwinError
 
 __all__ = ["app", "main", "run"]
@@ -34,6 +34,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 app.add_typer(nc.app, name="nc")
+wear.app.command("ekf")(wear_ekf.ekf)
 app.add_typer(wear.app, name="wear")
 app.command("demo")(demo.demo)
 

@@ -27,14 +27,27 @@ from cnctwin.wear.ekf import (
     material_removed_mm3,
 )
 from cnctwin.wear.fitting import LogisticFit, fit_logistic_wear, logistic_wear_curve
-from cnctwin.wear.lathe_simulator import TESTS, LatheRun, LatheScenario, run_test, simulate
+from cnctwin.wear.lathe_simulator import (
+    TESTS,
+    LatheRun,
+    LatheScenario,
+    run_test,
+    simulate,
+)
 from cnctwin.wear.stages import RemainingLife, StageEvent, StageMonitor, remaining_life
+from cnctwin.wear.torque_series import (
+    EKFRun,
+    TorqueSeries,
+    run_filter,
+    synthetic_session,
+)
 
 __all__ = [
     "CHRISTIAND2024",
     "STABILITY_CRITERION",
     "TESTS",
     "EKFPreset",
+    "EKFRun",
     "EKFStep",
     "EndOfLifeSigns",
     "Heritage",
@@ -49,6 +62,7 @@ __all__ = [
     "StageEvent",
     "StageMonitor",
     "ToolTwin",
+    "TorqueSeries",
     "WearEKF",
     "WearTorque",
     "drift_fit",
@@ -57,6 +71,8 @@ __all__ = [
     "material_removed_mm3",
     "remaining_life",
     "round_to_resolution",
+    "run_filter",
     "run_test",
     "simulate",
+    "synthetic_session",
 ]

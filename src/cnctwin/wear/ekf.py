@@ -276,7 +276,6 @@ class WearEKF:
         return EKFStep(prior, prior_var, post, post_var, innovation, gain, predicted)
 
 
-
 @dataclass(frozen=True, slots=True)
 class EKFPreset:
     """A named set of filter parameters.
@@ -321,7 +320,9 @@ class EKFPreset:
 #: the size of the paper's Table 7.
 CHRISTIAND2024 = EKFPreset(
     propagation=LogisticWear(q_per_mm3=1.43, vb_max_mm=0.663),
-    wear_torque=WearTorque(p0_nm=1.27e-4, p1_per_mm=8.0e5, p2=0.244, p3_per_mm=0.366, p4_nm=9.58e-4),
+    wear_torque=WearTorque(
+        p0_nm=1.27e-4, p1_per_mm=8.0e5, p2=0.244, p3_per_mm=0.366, p4_nm=9.58e-4
+    ),
     process_var_mm2=4.34e-8,
     measurement_var_nm2=1.6e-5,
 )

@@ -18,8 +18,12 @@ from cnctwin.wear.ekf import LogisticWear
 
 __all__ = ["RemainingLife", "StageEvent", "StageMonitor", "remaining_life"]
 
-STAGE_NAMES = ("I slow initial wear", "II rapid initial wear", "III steady-state wear",
-               "IV rapid wear before failure")
+STAGE_NAMES = (
+    "I slow initial wear",
+    "II rapid initial wear",
+    "III steady-state wear",
+    "IV rapid wear before failure",
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,8 +53,10 @@ class StageEvent:
     @property
     def message(self) -> str:
         """One line for the operator."""
-        text = f"tool entered stage {STAGE_NAMES[self.stage - 1]} at {self.time_s:.1f} s " \
-               f"(VB {self.vb_mm:.3f} mm)"
+        text = (
+            f"tool entered stage {STAGE_NAMES[self.stage - 1]} at {self.time_s:.1f} s "
+            f"(VB {self.vb_mm:.3f} mm)"
+        )
         if self.early:
             text += f", {self.expected_s - self.time_s:.1f} s earlier than normal"
         return text
@@ -93,9 +99,7 @@ class StageMonitor:
         while self.stage < 4 and vb_mm >= self.boundaries_mm[self.stage - 1]:
             self.stage += 1
             expected = self.expected_entry_s[self.stage - 2]
-            events.append(
-                StageEvent(self.stage, time_s, vb_mm, expected, time_s < expected)
-            )
+            events.append(StageEvent(self.stage, time_s, vb_mm, expected, time_s < expected))
         return events
 
 
@@ -150,9 +154,7 @@ def remaining_life(
         Width of the band in standard deviations.
     """
     if not (0 < limit_mm < law.vb_max_mm):
-        raise ValueError(
-            f"limit_mm must lie in (0, vb_max_mm={law.vb_max_mm}); got {limit_mm!r}"
-        )
+        raise ValueError(f"limit_mm must lie in (0, vb_max_mm={law.vb_max_mm}); got {limit_mm!r}")
     spread = sigmas * math.sqrt(max(var_mm2, 0.0))
     floor = 1e-6 * law.vb_max_mm
     mid = law.material_to_reach_mm3(max(vb_mm, floor), limit_mm)
