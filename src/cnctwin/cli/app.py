@@ -17,7 +17,7 @@ from typing import Annotated
 import typer
 
 from cnctwin import __version__
-from cnctwin.cli import demo, nc, wear, wear_ekf
+from cnctwin.cli import demo, nc, wear, wear_ekf, wear_registry
 from cnctwin.errors import CnctwinError
 
 __all__ = ["app", "main", "run"]
@@ -35,6 +35,8 @@ app = typer.Typer(
 )
 app.add_typer(nc.app, name="nc")
 wear.app.command("ekf")(wear_ekf.ekf)
+for _name in ("mount", "compensate", "retire", "history"):
+    wear.app.command(_name)(getattr(wear_registry, _name))
 app.add_typer(wear.app, name="wear")
 app.command("demo")(demo.demo)
 

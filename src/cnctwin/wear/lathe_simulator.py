@@ -11,7 +11,7 @@ then run the new tool.
 
 The paper gives the parameters of Tables 2-3 but neither the random draws nor the number of
 parts per test; its figures show a few tens of parts, so a test runs 30 parts by default and
-every result is a distribution over seeds (docs/_validation_wear_compensation.md).
+every result is a distribution over seeds (docs/validation.md).
 
 All lengths in metres, drifts in metres per part.
 """
