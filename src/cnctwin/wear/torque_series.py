@@ -13,14 +13,17 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from cnctwin.drives import spindle_preset
 from cnctwin.wear.ekf import EKFPreset, WearEKF, material_removed_mm3
 from cnctwin.wear.stages import StageEvent, StageMonitor
 
 __all__ = ["TorqueSeries", "EKFRun", "run_filter", "synthetic_session", "IDLE_TORQUE_NM"]
 
-#: Idle (no-load) spindle torque of Christiand 2024's drive at 20,000 rpm: B w with
-#: B = 6e-7 N m s (Table 5), N m.
-IDLE_TORQUE_NM = 6.0e-7 * 20_000.0 * 2.0 * math.pi / 60.0
+#: Idle (no-load) motor torque of Christiand 2024's spindle drive (preset
+#: ``christiand2024`` of :mod:`cnctwin.drives`) holding 20,000 rpm, N m.
+IDLE_TORQUE_NM = (
+    spindle_preset("christiand2024").motor.steady_state(20_000.0 * 2.0 * math.pi / 60.0).torque
+)
 
 
 @dataclass(frozen=True, slots=True)
