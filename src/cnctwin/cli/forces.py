@@ -1,0 +1,211 @@
+"""``cnctwin forces``: mean milling forces, torque and power of one cut (a shop-floor calculator).
+
+A flat end mill in a straight cut of radial depth ae and axial depth ap, coefficients from the
+materials library (``--material``) or given (``--ktc ... --kae``). Customary units at this
+edge (mm, rpm, N/mm^2, N/mm); the model (:mod:`cnctwin.mechanics`) works in SI.
+
+Frame and signs: forces on the tool; x along the feed, y normal to it in the plane (to the
+left of the feed seen from the spindle), z along the tool axis toward the spindle; the spindle
+turns clockwise seen from the spindle (M3). Up-milling cuts on the +y side, down-milling on
+the -y side. Torque and power are positive while cutting.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from cnctwin.errors import ConfigError
+
+__all__ = ["forces", "forces_report"]
+
+_SLICES = 50
+_STEPS = 360
+
+
+def forces_report(
+    *,
+    diameter_mm: float,
+    teeth: int,
+    helix_deg: float,
+    ae_mm: float,
+    ap_mm: float,
+    fz_mm: float,
+    rpm: float,
+    material: str | None = None,
+    coefficients_n_mm: dict[str, float] | None = None,
+    down_milling: bool = True,
+) -> dict[str, Any]:
+    """Mean and peak forces of one cut, in the units of ``cnctwin forces --json``.
+
+    Parameters
+    ----------
+    diameter_mm, teeth, helix_deg
+        Flat end mill: diameter in mm, number of teeth, helix angle in degrees.
+    ae_mm, ap_mm, fz_mm
+        Radial and axial depths of cut and feed per tooth, in mm.
+    rpm
+        Spindle speed in rev/min.
+    material
+        Name of a milling entry of the materials library; exclusive with ``coefficients_n_mm``.
+    coefficients_n_mm
+        ``ktc_n_mm2``, ``krc_n_mm2``, ``kac_n_mm2`` (N/mm^2), ``kte_n_mm``, ``kre_n_mm``,
+        ``kae_n_mm`` (N/mm); missing keys are 0.
+    down_milling
+        Down- (climb) milling if True, up- (conventional) milling if False.
+
+    Returns
+    -------
+    dict
+        ``mean_fx_n``, ``mean_fy_n``, ``mean_fz_n``, ``mean_resultant_n`` (magnitude of the
+        mean force), ``max_resultant_n`` (over a revolution), ``mean_torque_nm``,
+        ``mean_power_w``, then ``entry_deg``, ``exit_deg``, ``milling``, ``material``.
+
+    Raises
+    ------
+    ConfigError
+        For a value out of range, an unknown material, or both or neither coefficient sources.
+    """
+    from cnctwin.mechanics import (
+        CuttingCoefficients,
+        EndMill,
+        Engagement,
+        immersion_angles,
+        mean_forces,
+        milling_forces,
+    )
+    from cnctwin.mechanics.materials import milling_material
+
+    _check_positive("--diameter-mm", diameter_mm)
+    _check_positive("--ap-mm", ap_mm)
+    _check_positive("--fz-mm", fz_mm)
+    _check_positive("--rpm", rpm)
+    if not (math.isfinite(ae_mm) and 0.0 < ae_mm <= diameter_mm):
+        raise ConfigError(f"--ae-mm {ae_mm!r}; give 0 < ae <= the diameter ({diameter_mm!r} mm)")
+    if teeth < 1:
+        raise ConfigError(f"--teeth {teeth!r}; give an integer >= 1")
+    if not (math.isfinite(helix_deg) and 0.0 <= helix_deg < 90.0):
+        raise ConfigError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
+    if material is not None and coefficients_n_mm is None:
+        coefficients = milling_material(material).coefficients
+    elif material is None and coefficients_n_mm is not None:
+        coefficients = CuttingCoefficients.from_n_mm(**coefficients_n_mm)
+    else:
+        raise ConfigError("give either --material NAME or the coefficients --ktc and --krc")
+    cutter = EndMill(diameter_m=diameter_mm * 1e-3, teeth=teeth, helix_rad=math.radians(helix_deg))
+    cut = Engagement.from_depths(
+        cutter, ae_mm * 1e-3, ap_mm * 1e-3, down_milling=down_milling, slices=_SLICES
+    )
+    omega = rpm * 2.0 * math.pi / 60.0
+    mean = mean_forces(cutter, coefficients, cut, fz_mm * 1e-3, omega)
+    wave = milling_forces(cutter, coefficients, cut, fz_mm * 1e-3, omega, steps=_STEPS)
+    entry, exit_ = immersion_angles(cutter.diameter_m, ae_mm * 1e-3, down_milling)
+    return {
+        "mean_fx_n": mean.fx_n,
+        "mean_fy_n": mean.fy_n,
+        "mean_fz_n": mean.fz_n,
+        "mean_resultant_n": mean.resultant_n,
+        "max_resultant_n": float(wave.resultant_n.max()),
+        "mean_torque_nm": mean.torque_nm,
+        "mean_power_w": mean.power_w,
+        "entry_deg": math.degrees(entry),
+        "exit_deg": math.degrees(exit_),
+        "milling": "down" if down_milling else "up",
+        "material": material,
+    }
+
+
+def _check_positive(option: str, value: float) -> None:
+    if not (math.isfinite(value) and value > 0.0):
+        raise ConfigError(f"{option} {value!r}; give a finite value > 0")
+
+
+def _coefficient(name: str, unit: str) -> Any:
+    return typer.Option(f"--{name}", help=f"{name.capitalize()} coefficient in {unit}.")
+
+
+def forces(
+    diameter_mm: Annotated[float, typer.Option("--diameter-mm", help="Cutter diameter in mm.")],
+    teeth: Annotated[int, typer.Option("--teeth", help="Number of teeth (flutes).")],
+    helix_deg: Annotated[float, typer.Option("--helix-deg", help="Helix angle in degrees.")],
+    ae_mm: Annotated[float, typer.Option("--ae-mm", help="Radial depth of cut in mm.")],
+    ap_mm: Annotated[float, typer.Option("--ap-mm", help="Axial depth of cut in mm.")],
+    fz_mm: Annotated[float, typer.Option("--fz-mm", help="Feed per tooth in mm.")],
+    rpm: Annotated[float, typer.Option("--rpm", help="Spindle speed in rev/min.")],
+    material: Annotated[
+        str | None,
+        typer.Option("--material", help="Milling entry of the materials library."),
+    ] = None,
+    ktc: Annotated[float | None, _coefficient("ktc", "N/mm^2")] = None,
+    krc: Annotated[float | None, _coefficient("krc", "N/mm^2")] = None,
+    kac: Annotated[float | None, _coefficient("kac", "N/mm^2")] = None,
+    kte: Annotated[float | None, _coefficient("kte", "N/mm")] = None,
+    kre: Annotated[float | None, _coefficient("kre", "N/mm")] = None,
+    kae: Annotated[float | None, _coefficient("kae", "N/mm")] = None,
+    down: Annotated[
+        bool, typer.Option("--down/--up", help="Down- (climb) or up- (conventional) milling.")
+    ] = True,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+) -> None:
+    """Mean forces, torque and power of a flat end mill in a straight cut.
+
+    Forces on the tool: x along the feed, y normal to it in the plane, z axis to the spindle.
+
+    Coefficients: --material NAME, or --ktc and --krc (--kac --kte --kre --kae default to 0).
+    """
+    given = {
+        "ktc_n_mm2": ktc,
+        "krc_n_mm2": krc,
+        "kac_n_mm2": kac,
+        "kte_n_mm": kte,
+        "kre_n_mm": kre,
+        "kae_n_mm": kae,
+    }
+    explicit = {key: value for key, value in given.items() if value is not None}
+    if explicit and material is not None:
+        raise ConfigError("--material and explicit coefficients exclude each other; give one")
+    if material is None and (ktc is None or krc is None):
+        raise ConfigError("give --material NAME, or at least --ktc and --krc")
+    report = forces_report(
+        diameter_mm=diameter_mm,
+        teeth=teeth,
+        helix_deg=helix_deg,
+        ae_mm=ae_mm,
+        ap_mm=ap_mm,
+        fz_mm=fz_mm,
+        rpm=rpm,
+        material=material,
+        coefficients_n_mm=explicit or None,
+        down_milling=down,
+    )
+    if as_json:
+        sys.stdout.write(json.dumps(report) + "\n")
+        return
+    Console().print(_table(report))
+
+
+def _table(report: dict[str, Any]) -> Table:
+    table = Table(
+        show_header=False,
+        caption="forces on the tool: x feed, y normal in the plane, z tool axis to the spindle",
+        caption_justify="left",
+    )
+    table.add_column("quantity", style="bold")
+    table.add_column("value", justify="right")
+    table.add_row("coefficients", report["material"] or "given")
+    table.add_row("milling", report["milling"])
+    table.add_row("entry / exit", f"{report['entry_deg']:.1f} / {report['exit_deg']:.1f} deg")
+    table.add_row("mean Fx", f"{report['mean_fx_n']:.1f} N")
+    table.add_row("mean Fy", f"{report['mean_fy_n']:.1f} N")
+    table.add_row("mean Fz", f"{report['mean_fz_n']:.1f} N")
+    table.add_row("mean resultant", f"{report['mean_resultant_n']:.1f} N")
+    table.add_row("max resultant", f"{report['max_resultant_n']:.1f} N")
+    table.add_row("mean torque", f"{report['mean_torque_nm']:.3f} N m")
+    table.add_row("mean power", f"{report['mean_power_w']:.0f} W")
+    return table
