@@ -27,6 +27,8 @@ def load_config(path: str | os.PathLike[str]) -> TwinConfig:
     ----------
     path
         A TOML file; relative paths inside it (``tool_table``) are relative to its folder.
+        A CAMotics project (``.camotics``) is read for its tools and workpiece instead
+        (:func:`cnctwin.config.camotics.load_camotics_project`).
 
     Returns
     -------
@@ -41,6 +43,10 @@ def load_config(path: str | os.PathLike[str]) -> TwinConfig:
     """
     path = Path(path)
     source = str(path)
+    if path.suffix.lower() == ".camotics":
+        from cnctwin.config.camotics import load_camotics_project
+
+        return load_camotics_project(path)
     try:
         text = path.read_bytes().decode("utf-8")
     except OSError as err:
