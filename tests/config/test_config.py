@@ -160,7 +160,7 @@ def test_missing_tool_table_names_the_key(tmp_path: Path) -> None:
         (
             "[machin]\nname = 'x'\n",
             "machin: unknown key; valid keys: machine, tools, tool_table, tool_table_units, "
-            "stock, material",
+            "stock, material, simulation",
         ),
         (
             "[machine.work_offsets]\ng60 = [0, 0, 0]\n",

@@ -7,6 +7,7 @@ from cnctwin.config.base import Vec3Mm
 from cnctwin.config.loading import load_config
 from cnctwin.config.machine import AxesConfig, AxisConfig, MachineConfig, WorkOffsets
 from cnctwin.config.material import MaterialConfig
+from cnctwin.config.simulation import SimulationConfig
 from cnctwin.config.stock import BoxStock
 from cnctwin.config.tools import ToolConfig
 from cnctwin.config.twin import TwinConfig
@@ -17,6 +18,7 @@ __all__ = [
     "BoxStock",
     "MachineConfig",
     "MaterialConfig",
+    "SimulationConfig",
     "ToolConfig",
     "TwinConfig",
     "Vec3Mm",

@@ -13,6 +13,7 @@ from pydantic_core import PydanticCustomError
 from cnctwin.config.base import Section
 from cnctwin.config.machine import MachineConfig
 from cnctwin.config.material import MaterialConfig
+from cnctwin.config.simulation import SimulationConfig
 from cnctwin.config.stock import BoxStock
 from cnctwin.config.tools import ToolConfig
 from cnctwin.nc.setup import NCSetup
@@ -41,6 +42,8 @@ class TwinConfig(Section):
         The raw workpiece.
     material
         The workpiece material.
+    simulation
+        Resolution of the cut simulation (dexel density, cycle time).
     """
 
     machine: MachineConfig = Field(default_factory=MachineConfig)
@@ -49,6 +52,7 @@ class TwinConfig(Section):
     tool_table_units: Literal["mm", "inch"] = "mm"
     stock: BoxStock = Field(default_factory=BoxStock)
     material: MaterialConfig = Field(default_factory=MaterialConfig)
+    simulation: SimulationConfig = Field(default_factory=SimulationConfig)
 
     @field_validator("tools")
     @classmethod
