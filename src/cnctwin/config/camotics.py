@@ -4,8 +4,8 @@ A CAMotics project is JSON with ``units`` (``"metric"`` or ``"imperial"``), ``to
 (each with its own ``units``, ``shape``, ``diameter`` and ``length``) and ``workpiece.bounds``
 (``min``/``max`` in the project's units). Shapes map to cnctwin cutters: ``cylindrical`` is a
 flat end mill and ``ballnose`` a ball end mill; ``conical`` and ``snubnose`` are refused with a
-clear error. The tool's ``length`` becomes its flute length. Everything else keeps the
-defaults of :class:`~cnctwin.config.TwinConfig`.
+clear error. The tool's ``length`` becomes its flute length. As in CAMotics, a T word loads
+its tool without M6. Everything else keeps the defaults of :class:`~cnctwin.config.TwinConfig`.
 """
 
 from __future__ import annotations
@@ -97,7 +97,9 @@ def load_camotics_project(path: str | os.PathLike[str]) -> TwinConfig:
         "max_mm": [float(v) * scale for v in bounds["max"]],
     }
     try:
-        return TwinConfig.model_validate({"tools": tools, "stock": stock})
+        return TwinConfig.model_validate(
+            {"tools": tools, "stock": stock, "machine": {"tool_change_on_t": True}}
+        )
     except ValidationError as err:
         first = err.errors()[0]
         key = ".".join(str(p) for p in first["loc"])

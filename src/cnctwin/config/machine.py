@@ -94,6 +94,8 @@ class MachineConfig(Section):
         Machine positions of the G28 and G30 reference points in mm.
     work_offsets
         Initial work offsets G54 to G59.3 in mm.
+    tool_change_on_t
+        A T word loads the tool at once, without M6 (grbl and CAMotics do this).
     """
 
     name: str = "cnctwin machine"
@@ -104,3 +106,4 @@ class MachineConfig(Section):
     g28_home_mm: Vec3Mm = (0.0, 0.0, 0.0)
     g30_home_mm: Vec3Mm = (0.0, 0.0, 0.0)
     work_offsets: WorkOffsets = Field(default_factory=WorkOffsets)
+    tool_change_on_t: bool = False

@@ -118,4 +118,5 @@ class TwinConfig(Section):
             max_spindle_rpm=(
                 machine.max_spindle_rpm if machine.max_spindle_rpm is not None else math.inf
             ),
+            tool_change_on_t=machine.tool_change_on_t,
         )

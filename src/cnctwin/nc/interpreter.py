@@ -776,6 +776,8 @@ class Interpreter(OWordControl):
             self._update_offsets()
             return
         self._selected_tool = number
+        if self.setup.tool_change_on_t:
+            self._change_tool()
 
     def _change_tool(self) -> None:
         tool = self._selected_tool

@@ -59,6 +59,8 @@ class NCSetup:
         Machine position of the controlled point when the program starts, in mm.
     max_spindle_rpm
         Highest spindle speed of the machine in rpm; limits constant surface speed (G96).
+    tool_change_on_t
+        A T word loads the tool at once, without M6 (grbl, CAMotics).
     """
 
     tools: dict[int, ToolEntry] = field(default_factory=dict)
@@ -68,3 +70,4 @@ class NCSetup:
     g30_home_mm: Vec3 = (0.0, 0.0, 0.0)
     initial_position_mm: Vec3 = (0.0, 0.0, 0.0)
     max_spindle_rpm: float = math.inf
+    tool_change_on_t: bool = False
