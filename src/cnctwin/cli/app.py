@@ -17,7 +17,7 @@ from typing import Annotated
 import typer
 
 from cnctwin import __version__
-from cnctwin.cli import demo, forces, nc, wear, wear_ekf, wear_registry
+from cnctwin.cli import demo, forces, nc, simulate, wear, wear_ekf, wear_registry
 from cnctwin.errors import CnctwinError
 
 __all__ = ["app", "main", "run"]
@@ -40,6 +40,7 @@ for _name in ("mount", "compensate", "retire", "history"):
 app.add_typer(wear.app, name="wear")
 app.command("demo")(demo.demo)
 app.command("forces")(forces.forces)
+app.command("simulate")(simulate.simulate)
 
 
 @dataclass

@@ -1,0 +1,561 @@
+"""Tri-dexel stock: material as intervals along rays in x, y and z.
+
+Units: mm for lengths (names end in ``_mm``), mm^2 and mm^3 for areas and volumes, dexels per mm
+for densities.
+
+Grid
+----
+A :class:`DexelGrid` covers an axis-aligned box from ``origin_mm`` with ``shape = (nx, ny, nz)``
+cells of pitch ``pitch_mm = (px, py, pz)``; for a box, ``n = round(size * density)`` per axis (at
+least 1) and ``pitch = size / n``, so the box is represented exactly and the pitch is within half
+a cell of ``1 / density``. Rays run through cell centres, in three families (the multi-dexel model
+of Heide 2025, Sec. 2.2, after Boess et al.):
+
+======  ============================  ================  ==================
+family  ray along, at                 ray index         cell area
+======  ============================  ================  ==================
+``z``   z, at (x_i, y_j)              ``j * nx + i``     ``px * py``
+``x``   x, at (y_j, z_k)              ``k * ny + j``     ``py * pz``
+``y``   y, at (x_i, z_k)              ``k * nx + i``     ``px * pz``
+======  ============================  ================  ==================
+
+with ``x_i = (i + 1/2) px`` etc. relative to the origin. Each family alone represents the whole
+solid; the stock's volume is the mean of the three families' volumes.
+
+Layout (flat arrays, numba-friendly)
+------------------------------------
+Each family keeps, per ray, its material as sorted, disjoint, non-empty intervals ``[lo, hi]``
+(float32, mm, along the ray, relative to the origin, so that float32 keeps ~1e-5 mm at 200 mm):
+
+* ``rows`` (float32, ``(n_rays * capacity + heap rows, 2)``): interval rows ``(lo, hi)``. The
+  first ``n_rays * capacity`` rows are the inline blocks, ``capacity`` rows per ray in ray
+  order; the rest is the overflow heap;
+* ``count`` (int32, one per ray): number of intervals;
+* ``start`` (int32, one per ray): the ray's first row, ``ray * capacity`` while inline;
+* ``block`` (int32, one per ray): the capacity of the ray's block;
+* ``heap_top`` (int64[1]): the first free row of the heap.
+
+A ray that outgrows its block moves to a new block of twice the capacity at the heap's top (its
+old block is left unused). When the heap is full, a kernel stops before touching the ray and
+reports it; the Python side compacts the heap into a larger array and runs the kernel again
+(cuts are idempotent). Material is never dropped: a ray holds any number of intervals. One
+``rows`` array (not inline and heap apart) keeps the kernels free of array aliasing, which costs
+numba a reference count per access.
+
+Memory is ``n_rays * (8 capacity + 12)`` bytes per family plus the heap: a 200 x 200 x 50 mm
+stock at 10 /mm with capacity 2 takes 168 MB (:meth:`DexelStock.estimate_nbytes`).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numba import njit
+
+from cnctwin.errors import ConfigError, DataError
+
+__all__ = ["AXES", "Axis", "DexelGrid", "DexelStock"]
+
+logger = logging.getLogger(__name__)
+
+#: A ray family, named by the axis its rays run along.
+Axis = Literal["x", "y", "z"]
+#: The three families in the order the kernels take them.
+AXES: tuple[Axis, Axis, Axis] = ("z", "x", "y")
+
+_AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
+# For each family: (ray axis, first transverse axis, second transverse axis), axis indices 0-2.
+_FAMILY_AXES = {"z": (2, 0, 1), "x": (0, 1, 2), "y": (1, 0, 2)}
+_INITIAL_HEAP_ROWS = 1024
+_BYTES_PER_RAY_FIXED = 12  # count, start, block (int32 each)
+
+
+@dataclass(frozen=True, slots=True)
+class DexelGrid:
+    """The cells of a tri-dexel stock.
+
+    Attributes
+    ----------
+    origin_mm
+        Lower corner (x, y, z) of the grid in machine coordinates, mm.
+    shape
+        Cells ``(nx, ny, nz)``, each >= 1.
+    pitch_mm
+        Cell size ``(px, py, pz)`` in mm, each > 0.
+    """
+
+    origin_mm: tuple[float, float, float]
+    shape: tuple[int, int, int]
+    pitch_mm: tuple[float, float, float]
+
+    @classmethod
+    def from_box(
+        cls,
+        min_mm: Sequence[float],
+        max_mm: Sequence[float],
+        density_per_mm: float,
+    ) -> DexelGrid:
+        """The grid of a box from ``min_mm`` to ``max_mm`` (mm) at ``density_per_mm`` rays per mm.
+
+        Raises
+        ------
+        ConfigError
+            On a box that is not strictly ordered or not finite, or a density that is not
+            finite and > 0.
+        """
+        lo = _vec3(min_mm, "min_mm")
+        hi = _vec3(max_mm, "max_mm")
+        if not (math.isfinite(density_per_mm) and density_per_mm > 0.0):
+            raise ConfigError(
+                f"density_per_mm={density_per_mm!r}; give a finite dexel density > 0 per mm"
+            )
+        shape = []
+        pitch = []
+        for axis, a, b in zip("xyz", lo, hi, strict=True):
+            if not b > a:
+                raise ConfigError(f"box {axis} from {a} to {b} mm; max_mm must exceed min_mm")
+            n = max(1, round((b - a) * density_per_mm))
+            shape.append(int(n))
+            pitch.append((b - a) / n)
+        return cls(lo, (shape[0], shape[1], shape[2]), (pitch[0], pitch[1], pitch[2]))
+
+    @property
+    def size_mm(self) -> tuple[float, float, float]:
+        """Extent of the grid along x, y, z in mm."""
+        return (
+            self.shape[0] * self.pitch_mm[0],
+            self.shape[1] * self.pitch_mm[1],
+            self.shape[2] * self.pitch_mm[2],
+        )
+
+    def n_rays(self, axis: Axis) -> int:
+        """Number of rays in the family along ``axis``."""
+        _, a, b = _family_axes(axis)
+        return self.shape[a] * self.shape[b]
+
+    def cell_area_mm2(self, axis: Axis) -> float:
+        """Cross-section in mm^2 that one ray of the family along ``axis`` stands for."""
+        _, a, b = _family_axes(axis)
+        return self.pitch_mm[a] * self.pitch_mm[b]
+
+    def ray_coordinates_mm(self, axis: Axis) -> np.ndarray:
+        """Transverse machine coordinates (mm) of every ray of a family, in ray-index order.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_rays, 2)``: for ``z`` rays (x, y), for ``x`` rays (y, z), for ``y`` rays (x, z).
+            This is what a ray caster (an STL loader) needs to fill :meth:`DexelStock.load`.
+        """
+        _, a, b = _family_axes(axis)
+        ua = self.origin_mm[a] + (np.arange(self.shape[a]) + 0.5) * self.pitch_mm[a]
+        ub = self.origin_mm[b] + (np.arange(self.shape[b]) + 0.5) * self.pitch_mm[b]
+        grid_a, grid_b = np.meshgrid(ua, ub, indexing="xy")
+        return np.column_stack([grid_a.ravel(), grid_b.ravel()])
+
+
+class _Family:
+    """The arrays of one ray family (see the module notes for the layout)."""
+
+    __slots__ = ("block", "count", "heap_top", "rows", "start")
+
+    def __init__(self, n_rays: int, capacity: int, heap_rows: int = _INITIAL_HEAP_ROWS) -> None:
+        self.count = np.zeros(n_rays, dtype=np.int32)
+        self.start = np.arange(0, n_rays * capacity, capacity, dtype=np.int32)
+        self.block = np.full(n_rays, capacity, dtype=np.int32)
+        self.rows = np.zeros((n_rays * capacity + heap_rows, 2), dtype=np.float32)
+        self.heap_top = np.array([n_rays * capacity], dtype=np.int64)
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """The arrays as the kernels take them: count, start, block, rows, heap_top."""
+        return (self.count, self.start, self.block, self.rows, self.heap_top)
+
+    @property
+    def nbytes(self) -> int:
+        return sum(a.nbytes for a in self.arrays())
+
+    def grow_heap(self, capacity: int) -> None:
+        """Compact the heap into one at least twice as large (live blocks only)."""
+        heap_base = self.count.shape[0] * capacity
+        live = int(_live_heap_rows(self.start, self.block, heap_base))
+        old_heap = self.rows.shape[0] - heap_base
+        heap_rows = max(2 * old_heap, 2 * (live + 4 * capacity), _INITIAL_HEAP_ROWS)
+        rows = np.empty((heap_base + heap_rows, 2), dtype=np.float32)
+        rows[:heap_base] = self.rows[:heap_base]
+        self.heap_top[0] = _compact_heap(
+            self.count, self.start, self.block, self.rows, rows, heap_base
+        )
+        self.rows = rows
+        logger.debug("dexel heap grown to %d rows (%d live)", heap_rows, live)
+
+
+class DexelStock:
+    """A tri-dexel stock: the workpiece's material as intervals along rays in x, y and z.
+
+    Parameters
+    ----------
+    grid
+        The cells (see :class:`DexelGrid`).
+    capacity
+        Intervals each ray stores inline, >= 1 (more go to the overflow heap).
+
+    Notes
+    -----
+    A new stock holds no material: fill it with :meth:`box` or :meth:`load`. Cut it with
+    :func:`cnctwin.geometry.cut` (or :func:`cnctwin.geometry.removal.remove`).
+    """
+
+    def __init__(self, grid: DexelGrid, capacity: int = 2) -> None:
+        if isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1:
+            raise ConfigError(f"capacity={capacity!r}; give an integer >= 1 intervals per ray")
+        self.grid = grid
+        self.capacity = capacity
+        self._families = {axis: _Family(grid.n_rays(axis), capacity) for axis in AXES}
+        #: Identity of the last cut (cutter, tip position in grid coordinates, mm), which lets
+        #: the next cut skip the part of the envelope that the last one emptied.
+        self.last_cut: tuple[object, tuple[float, float, float]] | None = None
+        #: Incremented whenever a family's arrays are replaced (see :meth:`family_arrays`).
+        self.version = 0
+
+    @classmethod
+    def box(
+        cls,
+        min_mm: Sequence[float],
+        max_mm: Sequence[float],
+        density_per_mm: float,
+        capacity: int = 2,
+    ) -> DexelStock:
+        """A full block from ``min_mm`` to ``max_mm`` (machine coordinates, mm).
+
+        Parameters
+        ----------
+        min_mm, max_mm
+            Opposite corners in mm.
+        density_per_mm
+            Rays per mm along each axis (Heide 2025's dexel density rho_xyz), > 0.
+        capacity
+            Intervals stored inline per ray, >= 1.
+        """
+        stock = cls(DexelGrid.from_box(min_mm, max_mm, density_per_mm), capacity)
+        for axis in AXES:
+            ray, _, _ = _family_axes(axis)
+            fam = stock._families[axis]
+            fam.count[:] = 1
+            inline = fam.rows[: fam.count.shape[0] * capacity].reshape(-1, capacity, 2)
+            inline[:, 0, 0] = 0.0
+            inline[:, 0, 1] = np.float32(stock.grid.size_mm[ray])
+        return stock
+
+    @staticmethod
+    def estimate_nbytes(
+        min_mm: Sequence[float],
+        max_mm: Sequence[float],
+        density_per_mm: float,
+        capacity: int = 2,
+    ) -> int:
+        """Bytes a fresh :meth:`box` stock takes: ``n_rays (8 capacity + 12)`` per family plus
+        the initial heap (8 KiB per family)."""
+        grid = DexelGrid.from_box(min_mm, max_mm, density_per_mm)
+        per_ray = 8 * capacity + _BYTES_PER_RAY_FIXED
+        heap = _INITIAL_HEAP_ROWS * 8 + 8
+        return sum(grid.n_rays(axis) * per_ray + heap for axis in AXES)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the stock's arrays."""
+        return sum(fam.nbytes for fam in self._families.values())
+
+    def family_arrays(self, axis: Axis) -> tuple[np.ndarray, ...]:
+        """The arrays of a family as the kernels take them (see the module notes): count,
+        start, block, rows, heap_top. They are replaced (and :attr:`version` changes) when the
+        heap grows or the family is loaded."""
+        return self._families[_check_axis(axis)].arrays()
+
+    def grow_heap(self, axis: Axis) -> None:
+        """Compact and enlarge a family's overflow heap (called when a kernel reports it full)."""
+        self._families[_check_axis(axis)].grow_heap(self.capacity)
+        self.version += 1
+
+    def load(self, axis: Axis, counts: np.ndarray, intervals_mm: np.ndarray) -> None:
+        """Replace a family's material.
+
+        Parameters
+        ----------
+        axis
+            The family: ``"x"``, ``"y"`` or ``"z"``.
+        counts
+            ``(n_rays,)`` number of intervals of each ray, in ray-index order (see
+            :meth:`DexelGrid.ray_coordinates_mm`), each >= 0.
+        intervals_mm
+            ``(sum(counts), 2)`` intervals ``(start, end)`` along the ray in machine coordinates
+            (mm), ray after ray, each ray's sorted, disjoint (``start`` > the previous ``end``)
+            and non-empty (``start < end``). Parts outside the grid are clipped away.
+
+        Raises
+        ------
+        DataError
+            On arrays of the wrong shape or intervals that are not sorted, disjoint, non-empty.
+        """
+        axis = _check_axis(axis)
+        n_rays = self.grid.n_rays(axis)
+        counts = np.asarray(counts)
+        iv = np.asarray(intervals_mm, dtype=np.float64)
+        if counts.shape != (n_rays,) or (counts.size and counts.min() < 0):
+            raise DataError(
+                f"counts of shape {counts.shape}; give {n_rays} counts >= 0, one per {axis} ray"
+            )
+        total = int(counts.sum())
+        if iv.shape != (total, 2):
+            raise DataError(f"intervals_mm of shape {iv.shape}; give ({total}, 2) for {axis} rays")
+        if not np.all(np.isfinite(iv)) or np.any(iv[:, 0] >= iv[:, 1]):
+            raise DataError(f"{axis} intervals must be finite with start < end")
+        first = np.cumsum(counts) - counts
+        follows = np.ones(total, dtype=bool)
+        follows[first[counts > 0]] = False
+        if np.any(iv[1:, 0][follows[1:]] <= iv[:-1, 1][follows[1:]]):
+            raise DataError(f"{axis} intervals of a ray must be sorted and disjoint")
+        ray, _, _ = _family_axes(axis)
+        local = np.clip(iv - self.grid.origin_mm[ray], 0.0, self.grid.size_mm[ray]).astype(
+            np.float32
+        )
+        keep = local[:, 0] < local[:, 1]
+        if not keep.all():  # drop the intervals that lie outside the grid
+            ray_of = np.repeat(np.arange(n_rays), counts)
+            counts = np.bincount(ray_of[keep], minlength=n_rays)
+            local = local[keep]
+        heap_rows = _heap_rows_needed(counts.astype(np.int64), self.capacity)
+        fam = _Family(n_rays, self.capacity, max(_INITIAL_HEAP_ROWS, 2 * heap_rows))
+        _fill(counts.astype(np.int32), local, self.capacity, *fam.arrays())
+        self._families[axis] = fam
+        self.last_cut = None
+        self.version += 1
+
+    def volume_mm3(self, axis: Axis | None = None) -> float:
+        """Material volume in mm^3: of one family, or (``None``) the mean of the three."""
+        if axis is None:
+            return sum(self.volume_mm3(a) for a in AXES) / 3.0
+        fam = self._families[_check_axis(axis)]
+        length = _total_length(fam.count, fam.start, fam.rows)
+        return float(length) * self.grid.cell_area_mm2(axis)
+
+    def ray_intervals_mm(self, axis: Axis, u: int, v: int) -> np.ndarray:
+        """The intervals ``(n, 2)`` of one ray in machine coordinates (mm).
+
+        ``(u, v)`` are the ray's cell indices on its transverse axes in x, y, z order:
+        ``(i, j)`` for a ``z`` ray, ``(j, k)`` for ``x``, ``(i, k)`` for ``y``.
+        """
+        axis = _check_axis(axis)
+        ray, a, b = _family_axes(axis)
+        if not (0 <= u < self.grid.shape[a] and 0 <= v < self.grid.shape[b]):
+            raise ConfigError(
+                f"ray ({u}, {v}) of the {axis} family; give indices below "
+                f"({self.grid.shape[a]}, {self.grid.shape[b]})"
+            )
+        index = v * self.grid.shape[a] + u
+        fam = self._families[axis]
+        first = int(fam.start[index])
+        rows = fam.rows[first : first + int(fam.count[index])]
+        return rows.astype(np.float64) + self.grid.origin_mm[ray]
+
+    def interval_counts(self, axis: Axis) -> np.ndarray:
+        """Number of intervals of every ray of a family (a copy, ray-index order)."""
+        return self._families[_check_axis(axis)].count.copy()
+
+    def overflow_rays(self, axis: Axis) -> int:
+        """How many rays of a family keep their intervals in the overflow heap."""
+        fam = self._families[_check_axis(axis)]
+        return int(np.count_nonzero(fam.start >= fam.count.shape[0] * self.capacity))
+
+
+def _vec3(value: Sequence[float], name: str) -> tuple[float, float, float]:
+    try:
+        vec = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{name}={value!r}; give three numbers (x, y, z) in mm") from None
+    if len(vec) != 3 or not all(math.isfinite(v) for v in vec):
+        raise ConfigError(f"{name}={value!r}; give three finite numbers (x, y, z) in mm")
+    return (vec[0], vec[1], vec[2])
+
+
+def _check_axis(axis: str) -> Axis:
+    if axis not in _FAMILY_AXES:
+        raise ConfigError(f"axis={axis!r}; give 'x', 'y' or 'z'")
+    return axis  # type: ignore[return-value]
+
+
+def _family_axes(axis: str) -> tuple[int, int, int]:
+    return _FAMILY_AXES[_check_axis(axis)]
+
+
+def _heap_rows_needed(counts: np.ndarray, capacity: int) -> int:
+    over = counts[counts > capacity]
+    if over.size == 0:
+        return 0
+    caps = np.maximum(2 * capacity, 2 ** np.ceil(np.log2(over)).astype(np.int64))
+    return int(caps.sum())
+
+
+@njit(cache=True)
+def _fill(counts, local, capacity, count, start, block, rows, heap_top):
+    src = 0
+    for r in range(counts.shape[0]):
+        n = counts[r]
+        count[r] = n
+        if n > capacity:
+            cap = 2 * capacity
+            while cap < n:
+                cap *= 2
+            start[r] = heap_top[0]
+            block[r] = cap
+            heap_top[0] += cap
+        base = start[r]
+        for q in range(n):
+            rows[base + q, 0] = local[src + q, 0]
+            rows[base + q, 1] = local[src + q, 1]
+        src += n
+
+
+@njit(cache=True)
+def _total_length(count, start, rows):
+    total = 0.0
+    for r in range(count.shape[0]):
+        base = start[r]
+        for q in range(count[r]):
+            total += np.float64(rows[base + q, 1]) - np.float64(rows[base + q, 0])
+    return total
+
+
+@njit(cache=True)
+def _live_heap_rows(start, block, heap_base):
+    live = 0
+    for r in range(start.shape[0]):
+        if start[r] >= heap_base:
+            live += block[r]
+    return live
+
+
+@njit(cache=True)
+def _compact_heap(count, start, block, rows, new_rows, heap_base):
+    top = heap_base
+    for r in range(count.shape[0]):
+        first = start[r]
+        if first >= heap_base:
+            for q in range(count[r]):
+                new_rows[top + q, 0] = rows[first + q, 0]
+                new_rows[top + q, 1] = rows[first + q, 1]
+            start[r] = top
+            top += block[r]
+    return top
+
+
+@njit(cache=True, inline="always")
+def subtract_interval(r, fa, fb, hint, count, start, block, rows, heap_top):
+    """Remove ``[fa, fb]`` (float32, ray coordinates) from ray ``r`` of a family.
+
+    ``hint`` is a guess of the index of the first interval ending after ``fa`` (0 if none;
+    the caller passes the index found on a similar ray, which makes rays through many features
+    cheap). Returns ``(status, removed, lo_inside, hi_inside, cut_lo, cut_hi, index)``: status
+    0 done, 1 the heap is full (the ray is untouched; grow the heap and call again); the
+    removed length (mm, float64 from the stored float32 values); whether ``fa`` and ``fb`` lay
+    strictly inside material (there the boundary of the removed piece is the cutting tool's
+    surface); the lowest and highest removed coordinate (``inf``/``-inf`` when nothing was
+    removed); the index of the first interval ending after ``fa``.
+    """
+    n = count[r]
+    base = start[r]
+    if hint < n and rows[base + hint, 1] > fa and (hint == 0 or rows[base + hint - 1, 1] <= fa):
+        i = hint
+    elif n <= 8:
+        i = 0
+        while i < n and rows[base + i, 1] <= fa:
+            i += 1
+    else:
+        i = 0
+        top = n
+        while i < top:
+            mid = (i + top) >> 1
+            if rows[base + mid, 1] <= fa:
+                i = mid + 1
+            else:
+                top = mid
+    if i == n or rows[base + i, 0] >= fb or not fa < fb:
+        return (0, 0.0, False, False, np.inf, -np.inf, i)
+    lo = rows[base + i, 0]
+    hi = rows[base + i, 1]
+    keep_left = lo < fa
+    if hi >= fb or i == n - 1 or rows[base + i + 1, 0] >= fb:
+        # One interval overlaps (the common case): trim it, empty it or split it.
+        keep_right = hi > fb
+        cut_lo = max(lo, fa)
+        cut_hi = min(hi, fb)
+        removed = np.float64(cut_hi) - np.float64(cut_lo)
+        if keep_left and keep_right:
+            if n + 1 > block[r]:
+                if not _move_to_heap(r, n, base, start, block, rows, heap_top):
+                    return (1, 0.0, False, False, np.inf, -np.inf, i)
+                base = start[r]
+            for q in range(n - 1, i, -1):
+                rows[base + q + 1, 0] = rows[base + q, 0]
+                rows[base + q + 1, 1] = rows[base + q, 1]
+            rows[base + i, 1] = fa
+            rows[base + i + 1, 0] = fb
+            rows[base + i + 1, 1] = hi
+            count[r] = n + 1
+        elif keep_left:
+            rows[base + i, 1] = fa
+        elif keep_right:
+            rows[base + i, 0] = fb
+        else:
+            for q in range(i + 1, n):
+                rows[base + q - 1, 0] = rows[base + q, 0]
+                rows[base + q - 1, 1] = rows[base + q, 1]
+            count[r] = n - 1
+        return (0, removed, keep_left, keep_right, np.float64(cut_lo), np.float64(cut_hi), i)
+    # Several intervals overlap: keep the left part of the first and the right part of the
+    # last one (never more intervals than before).
+    j = i + 1
+    while j + 1 < n and rows[base + j + 1, 0] < fb:
+        j += 1
+    right_hi = rows[base + j, 1]
+    keep_right = right_hi > fb
+    removed = 0.0
+    for q in range(i, j + 1):
+        removed += np.float64(min(rows[base + q, 1], fb)) - np.float64(max(rows[base + q, 0], fa))
+    cut_lo = np.float64(max(lo, fa))
+    cut_hi = np.float64(min(right_hi, fb))
+    w = i
+    if keep_left:
+        rows[base + w, 1] = fa
+        w += 1
+    if keep_right:
+        rows[base + w, 0] = fb
+        rows[base + w, 1] = right_hi
+        w += 1
+    for q in range(j + 1, n):
+        rows[base + w, 0] = rows[base + q, 0]
+        rows[base + w, 1] = rows[base + q, 1]
+        w += 1
+    count[r] = w
+    return (0, removed, keep_left, keep_right, cut_lo, cut_hi, i)
+
+
+@njit(cache=True, inline="always")
+def _move_to_heap(r, n, base, start, block, rows, heap_top):
+    """Move ray r's n intervals to a new heap block of twice its capacity; False if the heap is
+    full (nothing changed)."""
+    new_block = 2 * block[r]
+    top = heap_top[0]
+    if top + new_block > rows.shape[0]:
+        return False
+    for q in range(n):
+        rows[top + q, 0] = rows[base + q, 0]
+        rows[top + q, 1] = rows[base + q, 1]
+    heap_top[0] = top + new_block
+    start[r] = top
+    block[r] = new_block
+    return True

@@ -1,0 +1,214 @@
+"""Running an NC program through the stock: the offline twin of the cut.
+
+The interpreted program is sampled at the cycle time (:mod:`cnctwin.nc.sampler`); at each
+sample the virtual tool cuts the tri-dexel stock (:func:`cnctwin.geometry.cut`, the
+discrete-position method of Heide 2025) and the engagement of that step is recorded. This is
+the loop of the twin cycle (ARCHITECTURE section 3, steps 2-4) without a machine.
+
+Units as in the NC and geometry layers: mm, mm/min, rpm, s (names say so).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cnctwin.errors import NCError
+from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
+from cnctwin.nc.sampler import AxisLimits, TrajectorySampler
+from cnctwin.nc.segments import MotionKind, Segment
+
+__all__ = ["COLUMNS", "CutStep", "StepTable", "simulate_cut"]
+
+#: Columns of a :class:`StepTable`, with their units.
+COLUMNS = (
+    "t_s",
+    "x_mm",
+    "y_mm",
+    "z_mm",
+    "line",
+    "tool",
+    "rapid",
+    "spindle_rpm",
+    "path_speed_mm_min",
+    "feed_per_tooth_mm",
+    "contact",
+    "removed_mm3",
+    "mrr_mm3_s",
+    "ae_mm",
+    "ap_mm",
+    "feed_mm_min",
+    "h_mean_mm",
+    "h_max_mm",
+    "bottom_contact",
+    "above_flutes",
+)
+
+
+@dataclass(frozen=True, slots=True)
+class CutStep:
+    """One simulated step, handed to an observer (e.g. the force model).
+
+    Attributes
+    ----------
+    index
+        Step number from 0.
+    t_s
+        Time, s.
+    tcp_mm
+        Tool tip, machine coordinates, mm.
+    line
+        Source line of the NC program.
+    tool
+        Tool number.
+    cutter
+        The tool's geometry.
+    spindle_rpm
+        Spindle speed, rpm.
+    feed_per_tooth_mm
+        Feed per tooth from the path speed, mm.
+    engagement
+        The engagement of this step.
+    """
+
+    index: int
+    t_s: float
+    tcp_mm: tuple[float, float, float]
+    line: int
+    tool: int
+    cutter: Cutter
+    spindle_rpm: float
+    feed_per_tooth_mm: float
+    engagement: Engagement
+
+
+@dataclass(slots=True)
+class StepTable:
+    """Per-step results as columns (see :data:`COLUMNS`), filled chunk by chunk."""
+
+    columns: dict[str, list[NDArray[np.float64]]] = field(
+        default_factory=lambda: {name: [] for name in COLUMNS}
+    )
+
+    def append(self, block: NDArray[np.float64]) -> None:
+        """Append an (n, len(COLUMNS)) block of rows."""
+        for k, name in enumerate(COLUMNS):
+            self.columns[name].append(block[:, k].copy())
+
+    def column(self, name: str) -> NDArray[np.float64]:
+        """One column over all steps."""
+        parts = self.columns[name]
+        return np.concatenate(parts) if parts else np.empty(0)
+
+    def __len__(self) -> int:
+        return sum(part.size for part in self.columns["t_s"])
+
+
+def simulate_cut(
+    segments: Iterable[Segment],
+    stock: DexelStock,
+    cutters: Mapping[int, Cutter],
+    *,
+    rapid_mm_min: float,
+    cycle_s: float = 0.0125,
+    limits: AxisLimits | None = None,
+    on_step: Callable[[CutStep], None] | None = None,
+) -> Iterator[NDArray[np.float64]]:
+    """Cut the stock along a program, yielding per-step rows chunk by chunk.
+
+    Parameters
+    ----------
+    segments
+        The interpreted program (consumed lazily).
+    stock
+        The stock, cut in place.
+    cutters
+        Geometry of every tool the program uses, by tool number.
+    rapid_mm_min
+        The machine's rapid rate, mm/min.
+    cycle_s
+        Cycle time, s.
+    limits
+        Optional axis acceleration limits for the sampler.
+    on_step
+        Called with every step that touches material (a :class:`CutStep`).
+
+    Yields
+    ------
+    numpy.ndarray
+        (n, len(COLUMNS)) rows, in the order of :data:`COLUMNS`.
+
+    Raises
+    ------
+    cnctwin.errors.NCError
+        When the program moves a tool that has no geometry, naming the tool and the line.
+    """
+    sampler = TrajectorySampler(segments, rapid_mm_min=rapid_mm_min, cycle_s=cycle_s, limits=limits)
+    previous: NDArray[np.float64] | None = None
+    previous_tool = -1
+    index = 0
+    rapid = float(MotionKind.RAPID)
+    for chunk in sampler:
+        n = chunk.t_s.size
+        rows = np.zeros((n, len(COLUMNS)))
+        rows[:, 0] = chunk.t_s
+        rows[:, 1:4] = chunk.tcp_mm
+        rows[:, 4] = chunk.line
+        rows[:, 5] = chunk.tool
+        rows[:, 6] = chunk.kind == rapid
+        rows[:, 7] = chunk.spindle_rpm
+        rows[:, 8] = chunk.path_speed_mm_min
+        for i in range(n):
+            tool = int(chunk.tool[i])
+            cutter = cutters.get(tool)
+            if cutter is None:
+                raise NCError(
+                    f"tool T{tool} has no geometry: add it to the configuration's [[tools]] "
+                    "with its kind, diameter_mm, flute_length_mm and flutes",
+                    line=int(chunk.line[i]),
+                )
+            if tool != previous_tool:
+                previous = None
+                previous_tool = tool
+            rpm = float(chunk.spindle_rpm[i])
+            speed = float(chunk.path_speed_mm_min[i])
+            fz = speed / (rpm * cutter.flutes) if rpm > 0 else 0.0
+            position = chunk.tcp_mm[i]
+            engagement = cut(stock, cutter, position, previous, fz, cycle_s)
+            previous = position
+            if engagement.contact:
+                rows[i, 9:] = (
+                    fz,
+                    1.0,
+                    engagement.removed_volume_mm3,
+                    engagement.mrr_mm3_s,
+                    engagement.ae_mm,
+                    engagement.ap_mm,
+                    engagement.feed_mm_min if math.isfinite(engagement.feed_mm_min) else 0.0,
+                    engagement.h_mean_mm,
+                    engagement.h_max_mm,
+                    float(engagement.bottom_contact),
+                    float(engagement.above_flutes),
+                )
+                if on_step is not None:
+                    on_step(
+                        CutStep(
+                            index + i,
+                            float(chunk.t_s[i]),
+                            (float(position[0]), float(position[1]), float(position[2])),
+                            int(chunk.line[i]),
+                            tool,
+                            cutter,
+                            rpm,
+                            fz,
+                            engagement,
+                        )
+                    )
+            else:
+                rows[i, 9] = fz
+        index += n
+        yield rows

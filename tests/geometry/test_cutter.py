@@ -1,0 +1,91 @@
+"""Cutter geometry against closed forms and numerical integration."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from cnctwin.config import ToolConfig
+from cnctwin.errors import ConfigError
+from cnctwin.geometry import Cutter
+
+
+def test_flat_envelope_is_a_cylinder() -> None:
+    cutter = Cutter.flat(6.0, 12.0)
+    z = np.array([-0.1, 0.0, 1.0, 12.0, 12.1])
+    assert cutter.radius_at(z).tolist() == [0.0, 3.0, 3.0, 3.0, 0.0]
+    assert cutter.sin_kappa_at(z).tolist() == [0.0, 1.0, 1.0, 1.0, 0.0]
+
+
+def test_ball_radius_is_the_sphere() -> None:
+    cutter = Cutter.ball(10.0, 20.0)
+    z = np.linspace(0.0, 5.0, 11)
+    # A sphere of radius 5 centred 5 above the tip: r^2 + (5 - z)^2 = 25.
+    np.testing.assert_allclose(cutter.radius_at(z) ** 2 + (5.0 - z) ** 2, 25.0, atol=1e-12)
+    # kappa is the angle between the axis and the normal: sin = r / R on a sphere.
+    np.testing.assert_allclose(cutter.sin_kappa_at(z), cutter.radius_at(z) / 5.0, atol=1e-12)
+    assert cutter.radius_at(7.0) == 5.0
+
+
+def test_bull_nose_corner_is_a_torus() -> None:
+    cutter = Cutter.bull(10.0, 2.0, 15.0)
+    z = np.linspace(0.0, 2.0, 9)
+    # Corner circle of radius 2 centred at (r = 3, z = 2).
+    np.testing.assert_allclose((cutter.radius_at(z) - 3.0) ** 2 + (2.0 - z) ** 2, 4.0)
+    assert cutter.radius_at(0.0) == 3.0 and cutter.radius_at(5.0) == 5.0
+
+
+@pytest.mark.parametrize(
+    "cutter",
+    [Cutter.flat(6.0, 10.0), Cutter.ball(6.0, 10.0), Cutter.bull(8.0, 1.5, 10.0)],
+    ids=["flat", "ball", "bull"],
+)
+def test_envelope_volume_matches_integral(cutter: Cutter) -> None:
+    integral, _ = quad(
+        lambda z: math.pi * float(cutter.radius_at(z)) ** 2,
+        0.0,
+        cutter.flute_length_mm,
+        points=[cutter.corner_radius_mm],
+    )
+    assert cutter.volume_mm3() == pytest.approx(integral, rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "fragment"),
+    [
+        ({"kind": "flat", "diameter_mm": 0.0, "flute_length_mm": 5.0}, "diameter_mm=0.0"),
+        (
+            {"kind": "flat", "diameter_mm": 6.0, "flute_length_mm": 5.0, "corner_radius_mm": 1.0},
+            "must be 0",
+        ),
+        (
+            {"kind": "ball", "diameter_mm": 6.0, "flute_length_mm": 5.0, "corner_radius_mm": 1.0},
+            "diameter_mm/2",
+        ),
+        (
+            {"kind": "bull", "diameter_mm": 6.0, "flute_length_mm": 5.0, "corner_radius_mm": 3.0},
+            "0 < rc <",
+        ),
+        (
+            {"kind": "ball", "diameter_mm": 6.0, "flute_length_mm": 2.0, "corner_radius_mm": 3.0},
+            "at least",
+        ),
+        ({"kind": "drill", "diameter_mm": 6.0, "flute_length_mm": 5.0}, "kind='drill'"),
+        ({"kind": "flat", "diameter_mm": 6.0, "flute_length_mm": 5.0, "flutes": 0}, "flutes=0"),
+        ({"kind": "flat", "diameter_mm": 6.0, "flute_length_mm": 5.0, "helix_rad": 2.0}, "helix"),
+    ],
+)
+def test_invalid_cutters_are_rejected(kwargs: dict, fragment: str) -> None:
+    with pytest.raises(ConfigError, match=fragment):
+        Cutter(**kwargs)
+
+
+def test_from_tool_config_converts_degrees_and_needs_a_flute_length() -> None:
+    tool = ToolConfig(number=3, kind="bull", diameter_mm=8.0, corner_radius_mm=1.0, helix_deg=45)
+    with pytest.raises(ConfigError, match="tool 3 has no flute_length_mm"):
+        Cutter.from_tool_config(tool)
+    cutter = Cutter.from_tool_config(tool, flute_length_mm=16.0)
+    assert cutter == Cutter.bull(8.0, 1.0, 16.0, flutes=2, helix_rad=math.pi / 4)
