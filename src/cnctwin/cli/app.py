@@ -17,7 +17,7 @@ from typing import Annotated
 import typer
 
 from cnctwin import __version__
-from cnctwin.cli import demo, forces, nc, simulate, wear, wear_ekf, wear_registry
+from cnctwin.cli import demo, forces, nc, simulate, study, wear, wear_ekf, wear_registry
 from cnctwin.errors import CnctwinError
 
 __all__ = ["app", "main", "run"]
@@ -38,6 +38,7 @@ wear.app.command("ekf")(wear_ekf.ekf)
 for _name in ("mount", "compensate", "retire", "history"):
     wear.app.command(_name)(getattr(wear_registry, _name))
 app.add_typer(wear.app, name="wear")
+app.add_typer(study.app, name="study")
 app.command("demo")(demo.demo)
 app.command("forces")(forces.forces)
 app.command("simulate")(simulate.simulate)

@@ -1,0 +1,105 @@
+"""Running a dexel study's runs in parallel local processes.
+
+Each run builds its own block and cuts it in one process (the cut is serial, numba-compiled);
+``workers`` processes share the runs, the most expensive first (largest
+``rho^2 / (t_cycle vf)``: steps times the cost of a step) so that no long run starts last.
+Every worker loads the compiled kernels with a tiny run before it takes work, so no run's
+runtime includes loading them. Processes start with ``spawn`` (no
+inherited threads or locks): a script that calls :func:`run_study` with more than one worker
+must guard its entry point with ``if __name__ == "__main__":``.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import os
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+
+from cnctwin.errors import ConfigError
+from cnctwin.studies.dexel_study import DexelStudy, RunResult, RunSpec, SideMillingCut, run_one
+
+__all__ = ["default_workers", "run_study"]
+
+log = logging.getLogger(__name__)
+
+_WARM_UP = (SideMillingCut(block_length_mm=14.0), RunSpec(5.0, 0.05, 960.0))
+
+
+def default_workers() -> int:
+    """The number of CPUs this process may use."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _warm_up() -> None:
+    """Load the compiled kernels (from numba's cache) before timing anything."""
+    run_one(*_WARM_UP)
+
+
+def run_study(
+    study: DexelStudy,
+    *,
+    workers: int | None = None,
+    on_result: Callable[[RunResult], None] | None = None,
+) -> list[RunResult]:
+    """Run every setting of a study.
+
+    Parameters
+    ----------
+    study
+        The study.
+    workers
+        Processes to use, >= 1; ``None`` for :func:`default_workers`. With 1 the runs go one
+        after the other in this process.
+    on_result
+        Called in this process with each result as it arrives (e.g. to advance a progress bar).
+
+    Returns
+    -------
+    list of RunResult
+        In the order of :meth:`DexelStudy.runs`.
+
+    Raises
+    ------
+    ConfigError
+        On ``workers < 1``, or from a run (see :func:`run_one`).
+    """
+    n = default_workers() if workers is None else workers
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ConfigError(f"workers={workers!r}; give a number of processes >= 1")
+    specs = study.runs()
+    order = sorted(
+        range(len(specs)),
+        key=lambda i: -(specs[i].density_per_mm ** 2) / specs[i].cycle_s / specs[i].feed_mm_min,
+    )
+    results: dict[int, RunResult] = {}
+    log.info("dexel study: %d runs on %d process(es)", len(specs), n)
+    if n == 1:
+        _warm_up()
+        for i in order:
+            results[i] = run_one(study.cut, specs[i])
+            if on_result is not None:
+                on_result(results[i])
+        return [results[i] for i in range(len(specs))]
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=n, mp_context=context, initializer=_warm_up) as pool:
+        pending: dict[Future[RunResult], int] = {
+            pool.submit(run_one, study.cut, specs[i]): i for i in order
+        }
+        try:
+            while pending:
+                done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for future in done:
+                    i = pending.pop(future)
+                    results[i] = future.result()
+                    if on_result is not None:
+                        on_result(results[i])
+        except BaseException:
+            for future in pending:
+                future.cancel()
+            raise
+    return [results[i] for i in range(len(specs))]

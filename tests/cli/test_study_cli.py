@@ -1,0 +1,52 @@
+"""``cnctwin study dexel --quick`` end to end (the command group as the lead wires it in)."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from cnctwin.cli.study import app
+from cnctwin.errors import ConfigError
+
+
+def test_quick_study_writes_every_output(tmp_path: Path) -> None:
+    out = tmp_path / "study"
+    done = CliRunner().invoke(
+        app, ["dexel", "--out", str(out), "--quick", "--workers", "2", "--json"]
+    )
+    assert done.exit_code == 0, done.output
+    summary = json.loads(done.stdout)
+    for name in ("results.csv", "summary.json", "report.md"):
+        assert (out / name).is_file()
+    for name in ("delta_ae", "feed_deviation", "volume_deviation", "runtime", "score"):
+        assert (out / f"{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert json.loads((out / "summary.json").read_text())["optimum"] == summary["optimum"]
+    # --quick: 3 densities x 4 cycle times x 2 feeds.
+    with (out / "results.csv").open() as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 24 == summary["study"]["runs"]
+    assert {float(r["density_per_mm"]) for r in rows} == {5.0, 10.0, 20.0}
+    # The step is feed x cycle time.
+    for r in rows:
+        step = float(r["feed_mm_min"]) / 60.0 * float(r["cycle_s"])
+        assert float(r["step_mm"]) == pytest.approx(step, rel=1e-5)
+    # The optimum is the least score of the settings, with its six-feed (here two) runs.
+    best = summary["optimum"]
+    assert len(best["runs"]) == 2
+    assert 0.0 <= best["score"] <= 1.0
+    assert summary["paper"]["density_per_mm"] == 10.0 and summary["paper"]["runtime_s"] == 41.7
+    assert summary["at_paper_optimum"]["cycle_ms"] == pytest.approx(12.5)
+    assert summary["t_star_fit"]["points"] == 12
+    report = (out / "report.md").read_text()
+    assert "Heide 2025 optimum" in report and "T* = rho^2 / t_cycle" in report
+
+
+def test_bad_workers_is_a_config_error(tmp_path: Path) -> None:
+    done = CliRunner().invoke(app, ["dexel", "--out", str(tmp_path), "--quick", "--workers", "0"])
+    # app.py turns CnctwinError into one line and exit code 2.
+    assert isinstance(done.exception, ConfigError)
+    assert "--workers 0" in str(done.exception)
