@@ -17,7 +17,17 @@ from typing import Annotated
 import typer
 
 from cnctwin import __version__
-from cnctwin.cli import demo, forces, nc, simulate, study, wear, wear_ekf, wear_registry
+from cnctwin.cli import (
+    demo,
+    forces,
+    nc,
+    signals,
+    simulate,
+    study,
+    wear,
+    wear_ekf,
+    wear_registry,
+)
 from cnctwin.errors import CnctwinError
 
 __all__ = ["app", "main", "run"]
@@ -42,6 +52,7 @@ app.add_typer(study.app, name="study")
 app.command("demo")(demo.demo)
 app.command("forces")(forces.forces)
 app.command("simulate")(simulate.simulate)
+app.command("signals")(signals.signals)
 
 
 @dataclass

@@ -8,6 +8,7 @@ from cnctwin.config.loading import load_config
 from cnctwin.config.machine import AxesConfig, AxisConfig, MachineConfig, WorkOffsets
 from cnctwin.config.material import MaterialConfig
 from cnctwin.config.simulation import SimulationConfig
+from cnctwin.config.spindle import SpeedControllerConfig, SpindleConfig, SpindleMotorConfig
 from cnctwin.config.stock import BoxStock
 from cnctwin.config.tools import ToolConfig
 from cnctwin.config.twin import TwinConfig
@@ -19,6 +20,9 @@ __all__ = [
     "MachineConfig",
     "MaterialConfig",
     "SimulationConfig",
+    "SpeedControllerConfig",
+    "SpindleConfig",
+    "SpindleMotorConfig",
     "ToolConfig",
     "TwinConfig",
     "Vec3Mm",

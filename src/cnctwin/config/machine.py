@@ -8,6 +8,7 @@ from pydantic import ConfigDict, Field, ValidationInfo, field_validator
 from pydantic_core import PydanticCustomError
 
 from cnctwin.config.base import Section, Vec3Mm
+from cnctwin.config.spindle import SpindleConfig
 
 __all__ = ["AxesConfig", "AxisConfig", "MachineConfig", "WorkOffsets"]
 
@@ -96,6 +97,8 @@ class MachineConfig(Section):
         Initial work offsets G54 to G59.3 in mm.
     tool_change_on_t
         A T word loads the tool at once, without M6 (grbl and CAMotics do this).
+    spindle
+        The spindle drive (preset, optional motor/controller parameters, S1 rating).
     """
 
     name: str = "cnctwin machine"
@@ -107,3 +110,4 @@ class MachineConfig(Section):
     g30_home_mm: Vec3Mm = (0.0, 0.0, 0.0)
     work_offsets: WorkOffsets = Field(default_factory=WorkOffsets)
     tool_change_on_t: bool = False
+    spindle: SpindleConfig = Field(default_factory=SpindleConfig)

@@ -19,6 +19,15 @@ feed mm/min as in the NC layer), seconds and radians. See docs/dexel.md.
 from cnctwin.geometry.cutter import Cutter, CutterKind
 from cnctwin.geometry.dexel import AXES, Axis, DexelGrid, DexelStock
 from cnctwin.geometry.engagement import Engagement, cut
+from cnctwin.geometry.engagement_map import (
+    EngagementMap,
+    MapCursor,
+    MapMatch,
+    MapSlices,
+    MatchStatus,
+    load_engagement_map,
+    save_engagement_map,
+)
 from cnctwin.geometry.removal import ContactRecord, Removal, remove
 
 __all__ = [
@@ -30,7 +39,14 @@ __all__ = [
     "DexelGrid",
     "DexelStock",
     "Engagement",
+    "EngagementMap",
+    "MapCursor",
+    "MapMatch",
+    "MapSlices",
+    "MatchStatus",
     "Removal",
     "cut",
+    "load_engagement_map",
     "remove",
+    "save_engagement_map",
 ]

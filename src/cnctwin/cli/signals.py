@@ -1,0 +1,290 @@
+"""``cnctwin signals``: predicted machine signals of an NC program (forces, spindle, feed drives).
+
+The program is cut through the dexel stock as ``cnctwin simulate`` does; at every cycle the
+engagement gives the cutting forces of the configured material, the cutting torque loads the
+configured spindle drive (``[machine.spindle]``), and the results are written as a CSV table
+with a plot. Units, frames and signs: docs/signals.md.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import sys
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from cnctwin.config import TwinConfig, load_config
+from cnctwin.errors import ConfigError, NCError
+
+if TYPE_CHECKING:
+    from cnctwin.process.signals import MachineSignals
+
+__all__ = ["signals", "signals_report"]
+
+
+def signals_report(
+    program: Path,
+    config: TwinConfig,
+    *,
+    density_per_mm: float,
+    cycle_s: float,
+    out: Path | None = None,
+    plot: Path | None = None,
+    progress: bool = False,
+) -> dict[str, Any]:
+    """Predict the signals of a program; write the outputs; return the summary.
+
+    Parameters
+    ----------
+    program
+        NC file.
+    config
+        Machine (with ``[machine.spindle]``), tools with geometry, stock and material (a milling
+        entry of the materials library).
+    density_per_mm
+        Dexel density, 1/mm.
+    cycle_s
+        Cycle time, s.
+    out
+        Folder for ``signals.csv``, ``signals.png`` and ``summary.json`` (created).
+    plot
+        Where to draw the plot (PNG), instead of ``out/signals.png``.
+    progress
+        Show a progress bar on stderr.
+
+    Returns
+    -------
+    dict
+        The summary of :meth:`cnctwin.process.signals.MachineSignals.summary` plus ``file``,
+        ``material``, ``coefficients_source``, ``rated_power_kw``, ``rated_torque_nm``,
+        ``runtime_s``, ``density_per_mm``, ``cycle_ms`` and ``warnings``.
+
+    Raises
+    ------
+    ConfigError
+        For a material missing from the library, a tool without a fluted length, an unknown
+        spindle preset.
+    NCError
+        For an NC error, or a tool the program uses that has no geometry.
+    """
+    from cnctwin.geometry import Cutter, DexelStock
+    from cnctwin.mechanics.materials import milling_material
+    from cnctwin.nc.interpreter import Interpreter
+    from cnctwin.process.signals import simulate_signals, spindle_drive_parameters
+
+    try:
+        material = milling_material(config.material.name)
+    except ConfigError as err:
+        raise ConfigError(f"material.name: {err}") from None
+    cutters = {tool.number: Cutter.from_tool_config(tool) for tool in config.tools}
+    spindle = config.machine.spindle
+    drive = spindle_drive_parameters(spindle)
+    drive_name = spindle.preset + "".join(
+        f"+{part}" for part in ("motor", "controller") if getattr(spindle, part) is not None
+    )
+    stock_cfg = config.stock
+    stock = DexelStock.box(stock_cfg.min_mm, stock_cfg.max_mm, density_per_mm)
+    interpreter = Interpreter(config.nc_setup())
+    started = time.perf_counter()
+    settings: dict[str, Any] = {
+        "rapid_mm_min": config.machine.rapid_mm_min,
+        "cycle_s": cycle_s,
+        "rated_power_w": None if spindle.rated_power_kw is None else spindle.rated_power_kw * 1e3,
+        "rated_torque_nm": spindle.rated_torque_nm,
+        "drive_name": drive_name,
+    }
+    try:
+        segments = interpreter.run_file(program)
+        if progress:
+            with Progress(
+                TextColumn("predicting signals"),
+                BarColumn(),
+                TextColumn("{task.fields[t]:.1f} s"),
+                TimeElapsedColumn(),
+                console=Console(stderr=True),
+                transient=True,
+            ) as bar:
+                task = bar.add_task("signals", total=None, t=0.0)
+                result = simulate_signals(
+                    segments,
+                    stock,
+                    cutters,
+                    material.coefficients,
+                    drive,
+                    on_chunk=lambda t: bar.update(task, t=t),
+                    **settings,
+                )
+        else:
+            result = simulate_signals(
+                segments, stock, cutters, material.coefficients, drive, **settings
+            )
+    except NCError as err:
+        if err.file == "<string>":
+            raise NCError(err.message, str(program), err.line, err.column) from None
+        raise
+    runtime = time.perf_counter() - started
+    report: dict[str, Any] = {
+        "file": str(program),
+        **result.summary(),
+        "material": material.name,
+        "coefficients_source": material.source,
+        "rated_power_kw": spindle.rated_power_kw,
+        "rated_torque_nm": spindle.rated_torque_nm,
+        "runtime_s": runtime,
+        "density_per_mm": density_per_mm,
+        "cycle_ms": cycle_s * 1e3,
+        "warnings": [*interpreter.warnings, *(f"{program}: {w}" for w in result.warnings)],
+    }
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        _write_csv(out / "signals.csv", result)
+        (out / "summary.json").write_text(json.dumps(report, indent=2) + "\n")
+        if plot is None:
+            plot = out / "signals.png"
+    if plot is not None:
+        _plot(plot, result, program.name)
+    return report
+
+
+def _write_csv(path: Path, result: MachineSignals) -> None:
+    from cnctwin.process.signals import SIGNAL_COLUMNS
+
+    with path.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(SIGNAL_COLUMNS)
+        for row in result.table():
+            writer.writerow([f"{v:.6g}" for v in row])
+
+
+def _plot(path: Path, result: MachineSignals, title: str) -> None:
+    """Four panels over time: axis forces, torques, powers, spindle current and speed.
+
+    The torque, power and current panels are scaled to the cutting; a higher transient (the
+    spindle's start-up) is clipped and its peak named in the legend.
+    """
+    from matplotlib.figure import Figure  # matplotlib only when asked for
+
+    c = result.columns
+    t = c["t_s"]
+    contact = c["contact"] > 0
+    figure = Figure(figsize=(10.0, 9.0), dpi=100, layout="constrained")
+    forces, torque, power, current = figure.subplots(4, 1, sharex=True)
+    figure.suptitle(f"{title}: predicted machine signals ({result.drive})")
+    for name, label in (("fx_n", "Fx"), ("fy_n", "Fy"), ("fz_n", "Fz")):
+        forces.plot(t, c[name], linewidth=0.8, label=f"{label} (mean)")
+    forces.plot(t, c["f_peak_n"], color="black", linewidth=0.6, alpha=0.5, label="|F| peak")
+    forces.set_ylabel("force on the tool [N]")
+    forces.legend(loc="upper right", fontsize="small", ncols=4)
+    panels = (
+        (torque, "torque [N m]", "N m", (("cutting_torque_nm", "cutting torque"),
+                                         ("motor_torque_nm", "motor torque (drive)"))),
+        (power, "power [W]", "W", (("cutting_power_w", "cutting power"),
+                                   ("spindle_power_w", "spindle power (drive)"))),
+        (current, "spindle current [A]", "A", (("spindle_current_a", "current (drive)"),)),
+    )  # fmt: skip
+    for axes, ylabel, unit, series in panels:
+        top = _scale([c[name] for name, _ in series], contact)
+        for name, label in series:
+            peak = float(c[name].max()) if t.size else 0.0
+            if top is not None and peak > top:
+                label = f"{label}; transient to {peak:.3g} {unit} off scale"
+            axes.plot(t, c[name], linewidth=0.8, label=label)
+        if top is not None:
+            axes.set_ylim(-0.1 * top, top)
+        axes.set_ylabel(ylabel)
+        axes.legend(loc="upper right", fontsize="small")
+    current.set_xlabel("time [s]")
+    speed = current.twinx()
+    speed.plot(t, c["spindle_speed_rpm"], color="tab:gray", linewidth=0.8)
+    speed.set_ylabel("spindle speed [rpm] (grey)")
+    for axes in (forces, torque, power, current):
+        axes.fill_between(
+            t, 0, 1, where=contact, color="tab:green", alpha=0.08,
+            transform=axes.get_xaxis_transform(), linewidth=0,
+        )  # fmt: skip
+        axes.grid(alpha=0.3)
+    figure.savefig(path)
+
+
+def _scale(series: list[Any], contact: Any) -> float | None:
+    """Upper y limit showing the cutting, or None when nothing rises far above it."""
+    import numpy as np
+
+    if not np.any(contact):
+        return None
+    cutting = max(float(np.max(values[contact])) for values in series)
+    highest = max(float(np.max(values)) for values in series)
+    return 1.3 * cutting if cutting > 0.0 and highest > 2.0 * cutting else None
+
+
+def signals(
+    program: Annotated[Path, typer.Argument(help="NC program.")],
+    config: Annotated[
+        Path, typer.Option("--config", "-c", help="Configuration TOML or CAMotics project.")
+    ],
+    out: Annotated[
+        Path | None,
+        typer.Option("--out", help="Write signals.csv, signals.png and summary.json here."),
+    ] = None,
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="Write the plot to this PNG file.")
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+    density: Annotated[
+        float | None, typer.Option("--density", help="Dexels per mm (overrides the config).")
+    ] = None,
+    cycle_ms: Annotated[
+        float | None, typer.Option("--cycle-ms", help="Cycle time in ms (overrides the config).")
+    ] = None,
+) -> None:
+    """Predicted forces, spindle torque, power and current, and feed-drive loads over time.
+
+    Forces on the tool in machine X, Y, Z (the loads of the feed drives); spindle from the
+    [machine.spindle] drive preset; material from the materials library.
+    """
+    settings = load_config(config)
+    rho = density if density is not None else settings.simulation.density_per_mm
+    cycle = cycle_ms if cycle_ms is not None else settings.simulation.cycle_ms
+    if not (0 < rho <= 100):
+        raise ConfigError(f"--density {rho}: give 0 < density <= 100 dexels per mm")
+    if not (0 < cycle <= 1000):
+        raise ConfigError(f"--cycle-ms {cycle}: give 0 < cycle <= 1000 ms")
+    report = signals_report(
+        program,
+        settings,
+        density_per_mm=rho,
+        cycle_s=cycle / 1e3,
+        out=out,
+        plot=plot,
+        progress=not as_json and sys.stderr.isatty(),
+    )
+    if as_json:
+        sys.stdout.write(json.dumps(report) + "\n")
+        return
+    table = Table(title=str(program), show_header=False, title_justify="left")
+    rows = (
+        ("process time", f"{report['process_time_s']:.2f} s"),
+        ("cutting time", f"{report['cutting_time_s']:.2f} s"),
+        ("material", report["material"]),
+        ("spindle drive", report["spindle_drive"]),
+        ("max force (peak over a revolution)", f"{report['max_force_n']:.0f} N"),
+        ("mean cutting power", f"{report['mean_power_w']:.0f} W"),
+        ("max cutting power", f"{report['max_power_w']:.0f} W"),
+        ("max cutting torque", f"{report['max_spindle_torque_nm']:.3g} N m"),
+        ("max spindle current", f"{report['max_spindle_current_a']:.3g} A"),
+        ("mean current while cutting", f"{report['mean_cutting_current_a']:.3g} A"),
+        ("overloaded steps", str(report["overload_steps"])),
+    )
+    for key, value in rows:
+        table.add_row(key, value)
+    Console().print(table)
+    warn = Console(stderr=True)
+    for warning in report["warnings"]:
+        warn.print(f"warning: {warning}", style="yellow", markup=False, highlight=False)

@@ -1,0 +1,540 @@
+"""Machine signals predicted along a program: cutting forces, spindle torque, power and current.
+
+The offline twin of Christiand 2024's virtual resources (section 3.2), driven by the dexel cut of
+Heide 2025. At every cycle of :func:`~cnctwin.process.simulation.simulate_cut`:
+
+1. the engagement of the step (contact intervals per axial slice, from the removed dexels) and
+   the step's feed per tooth and spindle speed give the per-revolution mean forces, torque and
+   power of the mechanistic model (Altintas 2012, ch. 2; Royandi 2026, Eq. 8-12; Ward 2021,
+   Eq. 1-2) with the workpiece material's coefficients (:func:`cnctwin.mechanics.mean_forces`),
+   and the peak resultant force over the revolution (:func:`cnctwin.mechanics.milling_forces`);
+2. the forces are turned from the tool frame (x along the feed, y to its left, z up the tool
+   axis) into machine X, Y, Z by the step's feed direction;
+3. the cutting torque loads the spindle drive (Christiand 2024, Eq. 10-18:
+   :class:`cnctwin.drives.SpindleDrive`), gated by the machining events: spindle on while the
+   commanded speed is above 0, feed on while the axes move, contact while the tool removes
+   material. The drive gives the spindle speed, current and motor torque over time.
+
+The feed-drive loads are the machine-frame force components: the cutting force each linear axis
+has to carry (the force on the tool; a drive that moves the workpiece carries the opposite).
+Axis currents are not predicted: at machining feeds they are dominated by friction and
+acceleration forces, which the twin does not model.
+
+Units: SI inside the physics; the signal table's columns carry their units in their names
+(mm, mm/min, rpm, N, N m, W, A, s), as the process layer does.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cnctwin.config.spindle import SpindleConfig
+from cnctwin.drives import (
+    RAD_S_PER_RPM,
+    MachiningEvents,
+    SpeedController,
+    SpindleDrive,
+    SpindleDriveParameters,
+    SpindleMotor,
+    spindle_preset,
+)
+from cnctwin.errors import ConfigError
+from cnctwin.geometry import Cutter, DexelStock
+from cnctwin.geometry import Engagement as DexelEngagement
+from cnctwin.mechanics import CuttingCoefficients, EndMill, mean_forces, milling_forces
+from cnctwin.mechanics import Engagement as ForceEngagement
+from cnctwin.nc.sampler import AxisLimits
+from cnctwin.nc.segments import Segment
+from cnctwin.process.simulation import CutStep, StepTable, simulate_cut
+
+__all__ = [
+    "SIGNAL_COLUMNS",
+    "MachineSignals",
+    "StepForces",
+    "force_engagement",
+    "simulate_signals",
+    "spindle_drive_parameters",
+    "step_forces",
+]
+
+#: Columns of a :class:`MachineSignals` table, in order; units in the names (see docs/signals.md).
+SIGNAL_COLUMNS = (
+    "t_s",
+    "line",
+    "tool",
+    "x_mm",
+    "y_mm",
+    "z_mm",
+    "spindle_cmd_rpm",
+    "path_speed_mm_min",
+    "feed_per_tooth_mm",
+    "spindle_on",
+    "feed_on",
+    "contact",
+    "ae_mm",
+    "ap_mm",
+    "mrr_mm3_s",
+    "fx_n",
+    "fy_n",
+    "fz_n",
+    "f_feed_n",
+    "f_normal_n",
+    "f_mean_n",
+    "f_peak_n",
+    "cutting_torque_nm",
+    "cutting_power_w",
+    "spindle_speed_rpm",
+    "spindle_current_a",
+    "motor_torque_nm",
+    "spindle_power_w",
+    "overload",
+)
+
+_FORCE_COLUMNS = (
+    "fx_n",
+    "fy_n",
+    "fz_n",
+    "f_feed_n",
+    "f_normal_n",
+    "f_mean_n",
+    "f_peak_n",
+    "cutting_torque_nm",
+    "cutting_power_w",
+)
+_WAVEFORM_STEPS = 360  # spindle angles per revolution for the peak force (1 degree)
+
+
+@dataclass(frozen=True, slots=True)
+class StepForces:
+    """Cutting load of one step, per-revolution means unless said otherwise.
+
+    Attributes
+    ----------
+    fx_n, fy_n, fz_n
+        Mean force on the tool along machine X, Y, Z, N.
+    feed_n, normal_n
+        Mean force on the tool along the feed direction and its left normal (tool frame x, y), N.
+    mean_n
+        Magnitude of the mean force vector, N.
+    peak_n
+        Largest magnitude of the force over the revolution, N.
+    torque_nm
+        Mean cutting torque about the tool axis, N m (positive: resists an M3 spindle).
+    power_w
+        Mean cutting power (torque times commanded spindle speed), W.
+    """
+
+    fx_n: float
+    fy_n: float
+    fz_n: float
+    feed_n: float
+    normal_n: float
+    mean_n: float
+    peak_n: float
+    torque_nm: float
+    power_w: float
+
+    def values(self) -> tuple[float, ...]:
+        """The values in the order of the force columns of :data:`SIGNAL_COLUMNS`."""
+        return (
+            self.fx_n,
+            self.fy_n,
+            self.fz_n,
+            self.feed_n,
+            self.normal_n,
+            self.mean_n,
+            self.peak_n,
+            self.torque_nm,
+            self.power_w,
+        )
+
+
+@dataclass(slots=True)
+class MachineSignals:
+    """Predicted machine signals, one row per cycle of the program (see :data:`SIGNAL_COLUMNS`).
+
+    Attributes
+    ----------
+    columns
+        Every column of :data:`SIGNAL_COLUMNS` as a float array of the same length.
+    cycle_s
+        Cycle time of the rows, s.
+    drive
+        Name of the spindle drive used (the preset, with ``+motor``/``+controller`` when
+        replaced).
+    warnings
+        Findings worth a warning, one line each (e.g. a cut that overloads the spindle).
+    """
+
+    columns: dict[str, NDArray[np.float64]]
+    cycle_s: float
+    drive: str
+    warnings: list[str] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return int(self.columns["t_s"].size)
+
+    def table(self) -> NDArray[np.float64]:
+        """The signals as an (n, len(SIGNAL_COLUMNS)) array, columns in that order."""
+        return np.column_stack([self.columns[name] for name in SIGNAL_COLUMNS])
+
+    def summary(self) -> dict[str, Any]:
+        """Figures of the whole program (units in the keys).
+
+        Returns
+        -------
+        dict
+            ``process_time_s``, ``cutting_time_s``, ``max_force_n`` (largest peak force over a
+            revolution), ``max_mean_force_n``, ``mean_power_w`` and ``max_power_w`` (cutting
+            power while in contact), ``cutting_energy_j``, ``max_spindle_torque_nm`` (largest
+            cutting torque), ``max_motor_torque_nm``, ``max_spindle_current_a``,
+            ``mean_cutting_current_a`` (spindle current while in contact),
+            ``min_cutting_speed_rpm`` (lowest spindle speed while in contact, 0 without),
+            ``max_axis_force_n`` (largest |Fx|, |Fy|, |Fz|, by axis), ``overload_steps``,
+            ``steps``, ``contact_steps``, ``spindle_drive``.
+        """
+        c = self.columns
+        n = len(self)
+        contact = c["contact"] > 0
+        cutting = int(contact.sum())
+
+        def peak(name: str) -> float:
+            return float(np.max(c[name])) if n else 0.0
+
+        def mean(name: str) -> float:
+            return float(np.mean(c[name][contact])) if cutting else 0.0
+
+        return {
+            "process_time_s": n * self.cycle_s,
+            "cutting_time_s": cutting * self.cycle_s,
+            "max_force_n": peak("f_peak_n"),
+            "max_mean_force_n": peak("f_mean_n"),
+            "mean_power_w": mean("cutting_power_w"),
+            "max_power_w": peak("cutting_power_w"),
+            "cutting_energy_j": float(np.sum(c["cutting_power_w"]) * self.cycle_s),
+            "max_spindle_torque_nm": peak("cutting_torque_nm"),
+            "max_motor_torque_nm": peak("motor_torque_nm"),
+            "max_spindle_current_a": peak("spindle_current_a"),
+            "mean_cutting_current_a": mean("spindle_current_a"),
+            "min_cutting_speed_rpm": (
+                float(np.min(c["spindle_speed_rpm"][contact])) if cutting else 0.0
+            ),
+            "max_axis_force_n": {
+                axis: float(np.max(np.abs(c[f"f{axis}_n"]))) if n else 0.0 for axis in "xyz"
+            },
+            "overload_steps": int(np.sum(c["overload"] > 0)),
+            "steps": n,
+            "contact_steps": cutting,
+            "spindle_drive": self.drive,
+        }
+
+
+def spindle_drive_parameters(spindle: SpindleConfig) -> SpindleDriveParameters:
+    """The drive of a ``[machine.spindle]`` section: its preset, with motor or controller replaced.
+
+    Parameters
+    ----------
+    spindle
+        The section.
+
+    Returns
+    -------
+    SpindleDriveParameters
+        Motor and controller in SI units.
+
+    Raises
+    ------
+    ConfigError
+        If the preset is unknown (the message lists the valid presets).
+    """
+    try:
+        params = spindle_preset(spindle.preset)
+    except ConfigError as err:
+        raise ConfigError(f"machine.spindle.preset: {err}") from None
+    motor, controller = params.motor, params.controller
+    if spindle.motor is not None:
+        m = spindle.motor
+        motor = SpindleMotor(
+            resistance=m.resistance_ohm,
+            inductance=m.inductance_h,
+            torque_constant=m.torque_constant_nm_a,
+            back_emf_constant=m.back_emf_constant_v_s_rad,
+            inertia=m.inertia_kg_m2,
+            viscous_friction=m.viscous_friction_nm_s_rad,
+            coulomb_friction=m.coulomb_friction_nm,
+        )
+    if spindle.controller is not None:
+        c = spindle.controller
+        controller = SpeedController(
+            kp=c.kp_v_s_rad, ki=c.ki_v_rad, kd=c.kd_v_s2_rad, voltage_limit=c.voltage_limit_v
+        )
+    return SpindleDriveParameters(motor, controller)
+
+
+def force_engagement(engagement: DexelEngagement, pitch_z_mm: float) -> ForceEngagement | None:
+    """The force model's engagement (m) of a dexel cut's engagement (mm); None without intervals.
+
+    The dexel engagement gives, per slice with contact, its sampling height ``h`` above the tip
+    and the height ``dz`` of tool it stands for: ``[max(h - p/2, 0), max(h - p/2, 0) + dz]``
+    with ``p`` the grid's z pitch (:mod:`cnctwin.geometry.engagement`, "Intervals"); its
+    intervals are sorted and disjoint within a slice, in ``[0, 2 pi]``. The force model's
+    :class:`~cnctwin.mechanics.Engagement` takes the same slices (a gap between two becomes a
+    slice without contact) and intervals, built here with array operations (what
+    :meth:`~cnctwin.mechanics.Engagement.from_slices` does slice by slice, 30 times slower).
+
+    Parameters
+    ----------
+    engagement
+        Engagement of one cut (:func:`cnctwin.geometry.cut`), mm and rad.
+    pitch_z_mm
+        z pitch of the dexel grid, mm (> 0).
+
+    Returns
+    -------
+    cnctwin.mechanics.Engagement or None
+        Slices and contact intervals in m and rad; None when the cut has no contact interval
+        (no contact, or only the bottom face of the tool cut).
+    """
+    owner = engagement.interval_slice.astype(np.int64)
+    dz = engagement.slice_dz_mm
+    if owner.size == 0:
+        return None
+    keep = dz > 0.0
+    own_kept = keep[owner]
+    if not np.any(own_kept):
+        return None
+    low = np.maximum(engagement.slice_height_mm - 0.5 * pitch_z_mm, 0.0)[keep]
+    top = low + dz[keep]
+    # A new run of slices starts at the first slice and after every gap; each later run
+    # needs an empty slice across its gap.
+    gap = np.ones(low.size, dtype=bool)
+    gap[1:] = low[1:] > top[:-1] + 1e-9 * top[-1]
+    starts = np.flatnonzero(gap)
+    position = np.arange(low.size) + np.cumsum(gap) - 1  # force-model slice of each slice
+    bounds = np.empty(low.size + starts.size)
+    bounds[position + 1] = top
+    bounds[position[starts]] = low[starts]
+    counts = np.zeros(bounds.size - 1, dtype=np.int64)
+    kept_index = np.cumsum(keep) - 1
+    owner = kept_index[owner[own_kept]]
+    counts[position] = np.bincount(owner, minlength=low.size)
+    entry = engagement.interval_start_rad[own_kept]
+    exit_ = engagement.interval_end_rad[own_kept]
+    order = np.lexsort((entry, owner))
+    return ForceEngagement(
+        z_bounds_m=bounds * 1e-3,
+        offsets=np.concatenate(([0], np.cumsum(counts))),
+        entry_rad=entry[order].astype(np.float64),
+        exit_rad=exit_[order].astype(np.float64),
+    )
+
+
+def step_forces(
+    step: CutStep,
+    end_mill: EndMill,
+    coefficients: CuttingCoefficients,
+    pitch_z_mm: float,
+    *,
+    waveform_steps: int = _WAVEFORM_STEPS,
+) -> StepForces:
+    """Cutting forces, torque and power of one simulated step.
+
+    Parameters
+    ----------
+    step
+        The step (engagement, feed per tooth in mm, spindle speed in rpm).
+    end_mill
+        The step's tool for the force model (m).
+    coefficients
+        Cutting coefficients of the workpiece material (Pa, N/m).
+    pitch_z_mm
+        z pitch of the dexel grid, mm.
+    waveform_steps
+        Spindle angles per revolution for the peak force (>= 1).
+
+    Returns
+    -------
+    StepForces
+        Per-revolution mean forces in the machine and tool frames (N), the peak force (N),
+        cutting torque (N m) and power (W); all zero without a contact interval.
+
+    Notes
+    -----
+    The tool frame of :mod:`cnctwin.mechanics.milling` has x along the feed direction
+    ``f = engagement.feed_dir`` and y along its left normal ``n = (-f_y, f_x)``, the frame of
+    the dexel engagement's angles; so ``F_X = F_x f_x + F_y n_x``, ``F_Y = F_x f_y + F_y n_y``,
+    and ``F_Z = F_z`` for a tool whose axis is machine +Z.
+    """
+    cut = force_engagement(step.engagement, pitch_z_mm)
+    if cut is None:
+        return StepForces(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    fz_m = step.feed_per_tooth_mm * 1e-3
+    omega = step.spindle_rpm * RAD_S_PER_RPM
+    mean = mean_forces(end_mill, coefficients, cut, fz_m, omega)
+    wave = milling_forces(end_mill, coefficients, cut, fz_m, omega, steps=waveform_steps)
+    fx, fy = step.engagement.feed_dir
+    nx, ny = -fy, fx
+    return StepForces(
+        fx_n=mean.fx_n * fx + mean.fy_n * nx,
+        fy_n=mean.fx_n * fy + mean.fy_n * ny,
+        fz_n=mean.fz_n,
+        feed_n=mean.fx_n,
+        normal_n=mean.fy_n,
+        mean_n=mean.resultant_n,
+        peak_n=float(wave.resultant_n.max()),
+        torque_nm=mean.torque_nm,
+        power_w=mean.power_w,
+    )
+
+
+def simulate_signals(
+    segments: Iterable[Segment],
+    stock: DexelStock,
+    cutters: Mapping[int, Cutter],
+    coefficients: CuttingCoefficients,
+    drive: SpindleDriveParameters,
+    *,
+    rapid_mm_min: float,
+    cycle_s: float = 0.0125,
+    limits: AxisLimits | None = None,
+    rated_power_w: float | None = None,
+    rated_torque_nm: float | None = None,
+    drive_name: str = "",
+    on_chunk: Callable[[float], None] | None = None,
+) -> MachineSignals:
+    """Cut the stock along a program and predict the machine's signals at every cycle.
+
+    Parameters
+    ----------
+    segments
+        The interpreted program.
+    stock
+        The stock, cut in place.
+    cutters
+        Geometry of every tool the program uses, by tool number (mm).
+    coefficients
+        Cutting coefficients of the workpiece material (Pa, N/m).
+    drive
+        Spindle motor and speed controller.
+    rapid_mm_min
+        The machine's rapid rate, mm/min.
+    cycle_s
+        Cycle time, s.
+    limits
+        Optional axis acceleration limits for the sampler.
+    rated_power_w, rated_torque_nm
+        Continuous (S1) power (W) and torque (N m) of the spindle, if known: a step that needs
+        a cutting torque above ``min(rated_torque_nm, rated_power_w / omega)`` at its
+        commanded speed ``omega`` is flagged in the ``overload`` column.
+    drive_name
+        Name of the drive, for the summary.
+    on_chunk
+        Called with the simulated time (s) after every chunk of cycles (for progress).
+
+    Returns
+    -------
+    MachineSignals
+        One row per cycle, the columns of :data:`SIGNAL_COLUMNS`.
+
+    Raises
+    ------
+    cnctwin.errors.NCError
+        When the program moves a tool that has no geometry.
+    """
+    pitch_z = stock.grid.pitch_mm[2]
+    end_mills: dict[Cutter, EndMill] = {}
+    index: list[int] = []
+    loads: list[tuple[float, ...]] = []
+
+    def observe(step: CutStep) -> None:
+        cutter = step.cutter
+        end_mill = end_mills.get(cutter)
+        if end_mill is None:
+            end_mill = end_mills[cutter] = EndMill(
+                diameter_m=cutter.diameter_mm * 1e-3,
+                teeth=cutter.flutes,
+                helix_rad=cutter.helix_rad,
+                kind=cutter.kind,
+                corner_radius_m=cutter.corner_radius_mm * 1e-3,
+            )
+        index.append(step.index)
+        loads.append(step_forces(step, end_mill, coefficients, pitch_z).values())
+
+    table = StepTable()
+    for rows in simulate_cut(
+        segments,
+        stock,
+        cutters,
+        rapid_mm_min=rapid_mm_min,
+        cycle_s=cycle_s,
+        limits=limits,
+        on_step=observe,
+    ):
+        table.append(rows)
+        if on_chunk is not None and len(rows):
+            on_chunk(float(rows[-1, 0]))
+    n = len(table)
+    columns = {name: np.zeros(n) for name in SIGNAL_COLUMNS}
+    for name in (
+        "t_s", "line", "tool", "x_mm", "y_mm", "z_mm", "path_speed_mm_min",
+        "feed_per_tooth_mm", "contact", "ae_mm", "ap_mm", "mrr_mm3_s",
+    ):  # fmt: skip
+        columns[name] = table.column(name)
+    columns["spindle_cmd_rpm"] = table.column("spindle_rpm")
+    columns["spindle_on"] = (columns["spindle_cmd_rpm"] > 0.0).astype(np.float64)
+    columns["feed_on"] = (columns["path_speed_mm_min"] > 0.0).astype(np.float64)
+    if index:
+        at = np.asarray(index)
+        block = np.asarray(loads)
+        for k, name in enumerate(_FORCE_COLUMNS):
+            columns[name][at] = block[:, k]
+    _spindle(columns, drive, cycle_s)
+    omega = columns["spindle_cmd_rpm"] * RAD_S_PER_RPM
+    available = np.full(n, math.inf)
+    if rated_torque_nm is not None:
+        available = np.minimum(available, rated_torque_nm)
+    if rated_power_w is not None:
+        with np.errstate(divide="ignore"):
+            available = np.minimum(available, rated_power_w / omega)
+    columns["overload"] = (columns["cutting_torque_nm"] > available).astype(np.float64)
+    warnings = []
+    over = np.flatnonzero(columns["overload"])
+    if over.size:
+        k = int(over[np.argmax(columns["cutting_torque_nm"][over])])
+        warnings.append(
+            f"line {int(columns['line'][k])}: the cut needs {columns['cutting_torque_nm'][k]:.3g} "
+            f"N m at {columns['spindle_cmd_rpm'][k]:.0f} rpm, more than the spindle's rating "
+            f"of {available[k]:.3g} N m there ({over.size} steps overloaded in all)"
+        )
+    return MachineSignals(columns, cycle_s, drive_name, warnings)
+
+
+def _spindle(
+    columns: dict[str, NDArray[np.float64]], params: SpindleDriveParameters, cycle_s: float
+) -> None:
+    """Run the spindle drive over the cycles; fill speed, current, motor torque and power."""
+    n = columns["t_s"].size
+    if n == 0:
+        return
+    # The drive needs a time grid of at least two samples: a one-cycle program gets a copy.
+    pad = 1 if n == 1 else 0
+    t = np.arange(n + pad) * cycle_s
+    rpm = np.append(columns["spindle_cmd_rpm"], columns["spindle_cmd_rpm"][-1:] if pad else [])
+    load = np.append(columns["cutting_torque_nm"], columns["cutting_torque_nm"][-1:] if pad else [])
+
+    def flags(name: str) -> NDArray[np.bool_]:
+        values = columns[name] > 0
+        return np.append(values, values[-1:]) if pad else values
+
+    events = MachiningEvents(flags("spindle_on"), flags("feed_on"), flags("contact"))
+    result = SpindleDrive(params).simulate(t, rpm, load, events)
+    columns["spindle_speed_rpm"] = result.speed_rpm[:n]
+    columns["spindle_current_a"] = result.current[:n]
+    columns["motor_torque_nm"] = result.torque[:n]
+    columns["spindle_power_w"] = (result.torque * result.speed)[:n]
