@@ -169,3 +169,22 @@ def test_installed_command_exit_codes(launcher: str, tmp_path: Path) -> None:
     assert bad.returncode == 2
     assert bad.stdout == ""
     assert bad.stderr == f"{tmp_path / 'none.ngc'}: No such file or directory\n"
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["nc", "inspect", "--bogus", "x"], "No such option: --bogus (see --help)"),
+        (["nc", "inspect"], "Missing argument 'program'. (see --help)"),
+        (
+            ["wear", "simulate-lathe", "--test", "9"],
+            "Invalid value for '--test': Input should be less than or equal to 6 (see --help)",
+        ),
+    ],
+)
+def test_usage_errors_are_one_line(args: list[str], message: str) -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "cnctwin", *args], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 2
+    assert done.stderr == message + "\n"

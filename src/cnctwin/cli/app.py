@@ -102,9 +102,24 @@ def run(argv: Sequence[str] | None = None) -> int:
     logging.basicConfig(format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     command = typer.main.get_command(app)
     try:
-        command.main(args=list(sys.argv[1:] if argv is None else argv), prog_name="cnctwin")
+        result = command.main(
+            args=list(sys.argv[1:] if argv is None else argv),
+            prog_name="cnctwin",
+            standalone_mode=False,
+        )
     except SystemExit as done:
         return done.code if isinstance(done.code, int) else int(done.code is not None)
+    except typer.Exit as done:
+        return done.exit_code
+    except typer.Abort:
+        return _fail("interrupted", EXIT_INTERRUPTED)
+    except typer.TyperException as err:
+        # Usage errors (unknown option, bad value, missing argument) in one line; a group
+        # called without a command has already printed its help.
+        message = err.format_message()
+        if not message:
+            return EXIT_BAD_INPUT
+        return _fail(f"{message} (see --help)", EXIT_BAD_INPUT)
     except CnctwinError as err:
         return _fail(str(err), EXIT_BAD_INPUT)
     except OSError as err:
@@ -117,7 +132,7 @@ def run(argv: Sequence[str] | None = None) -> int:
             f"internal error: {type(err).__name__}: {err} (re-run with --debug for the traceback)",
             EXIT_INTERNAL,
         )
-    return 0
+    return result if isinstance(result, int) else 0
 
 
 def main() -> None:
