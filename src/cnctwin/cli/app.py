@@ -21,6 +21,7 @@ from cnctwin.cli import (
     demo,
     forces,
     nc,
+    roughness,
     signals,
     simulate,
     study,
@@ -49,6 +50,7 @@ for _name in ("mount", "compensate", "retire", "history"):
     wear.app.command(_name)(getattr(wear_registry, _name))
 app.add_typer(wear.app, name="wear")
 app.add_typer(study.app, name="study")
+app.add_typer(roughness.app, name="roughness")
 app.command("demo")(demo.demo)
 app.command("forces")(forces.forces)
 app.command("simulate")(simulate.simulate)

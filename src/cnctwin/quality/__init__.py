@@ -1,0 +1,33 @@
+"""Surface quality: roughness from a fitted power law (Royandi 2026) and ideal kinematic profiles.
+
+The power law takes features in the units it was fitted in (named in the features, e.g.
+``ap_mm``); the kinematic profiles are in SI units (m, rad).
+"""
+
+from cnctwin.quality.roughness import (
+    FitMetrics,
+    PowerLawFit,
+    PowerLawModel,
+    fit_metrics,
+    fit_power_law,
+    flat_end_mill_ra,
+    flat_end_mill_rt,
+    milling_cusp_height,
+    milling_cusp_ra,
+    turning_ra,
+    turning_rt,
+)
+
+__all__ = [
+    "FitMetrics",
+    "PowerLawFit",
+    "PowerLawModel",
+    "fit_metrics",
+    "fit_power_law",
+    "flat_end_mill_ra",
+    "flat_end_mill_rt",
+    "milling_cusp_height",
+    "milling_cusp_ra",
+    "turning_ra",
+    "turning_rt",
+]
