@@ -19,6 +19,7 @@ import typer
 from cnctwin import __version__
 from cnctwin.cli import (
     demo,
+    dynamics,
     forces,
     nc,
     roughness,
@@ -51,6 +52,7 @@ for _name in ("mount", "compensate", "retire", "history"):
 app.add_typer(wear.app, name="wear")
 app.add_typer(study.app, name="study")
 app.add_typer(roughness.app, name="roughness")
+app.add_typer(dynamics.app, name="dynamics")
 app.command("demo")(demo.demo)
 app.command("forces")(forces.forces)
 app.command("simulate")(simulate.simulate)

@@ -1,0 +1,38 @@
+"""Structural dynamics: FRFs from impact tests and modal fitting.
+
+Public API::
+
+    from cnctwin.dynamics import FRF, impact_frf, fit_modes
+
+    frf = impact_frf(force_n, acceleration_m_s2, dt=1 / 51200, tau=0.1).to_receptance()
+    fit = fit_modes(frf, n_modes=2, omega_band=(2 * pi * 500, 2 * pi * 3000))
+    for mode in fit.modes:
+        mode.omega_n, mode.zeta, mode.stiffness, mode.mass, mode.damping
+
+SI units throughout: rad/s, s, N, m/N, kg, N/m, N s/m.
+"""
+
+from cnctwin.dynamics.frf import (
+    FRF,
+    FRFQuantity,
+    accelerance_to_receptance,
+    exponential_window,
+    force_window,
+    impact_frf,
+    window_damping_correction,
+)
+from cnctwin.dynamics.modal import ModalFit, Mode, fit_modes, modal_frf
+
+__all__ = [
+    "FRF",
+    "FRFQuantity",
+    "ModalFit",
+    "Mode",
+    "accelerance_to_receptance",
+    "exponential_window",
+    "fit_modes",
+    "force_window",
+    "impact_frf",
+    "modal_frf",
+    "window_damping_correction",
+]
