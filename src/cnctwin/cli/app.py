@@ -25,6 +25,7 @@ from cnctwin.cli import (
     roughness,
     signals,
     simulate,
+    stability,
     study,
     wear,
     wear_ekf,
@@ -53,6 +54,7 @@ app.add_typer(wear.app, name="wear")
 app.add_typer(study.app, name="study")
 app.add_typer(roughness.app, name="roughness")
 app.add_typer(dynamics.app, name="dynamics")
+app.add_typer(stability.app, name="stability")
 app.command("demo")(demo.demo)
 app.command("forces")(forces.forces)
 app.command("simulate")(simulate.simulate)

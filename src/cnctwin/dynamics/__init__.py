@@ -22,17 +22,39 @@ from cnctwin.dynamics.frf import (
     window_damping_correction,
 )
 from cnctwin.dynamics.modal import ModalFit, Mode, fit_modes, modal_frf
+from cnctwin.dynamics.stability import (
+    MillingProcess,
+    OrthogonalProcess,
+    ProcessDamping,
+    StabilityLobes,
+    ToolDynamics,
+    ToolMode,
+    floquet_multipliers,
+    sdm_lobes,
+    zoa_absolute_depth,
+    zoa_lobes,
+)
 
 __all__ = [
     "FRF",
     "FRFQuantity",
+    "MillingProcess",
     "ModalFit",
     "Mode",
+    "OrthogonalProcess",
+    "ProcessDamping",
+    "StabilityLobes",
+    "ToolDynamics",
+    "ToolMode",
     "accelerance_to_receptance",
     "exponential_window",
     "fit_modes",
+    "floquet_multipliers",
     "force_window",
     "impact_frf",
     "modal_frf",
+    "sdm_lobes",
     "window_damping_correction",
+    "zoa_absolute_depth",
+    "zoa_lobes",
 ]

@@ -1,0 +1,337 @@
+"""``cnctwin stability``: chatter stability; ``stability lobes``: the lobe diagram of a cut.
+
+The tool-tip modes and the cut come from a stability file (``--config``, docs/stability.md) or
+from a modes file (``--modes-file``) completed by options; options override the file. The
+physics (:mod:`cnctwin.dynamics.stability`) works in SI; this edge speaks rpm, mm and Hz.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from cnctwin.errors import ConfigError
+
+__all__ = ["app", "lobes", "lobes_report"]
+
+logger = logging.getLogger(__name__)
+
+app = typer.Typer(help="Chatter stability of milling and turning.", no_args_is_help=True)
+
+_RPM = math.pi / 30.0  # rad/s per rpm
+
+
+@app.callback()
+def _stability() -> None:
+    """Chatter stability of milling and turning."""
+
+
+def lobes_report(config: Any) -> dict[str, Any]:
+    """Compute the lobe diagram a stability configuration asks for.
+
+    Parameters
+    ----------
+    config
+        A :class:`cnctwin.config.stability.StabilityConfig`.
+
+    Returns
+    -------
+    dict
+        The ``--json`` object: ``method``, ``operation``, ``spindle_rpm``,
+        ``critical_depth_mm`` (null where no instability was found up to ``max_depth_mm``),
+        ``chatter_frequency_hz`` (null there), ``bifurcation`` (``hopf``, ``flip``, ``fold``
+        or ``none``) as equal-length lists, then ``min_critical_depth_mm`` and its
+        ``min_critical_rpm`` and ``min_chatter_frequency_hz``, the zero-order approximation's
+        ``absolute_depth_mm`` (the lowest limit over all speeds) and its
+        ``absolute_chatter_frequency_hz``, ``max_depth_mm``, ``steps`` (sdm), ``seconds``.
+    """
+    from cnctwin.dynamics.stability import sdm_lobes, zoa_absolute_depth, zoa_lobes
+
+    tool = config.tool_dynamics()
+    process = config.process()
+    damping = config.process_damping_model()
+    spec = config.lobes
+    rpm = np.linspace(spec.rpm[0], spec.rpm[1], spec.points)
+    started = time.perf_counter()
+    if spec.method == "zoa":
+        if damping is not None:
+            raise ConfigError("process damping needs --method sdm (the ZOA has no depth term)")
+        result = zoa_lobes(tool, process, rpm * _RPM)
+    else:
+        steps = None if spec.steps == "auto" else spec.steps
+        result = sdm_lobes(
+            tool,
+            process,
+            rpm * _RPM,
+            max_depth_m=spec.max_depth_mm * 1e-3,
+            steps=steps,
+            damping=damping,
+        )
+    seconds = time.perf_counter() - started
+    absolute_m, absolute_hz = zoa_absolute_depth(tool, process)
+    depth_mm = result.critical_depth_m * 1e3
+    finite = np.isfinite(depth_mm)
+    best = int(np.argmin(np.where(finite, depth_mm, np.inf))) if finite.any() else None
+    return {
+        "method": spec.method,
+        "operation": config.cut.operation,
+        "spindle_rpm": [float(v) for v in rpm],
+        "critical_depth_mm": _nulls(depth_mm),
+        "chatter_frequency_hz": _nulls(result.chatter_frequency_hz),
+        "bifurcation": list(result.bifurcation),
+        "min_critical_depth_mm": None if best is None else float(depth_mm[best]),
+        "min_critical_rpm": None if best is None else float(rpm[best]),
+        "min_chatter_frequency_hz": (
+            None if best is None else float(result.chatter_frequency_hz[best])
+        ),
+        "absolute_depth_mm": _null(absolute_m * 1e3),
+        "absolute_chatter_frequency_hz": _null(absolute_hz),
+        "max_depth_mm": spec.max_depth_mm if spec.method == "sdm" else None,
+        "steps": spec.steps if spec.method == "sdm" else None,
+        "process_damping": damping is not None,
+        "seconds": seconds,
+    }
+
+
+def lobes(
+    config: Annotated[
+        Path | None,
+        typer.Option("--config", help="Stability file: modes, cut, lobes (docs/stability.md)."),
+    ] = None,
+    modes_file: Annotated[
+        Path | None,
+        typer.Option("--modes-file", help="Modes file (the modes alone); the cut from options."),
+    ] = None,
+    immersion: Annotated[
+        float | None,
+        typer.Option("--immersion", help="Radial immersion ae/D, 0 < ae/D <= 1 (1: slot)."),
+    ] = None,
+    down: Annotated[
+        bool | None,
+        typer.Option("--down/--up", help="Down- (climb) or up- (conventional) milling."),
+    ] = None,
+    method: Annotated[
+        str | None,
+        typer.Option(
+            "--method", help="zoa (zero-order approximation) or sdm (semi-discretization)."
+        ),
+    ] = None,
+    rpm: Annotated[
+        tuple[float, float] | None,
+        typer.Option("--rpm", help="Lowest and highest spindle speed in rpm."),
+    ] = None,
+    points: Annotated[
+        int | None, typer.Option("--points", help="Number of spindle speeds (default 200).")
+    ] = None,
+    max_depth_mm: Annotated[
+        float | None,
+        typer.Option("--max-depth-mm", help="sdm: highest depth searched in mm (default 10)."),
+    ] = None,
+    steps: Annotated[
+        str | None,
+        typer.Option("--steps", help="sdm: steps per period, or auto (the default)."),
+    ] = None,
+    teeth: Annotated[int | None, typer.Option("--teeth", help="Number of teeth.")] = None,
+    material: Annotated[
+        str | None,
+        typer.Option("--material", help="Milling entry of the materials library."),
+    ] = None,
+    ktc: Annotated[
+        float | None, typer.Option("--ktc", help="Tangential coefficient in N/mm^2.")
+    ] = None,
+    krc: Annotated[
+        float | None, typer.Option("--krc", help="Radial coefficient in N/mm^2.")
+    ] = None,
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="Write the lobe diagram to this PNG file.")
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+) -> None:
+    """Stability lobes: the critical depth of cut and chatter frequency per spindle speed.
+
+    Modes and cut from --config FILE, or modes from --modes-file FILE and the cut from options.
+
+    Milling cut options: --teeth, --material NAME (or --ktc and --krc), --immersion, --down/--up.
+    """
+    from cnctwin.config.stability import load_stability_config
+
+    path = config if config is not None else modes_file
+    if path is None or (config is not None and modes_file is not None):
+        raise ConfigError("give either --config FILE or --modes-file FILE")
+    overrides = _overrides(
+        immersion=immersion,
+        down=down,
+        method=method,
+        rpm=rpm,
+        points=points,
+        max_depth_mm=max_depth_mm,
+        steps=steps,
+        teeth=teeth,
+        material=material,
+        ktc=ktc,
+        krc=krc,
+    )
+    settings = load_stability_config(path, overrides, modes_only=modes_file is not None)
+    report = lobes_report(settings)
+    if plot is not None:
+        _plot(plot, report, path.stem)
+    if as_json:
+        sys.stdout.write(json.dumps(report) + "\n")
+        return
+    Console().print(_table(report))
+
+
+app.command("lobes")(lobes)
+
+
+def _overrides(**given: Any) -> dict[str, dict[str, Any]]:
+    """The options as replacements of the file's tables; option values checked here."""
+    cut: dict[str, Any] = {}
+    spec: dict[str, Any] = {}
+    if given["immersion"] is not None:
+        value = given["immersion"]
+        if not (math.isfinite(value) and 0.0 < value <= 1.0):
+            raise ConfigError(f"--immersion {value!r}; give 0 < ae/D <= 1")
+        cut["radial_immersion"] = value
+    if given["down"] is not None:
+        cut["milling"] = "down" if given["down"] else "up"
+    if given["teeth"] is not None:
+        if given["teeth"] < 1:
+            raise ConfigError(f"--teeth {given['teeth']!r}; give an integer >= 1")
+        cut["teeth"] = given["teeth"]
+    material, ktc, krc = given["material"], given["ktc"], given["krc"]
+    if material is not None and (ktc is not None or krc is not None):
+        raise ConfigError("--material and --ktc/--krc exclude each other; give one")
+    if material is not None:
+        cut.update(material=material, ktc_n_mm2=None, krc_n_mm2=None)
+    if ktc is not None or krc is not None:
+        if ktc is None or krc is None:
+            raise ConfigError("give both --ktc and --krc (N/mm^2)")
+        _positive("--ktc", ktc)
+        cut.update(material=None, ktc_n_mm2=ktc, krc_n_mm2=krc)
+    if given["method"] is not None:
+        if given["method"] not in ("zoa", "sdm"):
+            raise ConfigError(f"--method {given['method']!r}; give zoa or sdm")
+        spec["method"] = given["method"]
+    if given["rpm"] is not None:
+        low, high = given["rpm"]
+        if not (math.isfinite(low) and math.isfinite(high) and 0.0 < low < high):
+            raise ConfigError(f"--rpm {low!r} {high!r}; give LOW HIGH with 0 < LOW < HIGH")
+        spec["rpm"] = [low, high]
+    if given["points"] is not None:
+        if given["points"] < 2:
+            raise ConfigError(f"--points {given['points']!r}; give an integer >= 2")
+        spec["points"] = given["points"]
+    if given["max_depth_mm"] is not None:
+        _positive("--max-depth-mm", given["max_depth_mm"])
+        spec["max_depth_mm"] = given["max_depth_mm"]
+    if given["steps"] is not None:
+        spec["steps"] = _steps(given["steps"])
+    return {key: value for key, value in (("cut", cut), ("lobes", spec)) if value}
+
+
+def _steps(text: str) -> int | str:
+    if text == "auto":
+        return text
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 2:
+        raise ConfigError(f"--steps {text!r}; give an integer >= 2 or auto")
+    return value
+
+
+def _positive(option: str, value: float) -> None:
+    if not (math.isfinite(value) and value > 0.0):
+        raise ConfigError(f"{option} {value!r}; give a finite value > 0")
+
+
+def _null(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None
+
+
+def _nulls(values: np.ndarray) -> list[float | None]:
+    return [_null(float(v)) for v in values]
+
+
+def _pockets(report: dict[str, Any], count: int = 5) -> list[int]:
+    """Indices of the highest local maxima of the critical depth (stable pockets)."""
+    depth = np.array([np.inf if v is None else v for v in report["critical_depth_mm"]])
+    padded = np.concatenate(([-np.inf], depth, [-np.inf]))
+    peaks = np.flatnonzero((padded[1:-1] >= padded[:-2]) & (padded[1:-1] > padded[2:]))
+    return sorted(peaks[np.argsort(-depth[peaks], kind="stable")][:count].tolist())
+
+
+def _table(report: dict[str, Any]) -> Table:
+    table = Table(
+        title=f"stability lobes ({report['method']}, {report['operation']})",
+        show_header=False,
+        caption=f"{len(report['spindle_rpm'])} spindle speeds "
+        f"{report['spindle_rpm'][0]:.0f}-{report['spindle_rpm'][-1]:.0f} rpm "
+        f"in {report['seconds']:.2f} s",
+        caption_justify="left",
+    )
+    table.add_column("quantity", style="bold")
+    table.add_column("value", justify="right")
+    if report["min_critical_depth_mm"] is None:
+        limit = report["max_depth_mm"]
+        table.add_row("critical depth", f"none below {limit:g} mm" if limit else "none")
+    else:
+        table.add_row(
+            "lowest critical depth",
+            f"{report['min_critical_depth_mm']:.4g} mm at {report['min_critical_rpm']:.0f} rpm, "
+            f"chatter {report['min_chatter_frequency_hz']:.1f} Hz",
+        )
+    if report["absolute_depth_mm"] is not None:
+        table.add_row(
+            "ZOA absolute limit",
+            f"{report['absolute_depth_mm']:.4g} mm "
+            f"(chatter {report['absolute_chatter_frequency_hz']:.1f} Hz)",
+        )
+    flips = sum(kind == "flip" for kind in report["bifurcation"])
+    if flips:
+        table.add_row("period-doubling (flip)", f"at {flips} of the speeds")
+    for index in _pockets(report):
+        depth = report["critical_depth_mm"][index]
+        text = "stable to the search limit" if depth is None else f"{depth:.4g} mm"
+        table.add_row(f"stable pocket {report['spindle_rpm'][index]:.0f} rpm", text)
+    return table
+
+
+def _plot(path: Path, report: dict[str, Any], title: str) -> None:
+    """Critical depth over spindle speed; unstable above the curve, flip points marked."""
+    from matplotlib.figure import Figure  # matplotlib only when asked for
+
+    rpm = np.array(report["spindle_rpm"])
+    depth = np.array([np.nan if v is None else v for v in report["critical_depth_mm"]])
+    top = report["max_depth_mm"] or (1.5 * np.nanmax(depth) if np.isfinite(depth).any() else 1)
+    shown = np.where(np.isnan(depth), top, np.minimum(depth, top))
+    figure = Figure(figsize=(9.0, 5.0), dpi=100, layout="constrained")
+    axes = figure.subplots()
+    axes.fill_between(rpm, shown, top, color="tab:red", alpha=0.15, linewidth=0, label="chatter")
+    axes.plot(rpm, shown, color="black", linewidth=1.0, label="critical depth")
+    flip = np.array([kind == "flip" for kind in report["bifurcation"]])
+    if flip.any():
+        axes.plot(rpm[flip], shown[flip], ".", color="tab:blue", label="period doubling (flip)")
+    if report["absolute_depth_mm"] is not None and report["absolute_depth_mm"] < top:
+        axes.axhline(report["absolute_depth_mm"], color="tab:gray", linestyle="--",
+                     linewidth=0.8, label="ZOA absolute limit")  # fmt: skip
+    axes.set_xlim(rpm[0], rpm[-1])
+    axes.set_ylim(0.0, top)
+    axes.set_xlabel("spindle speed [rpm]")
+    axes.set_ylabel("axial depth of cut [mm]")
+    axes.set_title(f"{title}: stability lobes ({report['method']})")
+    axes.grid(alpha=0.3)
+    axes.legend(loc="upper left", fontsize="small")
+    figure.savefig(path)

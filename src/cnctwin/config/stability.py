@@ -1,0 +1,329 @@
+"""Stability configuration files: tool-tip modes, the cut and the lobe diagram (docs/stability.md).
+
+A stability file is TOML with a ``[[modes]]`` array and optional ``[cut]``, ``[lobes]`` and
+``[process_damping]`` tables; a modes file holds the ``[[modes]]`` array only. Customary units
+in the key names (Hz, N/m, kg, mm, N/mm^2, rpm, degrees); :meth:`StabilityConfig.tool_dynamics`,
+:meth:`StabilityConfig.process` and :meth:`StabilityConfig.process_damping_model` convert to
+the SI objects of :mod:`cnctwin.dynamics.stability`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from pathlib import Path
+from typing import Any, Literal, TypeVar
+
+from pydantic import Field, ValidationError, model_validator
+
+from cnctwin.config.base import Section
+from cnctwin.config.loading import _describe_validation_error
+from cnctwin.dynamics.stability import (
+    MillingProcess,
+    OrthogonalProcess,
+    ProcessDamping,
+    ToolDynamics,
+    ToolMode,
+)
+from cnctwin.errors import ConfigError
+from cnctwin.mechanics.coefficients import CuttingCoefficients
+
+__all__ = [
+    "CutSection",
+    "LobesSection",
+    "ModeEntry",
+    "ModesFile",
+    "ProcessDampingSection",
+    "StabilityConfig",
+    "load_modes_file",
+    "load_stability_config",
+]
+
+_DIRECTIONS = {"x": 0.0, "y": 90.0}
+_Model = TypeVar("_Model", bound=Section)
+
+
+class ModeEntry(Section):
+    """One tool-tip mode (``[[modes]]``).
+
+    Attributes
+    ----------
+    direction
+        ``"x"`` (feed) or ``"y"`` (normal to the feed); exclusive with ``direction_deg``.
+    direction_deg
+        Direction in degrees from +x toward +y, for modes not along x or y.
+    fn_hz
+        Undamped natural frequency in Hz, > 0.
+    damping_ratio
+        Viscous damping ratio, 0 <= zeta < 1.
+    stiffness_n_m
+        Modal stiffness in N/m; exclusive with ``mass_kg``.
+    mass_kg
+        Modal mass in kg (``k = m (2 pi fn)^2``).
+    """
+
+    direction: Literal["x", "y"] | None = None
+    direction_deg: float | None = None
+    fn_hz: float = Field(gt=0)
+    damping_ratio: float = Field(ge=0, lt=1)
+    stiffness_n_m: float | None = Field(default=None, gt=0)
+    mass_kg: float | None = Field(default=None, gt=0)
+
+    @model_validator(mode="after")
+    def _one_of_each(self) -> ModeEntry:
+        if (self.direction is None) == (self.direction_deg is None):
+            raise ValueError("give either direction (x or y) or direction_deg")
+        if (self.stiffness_n_m is None) == (self.mass_kg is None):
+            raise ValueError("give either stiffness_n_m or mass_kg")
+        return self
+
+    def tool_mode(self) -> ToolMode:
+        """The SI :class:`~cnctwin.dynamics.stability.ToolMode`."""
+        degrees = _DIRECTIONS[self.direction] if self.direction is not None else self.direction_deg
+        return ToolMode.from_hz(
+            self.fn_hz,
+            self.damping_ratio,
+            stiffness_n_m=self.stiffness_n_m,
+            mass_kg=self.mass_kg,
+            direction_rad=math.radians(degrees or 0.0),
+        )
+
+
+class CutSection(Section):
+    """The cut (``[cut]``): milling (the default) or orthogonal cutting.
+
+    Attributes
+    ----------
+    operation
+        ``"milling"`` or ``"orthogonal"`` (turning, boring, shaping: one chip per revolution).
+    teeth
+        Milling: number of teeth, >= 1.
+    radial_immersion
+        Milling: radial depth over diameter ae/D, 0 < ae/D <= 1 (1 is a slot).
+    milling
+        Milling: ``"down"`` (climb) or ``"up"`` (conventional).
+    material
+        Milling: an entry of the materials library (``cnctwin.mechanics.materials``);
+        exclusive with ``ktc_n_mm2`` and ``krc_n_mm2``.
+    ktc_n_mm2, krc_n_mm2
+        Milling: tangential and radial cutting coefficients in N/mm^2.
+    kf_n_mm2
+        Orthogonal: cutting force coefficient Kf in N/mm^2.
+    chip_direction_deg
+        Orthogonal: direction in which the tool's displacement thickens the chip, degrees
+        from +x toward +y.
+    force_angle_deg
+        Orthogonal: angle beta of the cutting force from the chip direction, degrees.
+    """
+
+    operation: Literal["milling", "orthogonal"] = "milling"
+    teeth: int | None = Field(default=None, ge=1)
+    radial_immersion: float = Field(default=1.0, gt=0, le=1)
+    milling: Literal["down", "up"] = "down"
+    material: str | None = None
+    ktc_n_mm2: float | None = Field(default=None, gt=0)
+    krc_n_mm2: float | None = None
+    kf_n_mm2: float | None = Field(default=None, gt=0)
+    chip_direction_deg: float = 90.0
+    force_angle_deg: float = 0.0
+
+
+class LobesSection(Section):
+    """The lobe diagram to compute (``[lobes]``).
+
+    Attributes
+    ----------
+    method
+        ``"zoa"`` (zero-order approximation) or ``"sdm"`` (semi-discretization).
+    rpm
+        Lowest and highest spindle speed in rpm.
+    points
+        Number of spindle speeds, evenly spaced, >= 2.
+    max_depth_mm
+        Semi-discretization: highest depth searched in mm.
+    steps
+        Semi-discretization: steps per period, >= 2, or ``"auto"`` (20 per cycle of the
+        highest mode, at least 40).
+    """
+
+    method: Literal["zoa", "sdm"] = "zoa"
+    rpm: tuple[float, float] = (2000.0, 20000.0)
+    points: int = Field(default=200, ge=2)
+    max_depth_mm: float = Field(default=10.0, gt=0)
+    steps: int | Literal["auto"] = "auto"
+
+    @model_validator(mode="after")
+    def _ranges(self) -> LobesSection:
+        low, high = self.rpm
+        if not 0.0 < low < high:
+            raise ValueError(f"rpm must be [low, high] with 0 < low < high; got {list(self.rpm)}")
+        if isinstance(self.steps, int) and self.steps < 2:
+            raise ValueError(f"steps must be >= 2 or 'auto'; got {self.steps}")
+        return self
+
+
+class ProcessDampingSection(Section):
+    """Process damping, Royandi 2026 Eq. 3 (``[process_damping]``).
+
+    Attributes
+    ----------
+    cpd_n_m2
+        Process damping coefficient C_pd in N/m^2, >= 0.
+    chip_thickness_mm
+        Chip thickness h in mm: the feed per tooth in milling, per revolution in turning.
+    diameter_mm
+        Cutting diameter in mm (the tool's in milling, the workpiece's in turning), for the
+        cutting speed ``V_c``.
+    """
+
+    cpd_n_m2: float = Field(ge=0)
+    chip_thickness_mm: float = Field(gt=0)
+    diameter_mm: float = Field(gt=0)
+
+
+class ModesFile(Section):
+    """A modes file: the ``[[modes]]`` array alone."""
+
+    modes: list[ModeEntry] = Field(min_length=1)
+
+
+class StabilityConfig(Section):
+    """A whole stability file.
+
+    Attributes
+    ----------
+    modes
+        Tool-tip modes, at least one.
+    cut
+        The cut.
+    lobes
+        The lobe diagram.
+    process_damping
+        Optional process damping.
+    """
+
+    modes: list[ModeEntry] = Field(min_length=1)
+    cut: CutSection = Field(default_factory=CutSection)
+    lobes: LobesSection = Field(default_factory=LobesSection)
+    process_damping: ProcessDampingSection | None = None
+
+    def tool_dynamics(self) -> ToolDynamics:
+        """The modes as :class:`~cnctwin.dynamics.stability.ToolDynamics` (SI)."""
+        return ToolDynamics(tuple(mode.tool_mode() for mode in self.modes))
+
+    def process(self) -> MillingProcess | OrthogonalProcess:
+        """The cut as a process of :mod:`cnctwin.dynamics.stability` (SI).
+
+        Raises
+        ------
+        ConfigError
+            If the keys the operation needs are missing or contradict each other.
+        """
+        cut = self.cut
+        if cut.operation == "orthogonal":
+            if cut.kf_n_mm2 is None:
+                raise ConfigError("cut.kf_n_mm2: orthogonal cutting needs Kf in N/mm^2")
+            return OrthogonalProcess(
+                cut.kf_n_mm2 * 1e6,
+                math.radians(cut.chip_direction_deg),
+                math.radians(cut.force_angle_deg),
+            )
+        if cut.teeth is None:
+            raise ConfigError("cut.teeth: milling needs the number of teeth")
+        return MillingProcess.from_immersion(
+            cut.teeth,
+            self.coefficients(),
+            cut.radial_immersion,
+            down_milling=cut.milling == "down",
+        )
+
+    def coefficients(self) -> CuttingCoefficients:
+        """Milling coefficients from ``material`` or ``ktc_n_mm2`` and ``krc_n_mm2``."""
+        from cnctwin.mechanics.materials import milling_material
+
+        cut = self.cut
+        given = cut.ktc_n_mm2 is not None or cut.krc_n_mm2 is not None
+        if cut.material is not None and not given:
+            return milling_material(cut.material).coefficients
+        if cut.material is None and cut.ktc_n_mm2 is not None and cut.krc_n_mm2 is not None:
+            return CuttingCoefficients.from_n_mm(cut.ktc_n_mm2, cut.krc_n_mm2)
+        raise ConfigError("cut: give either material or both ktc_n_mm2 and krc_n_mm2")
+
+    def process_damping_model(self) -> ProcessDamping | None:
+        """The ``[process_damping]`` table as a :class:`~cnctwin.dynamics.ProcessDamping`."""
+        section = self.process_damping
+        if section is None:
+            return None
+        return ProcessDamping(
+            section.cpd_n_m2, section.chip_thickness_mm * 1e-3, section.diameter_mm * 1e-3
+        )
+
+
+def load_stability_config(
+    path: str | os.PathLike[str],
+    overrides: dict[str, dict[str, Any]] | None = None,
+    *,
+    modes_only: bool = False,
+) -> StabilityConfig:
+    """Read and validate a stability file, or a modes file completed by ``overrides``.
+
+    Parameters
+    ----------
+    path
+        The TOML file.
+    overrides
+        Values replacing the file's, by table and key (``{"cut": {"teeth": 4}}``): the
+        command line's options.
+    modes_only
+        The file is a modes file (only ``[[modes]]``); the other tables come from
+        ``overrides`` and their defaults.
+
+    Raises
+    ------
+    ConfigError
+        ``"FILE: key.path: what is wrong; got VALUE"`` for an unreadable file, invalid TOML or
+        an invalid value.
+    """
+    data = _read(path)
+    if modes_only:
+        _validate(ModesFile, data, str(path))
+        data = {"modes": data["modes"]}
+    for table, values in (overrides or {}).items():
+        section = data.setdefault(table, {})
+        if not isinstance(section, dict):
+            raise ConfigError(f"{table}: must be a table", str(path))
+        section.update(values)
+    return _validate(StabilityConfig, data, str(path))
+
+
+def load_modes_file(path: str | os.PathLike[str]) -> list[ModeEntry]:
+    """Read the ``[[modes]]`` array of a modes file (no other keys).
+
+    Raises
+    ------
+    ConfigError
+        As :func:`load_stability_config`.
+    """
+    return _validate(ModesFile, _read(path), str(path)).modes
+
+
+def _read(path: str | os.PathLike[str]) -> dict[str, Any]:
+    source = str(path)
+    try:
+        text = Path(path).read_bytes().decode("utf-8")
+    except OSError as err:
+        raise ConfigError(f"cannot read: {err.strerror}", source) from err
+    except UnicodeDecodeError as err:
+        raise ConfigError(f"not UTF-8 text (byte {err.start}): {err.reason}", source) from err
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError(f"invalid TOML: {err}", source) from err
+
+
+def _validate(model: type[_Model], data: dict[str, Any], source: str) -> _Model:
+    try:
+        return model.model_validate(data)
+    except ValidationError as err:
+        raise ConfigError(_describe_validation_error(err, model), source) from err
