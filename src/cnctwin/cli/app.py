@@ -18,6 +18,7 @@ import typer
 
 from cnctwin import __version__
 from cnctwin.cli import (
+    chatter,
     demo,
     dynamics,
     forces,
@@ -55,6 +56,7 @@ app.add_typer(study.app, name="study")
 app.add_typer(roughness.app, name="roughness")
 app.add_typer(dynamics.app, name="dynamics")
 app.add_typer(stability.app, name="stability")
+app.add_typer(chatter.app, name="chatter")
 app.command("demo")(demo.demo)
 app.command("forces")(forces.forces)
 app.command("simulate")(simulate.simulate)
