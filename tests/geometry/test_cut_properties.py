@@ -15,15 +15,23 @@ from hypothesis import strategies as st
 
 from cnctwin.geometry import Cutter, DexelStock, cut
 
+
+def _cutter(kind: str, d: float, frac: float, length: float) -> Cutter:
+    if kind == "flat":
+        return Cutter.flat(d, length)
+    if kind == "ball":
+        return Cutter.ball(d, max(length, d / 2))
+    if kind == "bull":
+        return Cutter.bull(d, frac * d / 2, max(length, d / 2))
+    if kind == "conical":  # tip angle from 18 to 162 degrees
+        angle = math.pi * (0.1 + 0.8 * frac)
+        return Cutter.conical(d, max(length, 0.5 * d / math.tan(0.5 * angle)), tip_angle_rad=angle)
+    return Cutter.snub(d, frac * d, length)  # a cone over the whole length
+
+
 cutters = st.builds(
-    lambda kind, d, frac, length: (
-        Cutter.flat(d, length)
-        if kind == "flat"
-        else Cutter.ball(d, max(length, d / 2))
-        if kind == "ball"
-        else Cutter.bull(d, frac * d / 2, max(length, d / 2))
-    ),
-    st.sampled_from(["flat", "ball", "bull"]),
+    _cutter,
+    st.sampled_from(["flat", "ball", "bull", "conical", "snub"]),
     st.floats(1.0, 8.0),
     st.floats(0.1, 0.9),
     st.floats(1.0, 10.0),

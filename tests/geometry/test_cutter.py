@@ -38,17 +38,45 @@ def test_bull_nose_corner_is_a_torus() -> None:
     assert cutter.radius_at(0.0) == 3.0 and cutter.radius_at(5.0) == 5.0
 
 
+def test_cones_widen_linearly_to_the_diameter() -> None:
+    # A 90 degree V-bit of 6 mm: r = z tan(45 deg) up to 3 mm, then the cylinder.
+    vbit = Cutter.conical(6.0, 10.0, tip_angle_rad=math.pi / 2)
+    z = np.array([-0.1, 0.0, 1.0, 2.5, 3.5, 7.0, 10.0, 10.1])
+    np.testing.assert_allclose(vbit.radius_at(z), [0, 0, 1, 2.5, 3, 3, 3, 0], atol=1e-12)
+    # The cone's normal leans 45 degrees from the horizontal: sin(kappa) = cos(45 deg).
+    np.testing.assert_allclose(
+        vbit.sin_kappa_at(z), [0, *[math.sqrt(0.5)] * 3, 1, 1, 1, 0], atol=1e-12
+    )
+    assert vbit.cone_height_mm == pytest.approx(3.0) and vbit.flat_radius_mm == 0.0
+    # Without an angle the cone spans the fluted length (CAMotics' conical): 2 x 2 mm is
+    # 2 atan(1/2) = 53.13 degrees, and reaches the diameter at the top.
+    camotics = Cutter.conical(2.0, 2.0)
+    assert math.degrees(camotics.tip_angle_rad) == pytest.approx(53.130102354)
+    assert camotics.radius_at([1.0, 2.0]) == pytest.approx([0.5, 1.0])
+    # A snub nose: flat tip of 2 mm, 4 mm at 5.5 mm (CAMotics' snubnose).
+    snub = Cutter.snub(4.0, 2.0, 5.5)
+    np.testing.assert_allclose(snub.radius_at([0.0, 2.75, 5.5]), [1.0, 1.5, 2.0])
+    assert snub.flat_radius_mm == 1.0 and snub.cone_height_mm == pytest.approx(5.5)
+
+
 @pytest.mark.parametrize(
     "cutter",
-    [Cutter.flat(6.0, 10.0), Cutter.ball(6.0, 10.0), Cutter.bull(8.0, 1.5, 10.0)],
-    ids=["flat", "ball", "bull"],
+    [
+        Cutter.flat(6.0, 10.0),
+        Cutter.ball(6.0, 10.0),
+        Cutter.bull(8.0, 1.5, 10.0),
+        Cutter.conical(6.0, 10.0, tip_angle_rad=math.radians(60.0)),
+        Cutter.conical(2.0, 2.0),
+        Cutter.snub(8.0, 1.0, 10.0, tip_angle_rad=math.radians(90.0)),
+    ],
+    ids=["flat", "ball", "bull", "vbit", "camotics-cone", "snub"],
 )
 def test_envelope_volume_matches_integral(cutter: Cutter) -> None:
     integral, _ = quad(
         lambda z: math.pi * float(cutter.radius_at(z)) ** 2,
         0.0,
         cutter.flute_length_mm,
-        points=[cutter.corner_radius_mm],
+        points=[cutter.corner_radius_mm or cutter.cone_height_mm],
     )
     assert cutter.volume_mm3() == pytest.approx(integral, rel=1e-9)
 
@@ -74,6 +102,49 @@ def test_envelope_volume_matches_integral(cutter: Cutter) -> None:
             "at least",
         ),
         ({"kind": "drill", "diameter_mm": 6.0, "flute_length_mm": 5.0}, "kind='drill'"),
+        (
+            {"kind": "flat", "diameter_mm": 6.0, "flute_length_mm": 5.0, "tip_angle_rad": 1.0},
+            "use kind 'conical'",
+        ),
+        (
+            {"kind": "conical", "diameter_mm": 6.0, "flute_length_mm": 5.0, "tip_angle_rad": 3.2},
+            r"\(0, pi\)",
+        ),
+        (
+            {"kind": "conical", "diameter_mm": 6.0, "flute_length_mm": 2.0, "tip_angle_rad": 1.0},
+            "cone of this 57.2958 degree conical tool is 5.49146 mm high",
+        ),
+        (
+            {
+                "kind": "conical",
+                "diameter_mm": 6.0,
+                "flute_length_mm": 9.0,
+                "tip_angle_rad": 1.0,
+                "tip_diameter_mm": 1.0,
+            },
+            "use kind 'snub'",
+        ),
+        (
+            {
+                "kind": "snub",
+                "diameter_mm": 6.0,
+                "flute_length_mm": 9.0,
+                "tip_angle_rad": 1.0,
+                "tip_diameter_mm": 6.0,
+            },
+            "0 < tip < diameter_mm",
+        ),
+        (
+            {
+                "kind": "snub",
+                "diameter_mm": 6.0,
+                "flute_length_mm": 9.0,
+                "tip_angle_rad": 1.0,
+                "tip_diameter_mm": 2.0,
+                "corner_radius_mm": 0.5,
+            },
+            "for a snub tool; it must be 0",
+        ),
         ({"kind": "flat", "diameter_mm": 6.0, "flute_length_mm": 5.0, "flutes": 0}, "flutes=0"),
         ({"kind": "flat", "diameter_mm": 6.0, "flute_length_mm": 5.0, "helix_rad": 2.0}, "helix"),
     ],

@@ -45,8 +45,9 @@ def test_invalid_boxes_are_rejected() -> None:
 def test_memory_of_a_200_x_200_x_50_stock_at_10_per_mm_is_under_1_gib() -> None:
     low, high = (0.0, 0.0, -50.0), (200.0, 200.0, 0.0)
     estimate = DexelStock.estimate_nbytes(low, high, 10.0)
-    # 2000 x 2000 z rays, 2000 x 500 x and y rays, 28 bytes each at capacity 2.
-    assert estimate == 6_000_000 * 28 + 3 * (1024 * 8 + 8)
+    # 2000 x 2000 z rays, 2000 x 500 x and y rays, 28 bytes each at capacity 2, and heaps of
+    # a quarter of each family's 2 rows a ray, 8 bytes a row (+ 8 for its top).
+    assert estimate == 6_000_000 * 28 + 6_000_000 // 2 * 8 + 3 * 8
     assert estimate < GIB
     tracemalloc.start()
     try:

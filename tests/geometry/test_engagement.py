@@ -17,6 +17,7 @@ import pytest
 
 from cnctwin.errors import ConfigError
 from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
+from cnctwin.geometry.engagement import cut_path
 
 DENSITY = 10.0  # /mm
 PITCH = 1.0 / DENSITY  # mm
@@ -100,6 +101,66 @@ def test_full_slot_engages_half_the_tool() -> None:
     # MRR = feed x D x ap, on average over the steady steps (whole cells: relative p / D).
     steady = np.mean([s.mrr_mm3_s for s in steps[-60:]])
     assert steady == pytest.approx(STEP / CYCLE_S * 6.0 * 3.0, rel=PITCH / 6.0)
+
+
+def test_full_slot_is_one_interval_at_any_position_and_direction() -> None:
+    # Over many tool positions relative to the grid, feed directions, densities, diameters and
+    # steps, every slice of a full slot is in contact over one interval [0, pi] (the x rays'
+    # and the y rays' contact points meet at 45 degrees to the grid without a gap).
+    rng = np.random.default_rng(3)
+    for _ in range(60):
+        angle = rng.uniform(0.0, 2.0 * math.pi)
+        density = float(rng.choice([7.0, 10.0, 13.0]))
+        cutter = Cutter.flat(float(rng.uniform(1.5, 8.0)), 6.0)
+        r = cutter.radius_mm
+        step = float(rng.uniform(0.02, 0.6))
+        stock = DexelStock.box((0.0, 0.0, -3.0), (24.0, 24.0, 0.0), density)
+        centre = 12.0 + rng.uniform(-0.5, 0.5, 2)
+        feed = np.array([math.cos(angle), math.sin(angle)])
+        n = math.ceil((2.0 * r + 1.0) / step)
+        previous = None
+        for k in range(n, -1, -1):
+            position = (*(centre - k * step * feed), -1.5)
+            e = cut(stock, cutter, position, previous, FZ, CYCLE_S)
+            previous = position
+        pitch = 1.0 / density
+        tol = (math.sqrt(2.0) * pitch + 0.5 * pitch) / r + step / (2.0 * r)
+        assert len(e.slice_height_mm) > 0
+        for index in range(len(e.slice_height_mm)):
+            (got,) = merged(e, index)
+            assert got[0] == pytest.approx(0.0, abs=tol), (angle, density, r, step, got)
+            assert got[1] == pytest.approx(math.pi, abs=tol), (angle, density, r, step, got)
+
+
+def test_walls_of_earlier_passes_are_not_contact() -> None:
+    # A slot 3 mm deep, then the next 3 mm layer along the same line, its positions shifted
+    # by 0.037 mm: the second pass meets the first one's walls tangentially and takes off
+    # only the cusps (at most s^2 / 8R = 0.0017 mm) the first one left between positions. Its
+    # engagement is a full slot 3 mm deep, not 6: no contact above 3 mm.
+    stock = DexelStock.box((0.0, 0.0, -10.0), (40.0, 20.0, 0.0), DENSITY)
+    along_x(stock, FLAT, -4.0, 30.0, 10.0, -3.0)
+    second = along_x(stock, FLAT, -3.963, 30.0, 10.0, -6.0)
+    for e in second[60:110]:  # x from 8 to 18 mm: the steady part
+        assert e.ap_mm == pytest.approx(3.0, abs=1e-4)
+        assert e.ae_mm == pytest.approx(6.0, abs=PITCH)
+        assert np.all(e.slice_height_mm < 3.0)
+        assert_contact(e, 0.0, math.pi, angle_tol(R))
+    # A third pass retracing the second at its depth takes off only cusps: material, no cut.
+    v0 = stock.volume_mm3()
+    third = along_x(stock, FLAT, -3.911, 30.0, 10.0, -6.0)
+    removed = sum(e.removed_volume_mm3 for e in third)
+    assert 0.0 < removed == pytest.approx(v0 - stock.volume_mm3(), rel=1e-9)
+    for e in third[60:110]:
+        assert e.ae_mm == 0.0 and e.ap_mm == 0.0 and len(e.interval_slice) == 0
+    # A half-depth slot beside an earlier full-depth one, touching its wall (y = 13) with the
+    # right side of the tool (phi = pi): a full slot 3 mm deep.
+    stock = DexelStock.box((0.0, 0.0, -10.0), (40.0, 30.0, 0.0), DENSITY)
+    along_x(stock, FLAT, -4.0, 30.0, 10.0, -6.0)
+    beside = along_x(stock, FLAT, -3.963, 30.0, 16.0, -3.0)
+    for e in beside[60:110]:
+        assert e.ap_mm == pytest.approx(3.0, abs=1e-4)
+        assert e.ae_mm == pytest.approx(6.0, abs=PITCH)
+        assert_contact(e, 0.0, math.pi, angle_tol(R))
 
 
 @pytest.mark.parametrize("ae", [0.6, 1.8, 3.0, 4.5])
@@ -216,6 +277,56 @@ def test_ball_nose_at_depth() -> None:
     assert steady == pytest.approx(STEP / CYCLE_S * area, rel=2 * PITCH / width)
 
 
+@pytest.mark.parametrize(
+    "cutter",
+    [
+        Cutter.conical(6.0, 10.0, tip_angle_rad=math.pi / 2),
+        Cutter.conical(6.0, 10.0, tip_angle_rad=math.pi / 3),
+        Cutter.snub(6.0, 2.0, 10.0, tip_angle_rad=math.pi / 2),
+    ],
+    ids=["vbit90", "vbit60", "snub90"],
+)
+def test_v_groove(cutter: Cutter) -> None:
+    # A cone at depth d engraves a groove of width 2 (r_t + d tan(theta/2)) and cross-section
+    # d (2 r_t + d tan(theta/2)); every slice cuts a slot, and sin(kappa) = cos(theta/2).
+    depth = 2.037
+    stock = DexelStock.box((0.0, 0.0, -10.0), (40.0, 20.0, 0.0), DENSITY)
+    steps = along_x(stock, cutter, -4.0, 20.0, 10.013, -depth)
+    e = steps[-1]
+    slope = math.tan(0.5 * cutter.tip_angle_rad)
+    tip = cutter.flat_radius_mm
+    width = 2.0 * (tip + depth * slope)
+    # The top slab's rays sit half a pitch below the top, where the groove is p tan(theta/2)
+    # narrower, and the rays across the feed lie within a pitch of its edges.
+    assert e.ae_mm == pytest.approx(width, abs=PITCH * (1.0 + slope))
+    # A pointed tip below the z ray nearest the axis (within p / sqrt(2)) is not sampled.
+    unseen = 0.0 if tip > 0.0 else PITCH / math.sqrt(2.0) / slope
+    assert depth - unseen - 1e-4 <= e.ap_mm <= depth + 1e-4
+    assert not e.bottom_contact  # moving sideways, the snub's flat tip only bounds the floor
+    assert e.h_max_mm == pytest.approx(FZ * math.cos(0.5 * cutter.tip_angle_rad), rel=1e-9)
+    np.testing.assert_allclose(
+        e.slice_radius_mm, tip + e.slice_height_mm * slope, rtol=1e-12, atol=1e-12
+    )
+    for index, r in enumerate(e.slice_radius_mm):
+        if r < 2.0 * STEP:
+            continue  # circles smaller than the step are new material all round
+        (got,) = merged(e, index)
+        assert got[0] == pytest.approx(0.0, abs=angle_tol(r))
+        assert got[1] == pytest.approx(math.pi, abs=angle_tol(r))
+    # MRR = feed x cross-section, less the cusps the discrete positions leave on both walls:
+    # s^2 / (8 r) across at radius r, (2/3) of that on average, integrated up the wall from
+    # where the circles stop overlapping (r = s/2; below that at most the whole width).
+    area = depth * (2.0 * tip + depth * slope)
+    floor = max(tip, 0.5 * STEP)
+    rim = tip + depth * slope
+    cusps = 2.0 * (2.0 / 3.0) * STEP**2 / 8.0 * math.log(rim / floor) / slope
+    cusps += (0.5 * STEP) ** 2 / slope if tip < 0.5 * STEP else 0.0
+    steady = np.mean([s.mrr_mm3_s for s in steps[-60:]])
+    feed_mm_s = STEP / CYCLE_S
+    assert feed_mm_s * (area * (1.0 - PITCH / width) - cusps) <= steady
+    assert steady <= feed_mm_s * area * (1.0 + PITCH / width)
+
+
 def test_plunge_removes_the_envelope() -> None:
     # A ball plunged 2 mm: the spherical cap pi d^2 (3R - d) / 3; a flat plunge: the cylinder.
     for cutter, expected in (
@@ -266,3 +377,33 @@ def test_invalid_arguments_are_rejected() -> None:
         cut(stock, FLAT, (0, math.nan, 0), None, FZ, CYCLE_S)
     with pytest.raises(ConfigError, match="previous_position_mm="):
         cut(stock, FLAT, (0, 0, 0), (1, 2), FZ, CYCLE_S)
+
+
+def test_cut_path_equals_cut_position_by_position() -> None:
+    # Batch and streaming: one compiled call over a winding descending path gives the same
+    # engagement, field by field, as a call of cut() per position, and the same stock.
+    t = np.linspace(0.0, 3.0 * math.pi, 300)
+    path = np.column_stack(
+        [15.0 + 8.0 * np.cos(t), 15.0 + 8.0 * np.sin(t), -0.5 - 2.5 * t / (3 * math.pi)]
+    )
+    fz = np.linspace(0.02, 0.08, len(path))
+    for cutter in (FLAT, Cutter.ball(4.0, 10.0), Cutter.conical(6.0, 10.0, tip_angle_rad=1.2)):
+        a = DexelStock.box((0.0, 0.0, -8.0), (30.0, 30.0, 0.0), DENSITY, capacity=1)
+        b = DexelStock.box((0.0, 0.0, -8.0), (30.0, 30.0, 0.0), DENSITY, capacity=1)
+        batch = cut_path(a, cutter, path[1:], path[0], fz[1:], CYCLE_S)
+        assert len(batch.contact) == len(path) - 1
+        for i in range(1, len(path)):
+            one = cut(b, cutter, path[i], path[i - 1], float(fz[i]), CYCLE_S)
+            other = batch.engagement(i - 1)
+            for name in Engagement._fields:
+                x, y = getattr(one, name), getattr(other, name)
+                if isinstance(x, np.ndarray):
+                    assert np.array_equal(x, y), (i, name)
+                else:
+                    assert x == y or (x != x and y != y), (i, name, x, y)
+        assert batch.contact.any() and a.volume_mm3() == b.volume_mm3()
+        assert a.overflow_rays("x") + a.overflow_rays("y") > 0  # capacity 1 overflowed
+    with pytest.raises(ConfigError, match="positions_mm of shape"):
+        cut_path(a, FLAT, np.zeros((3, 2)), None, FZ, CYCLE_S)
+    with pytest.raises(ConfigError, match="feed_per_tooth_mm"):
+        cut_path(a, FLAT, np.zeros((3, 3)), None, [FZ, -1.0, FZ], CYCLE_S)

@@ -28,8 +28,14 @@ PATH = [
 
 @pytest.mark.parametrize(
     "cutter",
-    [Cutter.flat(5.0, 8.0), Cutter.ball(5.0, 8.0), Cutter.bull(5.0, 1.0, 8.0)],
-    ids=["flat", "ball", "bull"],
+    [
+        Cutter.flat(5.0, 8.0),
+        Cutter.ball(5.0, 8.0),
+        Cutter.bull(5.0, 1.0, 8.0),
+        Cutter.conical(5.0, 8.0, tip_angle_rad=math.pi / 2),
+        Cutter.snub(5.0, 1.5, 8.0),
+    ],
+    ids=["flat", "ball", "bull", "conical", "snub"],
 )
 def test_incremental_cut_equals_the_full_envelope(cutter: Cutter) -> None:
     # The stock remembers its last cut and subtracts only the new part of the envelope; a
@@ -71,3 +77,35 @@ def test_removal_record() -> None:
     assert np.all((c.arc_hi_rad >= c.arc_lo_rad) & (c.arc_hi_rad <= c.arc_lo_rad + math.pi))
     outside = remove(stock, cutter, (100.0, 10.0, -1.0))
     assert outside.removed_volume_mm3 == 0.0
+
+
+@pytest.mark.parametrize(
+    ("cutter", "depth"),
+    [
+        (Cutter.conical(6.0, 10.0, tip_angle_rad=math.pi / 2), 2.2),  # a 90 degree V-bit
+        (Cutter.conical(6.0, 12.0, tip_angle_rad=math.radians(30.0)), 6.0),
+        (Cutter.conical(2.0, 2.0), 1.6),  # CAMotics' vcarve tool, a cone over its length
+        (Cutter.snub(4.0, 2.0, 5.5), 3.0),  # CAMotics' slant_test snub nose
+    ],
+    ids=["vbit90", "vbit30", "camotics-cone", "snub"],
+)
+def test_cone_plunge_removes_the_frustum(cutter: Cutter, depth: float) -> None:
+    # A plunge to depth d removes the frustum pi d (r_t^2 + r_t r_d + r_d^2) / 3 (r_t the tip
+    # radius, r_d the radius at d). The rays along x and y count the slab around the tip
+    # whole (half a slab of the flat tip too much, in two families of three); the rest is a
+    # midpoint sum of ray lengths that vanish continuously at the rim: O(p^2) per mm^2 of the
+    # cone's surface.
+    rng = np.random.default_rng(5)
+    for density in (10.0, 20.0):
+        pitch = 1.0 / density
+        for _ in range(4):
+            stock = DexelStock.box((0.0, 0.0, -8.0), (16.0, 16.0, 0.0), density)
+            x, y = 8.0 + rng.uniform(-0.5, 0.5, 2)
+            d = depth + rng.uniform(-0.05, 0.05)
+            removal = remove(stock, cutter, (x, y, -d))
+            tip, rim = cutter.flat_radius_mm, float(cutter.radius_at(d))
+            frustum = math.pi * d * (tip * tip + tip * rim + rim * rim) / 3.0
+            lateral = math.pi * (tip + rim) * math.hypot(rim - tip, d)
+            tol = pitch / 3.0 * math.pi * tip * tip + pitch * pitch * lateral / 2.0
+            assert removal.removed_volume_mm3 == pytest.approx(frustum, abs=tol)
+            assert removal.contact.bottom_contact == (cutter.kind == "snub")

@@ -331,3 +331,56 @@ def test_cutter_from_a_configured_tool() -> None:
     assert cutter.runout_m == 5e-6
     ball = EndMill.from_tool(ToolConfig(number=1, kind="ball", diameter_mm=6.0))
     assert ball.corner_radius_m == pytest.approx(0.003)
+
+
+@pytest.mark.parametrize(("kind", "tip_mm"), [("conical", 0.0), ("snub", 1.0)])
+@pytest.mark.parametrize("angle_deg", [60.0, 90.0])
+def test_cone_mean_torque_in_a_v_groove(kind: str, tip_mm: float, angle_deg: float) -> None:
+    # A V-bit in a full slot 1.5 mm deep, shear coefficients only. Per element the chip is
+    # h = fz sin(phi) sin(kappa) over a width dz / sin(kappa) (Lee & Altintas 1996), so the
+    # tangential force Ktc fz sin(phi) dz does not depend on the lead angle: the mean torque
+    # is N/(2 pi) * 2 Ktc fz * integral of r(z) dz, with r(z) = r_t + z tan(theta/2).
+    theta = math.radians(angle_deg)
+    depth = 1.5e-3
+    k = CuttingCoefficients(ktc=800e6, krc=300e6)
+    cutter = EndMill(
+        diameter_m=12e-3,
+        teeth=2,
+        kind=kind,  # type: ignore[arg-type]
+        tip_angle_rad=theta,
+        tip_diameter_m=tip_mm * 1e-3,
+    )
+    engagement = Engagement.from_angles(0.0, math.pi, depth, slices=400)
+    mean = mean_forces(cutter, k, engagement, FZ, OMEGA)
+    r_t = 0.5 * tip_mm * 1e-3
+    integral_r = r_t * depth + 0.5 * depth**2 * math.tan(theta / 2)
+    expected = cutter.teeth / (2 * math.pi) * 2.0 * k.ktc * FZ * integral_r
+    assert mean.torque_nm == pytest.approx(expected, rel=1e-4)
+
+
+def test_cone_slices_follow_the_profile() -> None:
+    # Widths along the edge sum to the cone's slant length plus the cylinder above it.
+    theta = math.radians(60.0)
+    cutter = EndMill(diameter_m=6e-3, teeth=2, kind="conical", tip_angle_rad=theta)
+    height = 3e-3 / math.tan(theta / 2)
+    z = np.linspace(0.0, height + 2e-3, 37)
+    slices = cutter.slices(z)
+    assert slices.width_m.sum() == pytest.approx(height / math.cos(theta / 2) + 2e-3)
+    on_cone = slices.z_m < height
+    assert np.allclose(slices.kappa_rad[on_cone], math.pi / 2 - theta / 2)
+    assert np.allclose(slices.radius_m[on_cone], slices.z_m[on_cone] * math.tan(theta / 2))
+    assert np.allclose(slices.radius_m[~on_cone], 3e-3)
+
+
+@pytest.mark.parametrize(
+    ("fields", "message"),
+    [
+        ({"kind": "conical"}, "tip_angle_rad=0.0"),
+        ({"kind": "conical", "tip_angle_rad": 1.0, "tip_diameter_m": 1e-3}, "use kind 'snub'"),
+        ({"kind": "snub", "tip_angle_rad": 1.0, "tip_diameter_m": 7e-3}, "tip_diameter_m=0.007"),
+        ({"kind": "flat", "tip_angle_rad": 1.0}, "use kind 'conical' or 'snub'"),
+    ],
+)
+def test_bad_cone_geometry_is_named(fields: dict[str, object], message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        EndMill(diameter_m=6e-3, teeth=2, **fields)  # type: ignore[arg-type]

@@ -1,17 +1,36 @@
 """CAMotics project files (``.camotics``) as configuration: tools and the workpiece.
 
 A CAMotics project is JSON with ``units`` (``"metric"`` or ``"imperial"``), ``tools`` by number
-(each with its own ``units``, ``shape``, ``diameter`` and ``length``) and ``workpiece.bounds``
-(``min``/``max`` in the project's units). Shapes map to cnctwin cutters: ``cylindrical`` is a
-flat end mill and ``ballnose`` a ball end mill; ``conical`` and ``snubnose`` are refused with a
-clear error. The tool's ``length`` becomes its flute length. As in CAMotics, a T word loads
-its tool without M6. Everything else keeps the defaults of :class:`~cnctwin.config.TwinConfig`.
+(each with its own ``units``, ``shape``, ``diameter``, ``length`` and, for a snub nose,
+``snub_diameter``) and ``workpiece.bounds`` (``min``/``max`` in the project's units).
+
+Shapes, as CAMotics models them (its ``ConicSweep`` over the tool's ``length``):
+
+===============  ============  ===============================================
+CAMotics shape   cnctwin kind  envelope
+===============  ============  ===============================================
+``cylindrical``  ``flat``      cylinder of ``diameter`` over ``length``
+``ballnose``     ``ball``      ball of ``diameter``, ``length`` fluted
+``conical``      ``conical``   cone from the tip to ``diameter`` at ``length``
+``snubnose``     ``snub``      cone from ``snub_diameter`` to ``diameter``
+===============  ============  ===============================================
+
+:func:`camotics_tools` gives every tool (:class:`CamoticsTool`, mm and degrees), from which
+``cnctwin.geometry.Cutter`` builds the envelope. :func:`load_camotics_project` builds a
+:class:`~cnctwin.config.TwinConfig` whose ``tools`` hold the tools the ``[[tools]]`` model
+describes (flat and ball end mills; a conical or snub-nose tool is logged and left out, so a
+program that uses it stops with an error naming the tool); as in CAMotics, a T word loads its
+tool without M6, and the workpiece bounds become a box stock. Everything else keeps the
+defaults of :class:`~cnctwin.config.TwinConfig`.
 """
 
 from __future__ import annotations
 
 import json
+import logging
+import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -20,10 +39,14 @@ from pydantic import ValidationError
 from cnctwin.config.twin import TwinConfig
 from cnctwin.errors import ConfigError
 
-__all__ = ["load_camotics_project"]
+__all__ = ["CamoticsTool", "camotics_tools", "load_camotics_project"]
+
+logger = logging.getLogger(__name__)
 
 _MM_PER_INCH = 25.4
-_SHAPES = {"cylindrical": "flat", "ballnose": "ball"}
+_SHAPES = {"cylindrical": "flat", "ballnose": "ball", "conical": "conical", "snubnose": "snub"}
+#: Kinds the ``[[tools]]`` configuration model describes.
+_CONFIG_KINDS = ("flat", "ball")
 
 
 def _scale(units: object, where: str, source: str) -> float:
@@ -32,6 +55,126 @@ def _scale(units: object, where: str, source: str) -> float:
     if units == "imperial":
         return _MM_PER_INCH
     raise ConfigError(f"{where}: units {units!r}; expected 'metric' or 'imperial'", source)
+
+
+def _read(path: str | os.PathLike[str]) -> tuple[dict[str, Any], str]:
+    source = str(path)
+    try:
+        project = json.loads(Path(path).read_text(encoding="utf-8"))
+    except OSError as err:
+        raise ConfigError(f"cannot read CAMotics project: {err.strerror}", source) from err
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise ConfigError(f"not a CAMotics project (invalid JSON: {err})", source) from err
+    if not isinstance(project, dict):
+        raise ConfigError("not a CAMotics project (the top level is not an object)", source)
+    return project, source
+
+
+def _number(value: object, where: str, source: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"{where}: {value!r} is not a number", source)
+    return float(value)
+
+
+@dataclass(frozen=True, slots=True)
+class CamoticsTool:
+    """One tool of a CAMotics project, in cnctwin's terms (mm, degrees).
+
+    Attributes
+    ----------
+    number
+        Tool number (the T word).
+    kind
+        ``"flat"`` (CAMotics ``cylindrical``), ``"ball"`` (``ballnose``), ``"conical"`` or
+        ``"snub"`` (``snubnose``).
+    diameter_mm
+        Largest cutting diameter, mm.
+    flute_length_mm
+        The tool's ``length``, mm, if given: the fluted length, and for a conical or snub
+        tool the height of its cone.
+    tip_diameter_mm
+        Diameter of a snub nose's flat tip (CAMotics ``snub_diameter``), mm; 0 otherwise.
+    """
+
+    number: int
+    kind: str
+    diameter_mm: float
+    flute_length_mm: float | None
+    tip_diameter_mm: float = 0.0
+
+    @property
+    def tip_angle_deg(self) -> float | None:
+        """Included tip angle in degrees of a conical or snub tool, whose cone spans its whole
+        length as in CAMotics' ``ConicSweep``: ``2 atan((D - d_t) / (2 L))``; ``None`` for the
+        other kinds or without a length."""
+        if self.kind not in ("conical", "snub") or not self.flute_length_mm:
+            return None
+        half = 0.5 * (self.diameter_mm - self.tip_diameter_mm)
+        return math.degrees(2.0 * math.atan2(half, self.flute_length_mm))
+
+
+def camotics_tools(path: str | os.PathLike[str]) -> dict[int, CamoticsTool]:
+    """Every tool of a CAMotics project, by number, lengths in mm.
+
+    Parameters
+    ----------
+    path
+        The ``.camotics`` file.
+
+    Returns
+    -------
+    dict
+        Tool number to :class:`CamoticsTool`, for all four CAMotics shapes (a geometry model
+        builds its cutter from it, e.g. ``cnctwin.geometry.Cutter.conical(tool.diameter_mm,
+        tool.flute_length_mm)``).
+
+    Raises
+    ------
+    cnctwin.errors.ConfigError
+        One line naming the file and the offending key: unreadable file, invalid JSON, a
+        shape CAMotics does not have, a tool number or dimension that is not a number.
+    """
+    project, source = _read(path)
+    return {tool.number: tool for tool in _tools(project, source)}
+
+
+def _tools(project: dict[str, Any], source: str) -> list[CamoticsTool]:
+    tools = project.get("tools") or {}
+    if not isinstance(tools, dict):
+        raise ConfigError("tools: expected an object of tools by number", source)
+    out = []
+    for key, tool in tools.items():
+        where = f"tools.{key}"
+        try:
+            number = int(key)
+        except ValueError:
+            raise ConfigError(f"{where}: tool number {key!r} is not an integer", source) from None
+        if not isinstance(tool, dict):
+            raise ConfigError(f"{where}: expected an object", source)
+        shape = tool.get("shape", "cylindrical")
+        if shape not in _SHAPES:
+            raise ConfigError(
+                f"{where}.shape: {shape!r} is not a CAMotics tool shape; give "
+                + ", ".join(repr(s) for s in _SHAPES),
+                source,
+            )
+        scale = _scale(tool.get("units", project.get("units", "metric")), f"{where}.units", source)
+        length = None
+        if tool.get("length"):
+            length = _number(tool["length"], f"{where}.length", source) * scale
+        tip = 0.0
+        if shape == "snubnose":
+            tip = _number(tool.get("snub_diameter", 0.0), f"{where}.snub_diameter", source)
+        out.append(
+            CamoticsTool(
+                number=number,
+                kind=_SHAPES[shape],
+                diameter_mm=_number(tool.get("diameter", 0.0), f"{where}.diameter", source) * scale,
+                flute_length_mm=length,
+                tip_diameter_mm=tip * scale,
+            )
+        )
+    return sorted(out, key=lambda entry: entry.number)
 
 
 def load_camotics_project(path: str | os.PathLike[str]) -> TwinConfig:
@@ -45,48 +188,36 @@ def load_camotics_project(path: str | os.PathLike[str]) -> TwinConfig:
     Returns
     -------
     TwinConfig
-        Tools (diameter and flute length in mm) and a box stock from the workpiece bounds;
-        the machine keeps its defaults.
+        The flat and ball end mills as ``tools`` (diameter and flute length in mm; conical and
+        snub-nose tools are logged and left out: see :func:`camotics_tools`) and a box stock
+        from the workpiece bounds; T loads a tool without M6; the rest keeps its defaults.
 
     Raises
     ------
     cnctwin.errors.ConfigError
         One line naming the file and the offending key: unreadable file, invalid JSON, a
-        tool shape cnctwin does not model, missing or inverted bounds.
+        tool shape CAMotics does not have, missing or inverted bounds.
     """
-    source = str(path)
-    try:
-        project = json.loads(Path(path).read_text(encoding="utf-8"))
-    except OSError as err:
-        raise ConfigError(f"cannot read CAMotics project: {err.strerror}", source) from err
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise ConfigError(f"not a CAMotics project (invalid JSON: {err})", source) from err
-    if not isinstance(project, dict):
-        raise ConfigError("not a CAMotics project (the top level is not an object)", source)
+    project, source = _read(path)
     scale = _scale(project.get("units", "metric"), "units", source)
     tools: list[dict[str, Any]] = []
-    for number, tool in sorted((project.get("tools") or {}).items(), key=lambda kv: int(kv[0])):
-        where = f"tools.{number}"
-        if not isinstance(tool, dict):
-            raise ConfigError(f"{where}: expected an object", source)
-        shape = tool.get("shape")
-        if shape not in _SHAPES:
-            raise ConfigError(
-                f"{where}.shape: {shape!r} is not supported; cnctwin models "
-                + ", ".join(repr(s) for s in _SHAPES)
-                + " (flat and ball end mills)",
+    for tool in _tools(project, source):
+        if tool.kind not in _CONFIG_KINDS:
+            logger.warning(
+                "%s: tool %d is %s, which the [[tools]] model does not describe; it is left "
+                "out (camotics_tools() gives its geometry)",
                 source,
+                tool.number,
+                tool.kind,
             )
-        tool_scale = _scale(
-            tool.get("units", project.get("units", "metric")), f"{where}.units", source
-        )
+            continue
         entry: dict[str, Any] = {
-            "number": int(number),
-            "kind": _SHAPES[shape],
-            "diameter_mm": float(tool.get("diameter", 0.0)) * tool_scale,
+            "number": tool.number,
+            "kind": tool.kind,
+            "diameter_mm": tool.diameter_mm,
         }
-        if tool.get("length"):
-            entry["flute_length_mm"] = float(tool["length"]) * tool_scale
+        if tool.flute_length_mm is not None:
+            entry["flute_length_mm"] = tool.flute_length_mm
         tools.append(entry)
     bounds = (project.get("workpiece") or {}).get("bounds") or {}
     if "min" not in bounds or "max" not in bounds:

@@ -42,8 +42,10 @@ reports it; the Python side compacts the heap into a larger array and runs the k
 ``rows`` array (not inline and heap apart) keeps the kernels free of array aliasing, which costs
 numba a reference count per access.
 
-Memory is ``n_rays * (8 capacity + 12)`` bytes per family plus the heap: a 200 x 200 x 50 mm
-stock at 10 /mm with capacity 2 takes 168 MB (:meth:`DexelStock.estimate_nbytes`).
+Memory is ``n_rays * (8 capacity + 12)`` bytes per family plus the heap, which starts with a
+quarter of the inline rows (room for a quarter of the rays to double their capacity before the
+first growth, which copies every row): a 200 x 200 x 50 mm stock at 10 /mm with capacity 2
+takes 192 MB (183 MiB; :meth:`DexelStock.estimate_nbytes`).
 """
 
 from __future__ import annotations
@@ -72,6 +74,9 @@ _AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
 # For each family: (ray axis, first transverse axis, second transverse axis), axis indices 0-2.
 _FAMILY_AXES = {"z": (2, 0, 1), "x": (0, 1, 2), "y": (1, 0, 2)}
 _INITIAL_HEAP_ROWS = 1024
+#: A new family's heap holds at least this fraction of its inline rows: room for a quarter of
+#: the rays to double their capacity before the first (costly: a copy of every row) growth.
+_INITIAL_HEAP_FRACTION = 0.25
 _BYTES_PER_RAY_FIXED = 12  # count, start, block (int32 each)
 
 
@@ -164,7 +169,8 @@ class _Family:
 
     __slots__ = ("block", "count", "heap_top", "rows", "start")
 
-    def __init__(self, n_rays: int, capacity: int, heap_rows: int = _INITIAL_HEAP_ROWS) -> None:
+    def __init__(self, n_rays: int, capacity: int, heap_rows: int = 0) -> None:
+        heap_rows = max(heap_rows, _initial_heap_rows(n_rays, capacity))
         self.count = np.zeros(n_rays, dtype=np.int32)
         self.start = np.arange(0, n_rays * capacity, capacity, dtype=np.int32)
         self.block = np.full(n_rays, capacity, dtype=np.int32)
@@ -259,11 +265,13 @@ class DexelStock:
         capacity: int = 2,
     ) -> int:
         """Bytes a fresh :meth:`box` stock takes: ``n_rays (8 capacity + 12)`` per family plus
-        the initial heap (8 KiB per family)."""
+        the initial heap (8 bytes a row, a quarter of the inline rows, at least 1024)."""
         grid = DexelGrid.from_box(min_mm, max_mm, density_per_mm)
         per_ray = 8 * capacity + _BYTES_PER_RAY_FIXED
-        heap = _INITIAL_HEAP_ROWS * 8 + 8
-        return sum(grid.n_rays(axis) * per_ray + heap for axis in AXES)
+        return sum(
+            grid.n_rays(axis) * per_ray + _initial_heap_rows(grid.n_rays(axis), capacity) * 8 + 8
+            for axis in AXES
+        )
 
     @property
     def nbytes(self) -> int:
@@ -329,7 +337,7 @@ class DexelStock:
             counts = np.bincount(ray_of[keep], minlength=n_rays)
             local = local[keep]
         heap_rows = _heap_rows_needed(counts.astype(np.int64), self.capacity)
-        fam = _Family(n_rays, self.capacity, max(_INITIAL_HEAP_ROWS, 2 * heap_rows))
+        fam = _Family(n_rays, self.capacity, 2 * heap_rows)
         _fill(counts.astype(np.int32), local, self.capacity, *fam.arrays())
         self._families[axis] = fam
         self.last_cut = None
@@ -390,6 +398,10 @@ def _check_axis(axis: str) -> Axis:
 
 def _family_axes(axis: str) -> tuple[int, int, int]:
     return _FAMILY_AXES[_check_axis(axis)]
+
+
+def _initial_heap_rows(n_rays: int, capacity: int) -> int:
+    return max(_INITIAL_HEAP_ROWS, int(_INITIAL_HEAP_FRACTION * n_rays * capacity))
 
 
 def _heap_rows_needed(counts: np.ndarray, capacity: int) -> int:

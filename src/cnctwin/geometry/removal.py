@@ -34,6 +34,25 @@ angles ``phi`` in the feed frame of :mod:`cnctwin.geometry.engagement`, which me
 intervals. Contacts of the flat bottom face of a flat or bull-nose end mill are flagged instead
 when the tool moves down, and so is material at the top of the fluted length.
 
+Thin material
+-------------
+Discrete positions a step ``s`` apart leave cusps ``s^2 / (8 r)`` high on every wall a slice of
+radius ``r`` cuts (two circles ``s`` apart meet that far inside their radius). A later pass
+along such a wall (the next layer of a pocket, a spring pass) removes those cusp tips, which
+are artefacts of the sampling, not chips: as contacts they would add arcs at ``phi = 0`` and
+``pi`` on every slice up to the wall's top, and ``ap`` would jump to the wall's height. So a
+removed piece is a *cut* only if it reaches at least ``THIN_CUSPS s^2 / (8 r)`` inside the new
+envelope (``s`` the horizontal step from the previous cut with the same cutter), and at least a
+few float32 spacings of the grid: along ``x`` and ``y`` rays the depth inside the slice's circle
+of the piece's point nearest the axis; along ``z`` rays both the piece's length and the depth of
+the ray inside the envelope's radius at the piece's top. Only cuts give the extents (``ae``,
+``ap``), the shank flag and the ``z`` rays' corner contacts; a run of neighbouring rows' contact
+points is a contact arc if any of its pieces is a cut. Material thin all along a wall thus makes
+no contact, while the thin edge of a real contact (the sides of a slot, where the new material
+is ``s sin(phi)`` thick; the wedge where the tool leaves the material) keeps it. With
+``THIN_CUSPS = 2`` a wall left with steps up to ``sqrt(2) s`` is retraced without contact;
+coarser earlier steps leave cusps that still count. The removed volume counts every piece.
+
 Performance
 -----------
 Rays of consecutive levels whose new and previous disc radii agree (the cylinder of the tool)
@@ -57,7 +76,7 @@ from cnctwin.errors import ConfigError
 from cnctwin.geometry.cutter import Cutter
 from cnctwin.geometry.dexel import AXES, DexelStock, subtract_interval
 
-__all__ = ["GAP_PITCHES", "ContactRecord", "Removal", "remove"]
+__all__ = ["GAP_PITCHES", "THIN_CUSPS", "ContactRecord", "Removal", "remove"]
 
 TWO_PI = 2.0 * math.pi
 #: The decorator of the kernels that allocate nothing: they run without numba's reference
@@ -67,6 +86,12 @@ kernel = njit(cache=True, _nrt=False)  # type: ignore[call-overload]
 #: Contact points closer than this many grid pitches belong to one contact arc (the largest
 #: spacing of the ray crossings of a circle is sqrt(2) pitches; 1.5 of it leaves a margin).
 GAP_PITCHES = 1.5 * math.sqrt(2.0)
+#: Removed material is a cut only where it reaches at least ``THIN_CUSPS`` times the cusp height
+#: ``s^2 / (8 r)`` inside the envelope (mm; horizontal step ``s``, slice radius ``r``): see the
+#: module notes.
+THIN_CUSPS = 2.0
+#: ... and at least this many float32 spacings of the grid's largest coordinate.
+_THIN_ULPS = 4.0
 
 # Kernel parameters (float64 array).
 P_CX, P_CY, P_TZ = 0, 1, 2  # tool tip, grid coordinates, mm
@@ -76,6 +101,12 @@ P_R, P_RC, P_L = 7, 8, 9  # radius, corner radius, fluted length, mm
 P_FX, P_FY = 10, 11  # unit feed direction in the xy plane
 P_PX, P_PY, P_PZ = 12, 13, 14  # grid pitch, mm
 P_GAP = 15  # largest distance between contact points of one arc, mm
+P_THIN = 16  # THIN_CUSPS s^2 / 8 (horizontal step s), mm^2: over a radius, the thinnest cut
+P_THIN0 = 17  # the thinnest cut on any radius (float32 resolution of the grid), mm
+P_INNER = 18  # radius of the flat bottom face (Cutter.flat_radius_mm), mm
+P_SLOPE = 19  # tan(theta / 2) of a conical or snub tool's cone, 0 for the others
+P_SX, P_SY, P_SZ = 20, 21, 22  # size of the grid, mm
+_N_PRM = 23
 
 # Integer parameters (int64 array).
 I_NX, I_NY, I_NZ, I_K0, I_NSLICES = range(5)
@@ -88,8 +119,7 @@ A_BOTTOM = 7  # 1.0: the flat bottom face cut material moving down
 A_ABOVE = 8  # 1.0: material at the top of the fluted length
 A_ARCS = 9  # contact arcs written
 
-#: Initial accumulators.
-_ACC0 = [0.0, 0.0, 0.0, math.inf, -math.inf, math.inf, -math.inf, 0.0, 0.0, 0.0]
+N_ACC = 10  # accumulators (their start values: reset_accumulators)
 
 # Kernel status.
 _DONE = 0
@@ -136,24 +166,33 @@ def fast_atan2(y: float, x: float) -> float:
 
 
 @njit(cache=True, inline="always")
-def _zmin(d2: float, inner: float, inner2: float, rc: float) -> float:
-    """Height (mm) of the envelope's lower surface above the tip at squared distance d2."""
+def _zmin(d2: float, inner: float, inner2: float, rc: float, slope: float) -> float:
+    """Height (mm) of the envelope's lower surface above the tip at squared distance d2 (mm^2)
+    from the axis: 0 on the flat bottom (radius ``inner``), then the corner of radius ``rc``
+    or the cone of ``slope = tan(theta / 2)``."""
     if d2 <= inner2:
         return 0.0
-    u = math.sqrt(d2) - inner
-    w = rc * rc - u * u
-    return rc - math.sqrt(w) if w > 0.0 else rc
+    if rc > 0.0:
+        u = math.sqrt(d2) - inner
+        w = rc * rc - u * u
+        return rc - math.sqrt(w) if w > 0.0 else rc
+    return (math.sqrt(d2) - inner) / slope
 
 
 @njit(cache=True, inline="always")
-def _radius(h: float, big: float, rc: float, length: float) -> float:
-    """Envelope radius (mm) at height h (mm) above the tip; -1 outside the envelope."""
+def _radius(h: float, big: float, rc: float, inner: float, slope: float, length: float) -> float:
+    """Envelope radius (mm) at height h (mm) above the tip; -1 outside the envelope (profile as
+    for :func:`_zmin`)."""
     if h < 0.0 or h > length:
         return -1.0
-    if h >= rc:
-        return big
-    w = rc * rc - (rc - h) * (rc - h)
-    return big - rc + (math.sqrt(w) if w > 0.0 else 0.0)
+    if rc > 0.0:
+        if h >= rc:
+            return big
+        w = rc * rc - (rc - h) * (rc - h)
+        return big - rc + (math.sqrt(w) if w > 0.0 else 0.0)
+    if slope > 0.0:
+        return min(inner + h * slope, big)
+    return big
 
 
 @njit(cache=True, inline="always")
@@ -193,10 +232,10 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
     ocx, ocy, otz = prm[P_OCX], prm[P_OCY], prm[P_OTZ]
     use_old = prm[P_USE_OLD] > 0.0
     big, rc, length = prm[P_R], prm[P_RC], prm[P_L]
+    inner, slope = prm[P_INNER], prm[P_SLOPE]
     fx, fy = prm[P_FX], prm[P_FY]
     px, py, pz = prm[P_PX], prm[P_PY], prm[P_PZ]
     big2 = big * big
-    inner = big - rc
     inner2 = inner * inner
     top = tz + length
     otop = otz + length
@@ -206,6 +245,7 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
     bottom = acc[A_BOTTOM] > 0.0
     above = acc[A_ABOVE] > 0.0
     n_arcs = int(acc[A_ARCS])
+    thin = min(max(prm[P_THIN] / big, prm[P_THIN0]), 0.5 * big)
     status = _DONE
     plunging = not use_old or tz < otz
     # Inside both flat bottoms at the same height, the new interval equals the old one.
@@ -246,7 +286,7 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
             i += 1
             if d2 > big2:
                 continue
-            bot = tz + _zmin(d2, inner, inner2, rc)
+            bot = tz + _zmin(d2, inner, inner2, rc, slope)
             # Pieces of [bot, top] outside the old envelope's interval on this ray: the first
             # ends at the old bottom, the second starts at the old top (not tool surfaces).
             b1 = top
@@ -255,7 +295,7 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
                 odx = x - ocx
                 od2 = odx * odx + ody * ody
                 if od2 <= big2:
-                    obot = otz + _zmin(od2, inner, inner2, rc)
+                    obot = otz + _zmin(od2, inner, inner2, rc, slope)
                     if obot < top and otop > bot:
                         b1 = obot
                         a2 = otop
@@ -276,16 +316,21 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
                     break
                 if removed > 0.0:
                     removed_total += removed
+                    if lo_in and piece == 0 and inner > 0.0 and d2 <= inner2:
+                        # The flat bottom face inside material: a cut only when it moves
+                        # down (a plunge or ramp); moving sideways it just bounds the floor.
+                        bottom = bottom or plunging
+                    # A cut when the removed piece is at least `thin` along the ray and
+                    # across it, inside the envelope's radius at its top.
+                    deep = _radius(chi - tz, big, rc, inner, slope, length) - thin
+                    if chi - clo < thin or deep <= 0.0 or d2 >= deep * deep:
+                        continue
                     nmin = min(nmin, pn)
                     nmax = max(nmax, pn)
                     zmin = min(zmin, clo)
                     zmax = max(zmax, chi)
                     if lo_in and piece == 0:
-                        if d2 <= inner2:
-                            # The flat bottom face inside material: a cut only when it moves
-                            # down (a plunge or ramp); moving sideways it just bounds the floor.
-                            bottom = bottom or plunging
-                        elif nslices > 0:
+                        if d2 > inner2 and nslices > 0:
                             k = int(math.floor(a / pz))
                             s = min(max(k - k0, 0), nslices - 1)
                             n_arcs = _emit_arc(
@@ -310,7 +355,8 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
 # and the row's offset from the axis; then the operations: ray row, piece start and end
 # (float32 values), flags.
 T_HALF, T_DV, T_OP_ROW, T_OP_FA, T_OP_FB, T_OP_FLAGS = 0, 1, 2, 3, 4, 5
-N_TABLE = 6
+T_CUT_LO, T_CUT_HI = 6, 7  # per row q: the part of the row a removed piece must reach to be a cut
+N_TABLE = 8
 # Bits of T_OP_FLAGS.
 F_LO = 1  # record a contact at the piece's start if it lies inside material
 F_HI = 2  # record a contact at the piece's end if it lies inside material
@@ -319,7 +365,7 @@ F_SECOND = 8  # the second piece of its row
 
 
 @njit(cache=True, inline="always")
-def _chords(table, r, orad, c_al, c_row, oc_al, oc_row, p_row, j0, j1, gap2):
+def _chords(table, r, orad, c_al, c_row, oc_al, oc_row, p_row, j0, j1, gap2, deep2):
     """Fill the chord table of rows j0..j1 for a disc of radius r (and the previous one of
     radius orad, -1 for none); returns the number of operations.
 
@@ -341,6 +387,16 @@ def _chords(table, r, orad, c_al, c_row, oc_al, oc_row, p_row, j0, j1, gap2):
         dv = v - c_row
         w = r2 - dv * dv
         table[T_DV, q] = dv
+        # Points of the row closer than sqrt(deep2) to the axis: a removed piece reaching
+        # into (T_CUT_LO, T_CUT_HI) is a cut (module notes, "Thin material").
+        cut_w = deep2 - dv * dv
+        if cut_w > 0.0:
+            cut_w = math.sqrt(cut_w)
+            table[T_CUT_LO, q] = c_al - cut_w
+            table[T_CUT_HI, q] = c_al + cut_w
+        else:
+            table[T_CUT_LO, q] = math.inf
+            table[T_CUT_HI, q] = -math.inf
         if w < 0.0:
             table[T_HALF, q] = -1.0
             prev_half = -1.0
@@ -402,6 +458,7 @@ def _cut_rows(
     nz = ints[I_NZ]
     k0 = ints[I_K0]
     big, rc, length = prm[P_R], prm[P_RC], prm[P_L]
+    inner, slope = prm[P_INNER], prm[P_SLOPE]
     tz, otz = prm[P_TZ], prm[P_OTZ]
     use_old = prm[P_USE_OLD] > 0.0
     pz = prm[P_PZ]
@@ -428,10 +485,10 @@ def _cut_rows(
     k1 = min(nz - 1, int(math.floor((tz + length) / pz - 0.5)))
     for k in range(max(k0, 0), k1 + 1):
         zk = (k + 0.5) * pz
-        r = _radius(zk - tz, big, rc, length)
+        r = _radius(zk - tz, big, rc, inner, slope, length)
         if r <= 0.0:
             continue
-        orad = _radius(zk - otz, big, rc, length) if use_old else -1.0
+        orad = _radius(zk - otz, big, rc, inner, slope, length) if use_old else -1.0
         s = k - k0
         j0 = max(0, int(math.ceil((c_row - r) / p_row - 0.5)))
         j1 = min(n_rows - 1, int(math.floor((c_row + r) / p_row - 0.5)))
@@ -439,12 +496,18 @@ def _cut_rows(
             status = _ARCS_FULL
             break
         if r != table_r or orad != table_orad:
-            n_ops = _chords(table, r, orad, c_al, c_row, oc_al, oc_row, p_row, j0, j1, gap2)
+            # A removed piece is a cut when its point nearest the axis lies at least `thin`
+            # inside the circle: closer than r - thin to the axis.
+            thin = min(max(prm[P_THIN] / r, prm[P_THIN0]), 0.5 * r)
+            deep2 = (r - thin) * (r - thin) if r > thin else -1.0
+            n_ops = _chords(table, r, orad, c_al, c_row, oc_al, oc_row, p_row, j0, j1, gap2, deep2)
             table_r = r
             table_orad = orad
         level_cut = False
-        # Open contact runs at the low (L) and high (H) chord ends: first and last row.
+        # Open contact runs at the low (L) and high (H) chord ends: first and last row, and
+        # whether a piece of the run is a cut (only then is the run a contact).
         first_l = last_l = first_h = last_h = -2
+        cut_l = cut_h = False
         base_ray = k * n_rows
         hint0 = hint1 = 0
         for o in range(n_ops):
@@ -472,38 +535,45 @@ def _cut_rows(
             if removed <= 0.0:
                 continue
             removed_total += removed
-            level_cut = True
-            dv = table[T_DV, j - j0]
-            p_lo = (clo - c_al) * n_al + dv * n_row
-            p_hi = (chi - c_al) * n_al + dv * n_row
-            nmin = min(nmin, min(p_lo, p_hi))
-            nmax = max(nmax, max(p_lo, p_hi))
+            q = j - j0
+            is_cut = clo < table[T_CUT_HI, q] and chi > table[T_CUT_LO, q]
+            if is_cut:
+                dv = table[T_DV, q]
+                level_cut = True
+                p_lo = (clo - c_al) * n_al + dv * n_row
+                p_hi = (chi - c_al) * n_al + dv * n_row
+                nmin = min(nmin, min(p_lo, p_hi))
+                nmax = max(nmax, max(p_lo, p_hi))
             if lo_in and flags & F_LO:
                 if last_l == j - 1 and flags & F_LINKED:
                     last_l = j
+                    cut_l = cut_l or is_cut
                 else:
-                    if last_l >= 0:
+                    if cut_l:
                         n_arcs = _emit_run(
                             s, first_l, last_l, -1.0, j0, table, f_al, f_row, n_al, n_row,
                             arc_slice, arc_lo, arc_hi, n_arcs,
                         )  # fmt: skip
                     first_l = last_l = j
+                    cut_l = is_cut
             if hi_in and flags & F_HI:
                 if last_h == j - 1 and flags & F_LINKED:
                     last_h = j
+                    cut_h = cut_h or is_cut
                 else:
-                    if last_h >= 0:
+                    if cut_h:
                         n_arcs = _emit_run(
                             s, first_h, last_h, 1.0, j0, table, f_al, f_row, n_al, n_row,
                             arc_slice, arc_lo, arc_hi, n_arcs,
                         )  # fmt: skip
                     first_h = last_h = j
-        if last_l >= 0:
+                    cut_h = is_cut
+        if cut_l:
             n_arcs = _emit_run(
                 s, first_l, last_l, -1.0, j0, table, f_al, f_row, n_al, n_row, arc_slice,
                 arc_lo, arc_hi, n_arcs,
             )  # fmt: skip
-        if last_h >= 0:
+        if cut_h:
             n_arcs = _emit_run(
                 s, first_h, last_h, 1.0, j0, table, f_al, f_row, n_al, n_row, arc_slice,
                 arc_lo, arc_hi, n_arcs,
@@ -594,6 +664,7 @@ class Workspace:
     __slots__ = (
         "_cut_arrays",
         "_version",
+        "acc",
         "first",
         "grid",
         "hi",
@@ -601,7 +672,9 @@ class Workspace:
         "iv_slice",
         "lo",
         "order",
+        "outputs",
         "pa",
+        "parameters",
         "pb",
         "ra",
         "rb",
@@ -609,6 +682,7 @@ class Workspace:
         "slices",
         "stats",
         "table",
+        "thin0",
     )
 
     def __init__(self, stock: DexelStock, arcs: int = _INITIAL_ARCS) -> None:
@@ -625,10 +699,18 @@ class Workspace:
             *grid.size_mm,
             GAP_PITCHES * max(px, py),
         )
+        #: The thinnest cut, mm: a few float32 spacings at the grid's far end.
+        self.thin0 = _THIN_ULPS * float(np.spacing(np.float32(max(grid.size_mm))))
         self.table = np.zeros((N_TABLE, 2 * max(stock.grid.shape[0], stock.grid.shape[1]) + 4))
         self.first = np.zeros(nz + 2, dtype=np.int64)
         self.slices = np.zeros((3, nz + 1))
         self.stats = np.zeros(5)
+        #: The accumulators of the cut in progress (kept while buffers grow).
+        self.acc = np.zeros(N_ACC)
+        #: The kernel parameters of each cutter used on this stock (see :func:`parameters`).
+        self.parameters: dict[Cutter, tuple[np.ndarray, np.ndarray]] = {}
+        #: Output buffers of one position (kept by :func:`cnctwin.geometry.engagement.cut`).
+        self.outputs: object = None
         self._size(arcs)
         self._version = -1
         self._cut_arrays: tuple[np.ndarray, ...] = ()
@@ -781,6 +863,64 @@ def xyz_mm(value: object, name: str) -> tuple[float, float, float]:
     return x, y, z
 
 
+def parameters(ws: Workspace, cutter: Cutter) -> tuple[np.ndarray, np.ndarray]:
+    """The kernels' parameter arrays (float64, int64) for ``cutter`` on the workspace's grid
+    (kept in the workspace); :func:`place` fills in a position."""
+    cached = ws.parameters.get(cutter)
+    if cached is not None:
+        return cached
+    ox0, oy0, oz0, px, py, pz, nx, ny, nz, sx, sy, sz, gap = ws.grid
+    prm = np.zeros(_N_PRM)
+    prm[P_R] = 0.5 * cutter.diameter_mm
+    prm[P_RC] = cutter.corner_radius_mm
+    prm[P_L] = cutter.flute_length_mm
+    prm[P_PX], prm[P_PY], prm[P_PZ] = px, py, pz
+    prm[P_GAP] = gap
+    prm[P_THIN0] = ws.thin0
+    prm[P_INNER] = cutter.flat_radius_mm
+    prm[P_SLOPE] = math.tan(0.5 * cutter.tip_angle_rad)
+    prm[P_SX], prm[P_SY], prm[P_SZ] = sx, sy, sz
+    ints = np.array([nx, ny, nz, 0, 0], dtype=np.int64)
+    ws.parameters[cutter] = (prm, ints)
+    return prm, ints
+
+
+@njit(cache=True, inline="always")
+def place(prm, ints, tx, ty, tz, ox, oy, oz, use_old, fx, fy):
+    """Set the tip (tx, ty, tz), the previous cut's tip (ox, oy, oz; grid coordinates, mm; used
+    when ``use_old``) and the unit feed direction (fx, fy) in the parameters; returns whether
+    the envelope can reach the grid."""
+    prm[P_CX], prm[P_CY], prm[P_TZ] = tx, ty, tz
+    prm[P_OCX], prm[P_OCY], prm[P_OTZ] = ox, oy, oz
+    prm[P_USE_OLD] = 1.0 if use_old else 0.0
+    prm[P_FX], prm[P_FY] = fx, fy
+    step2 = (tx - ox) * (tx - ox) + (ty - oy) * (ty - oy) if use_old else 0.0
+    prm[P_THIN] = THIN_CUSPS * step2 / 8.0
+    big, length, pz = prm[P_R], prm[P_L], prm[P_PZ]
+    k0 = max(0, int(math.ceil(tz / pz - 0.5)))
+    k1 = min(ints[I_NZ] - 1, int(math.floor((tz + length) / pz - 0.5)))
+    ints[I_K0] = k0
+    ints[I_NSLICES] = max(0, k1 - k0 + 1)
+    return -big < tx < prm[P_SX] + big and -big < ty < prm[P_SY] + big and -length < tz < prm[P_SZ]
+
+
+@njit(cache=True, inline="always")
+def reset_accumulators(acc):
+    """Set the accumulators to their start values (nothing removed yet)."""
+    for q in range(acc.shape[0]):
+        acc[q] = 0.0
+    acc[A_NMIN] = acc[A_ZMIN] = math.inf
+    acc[A_NMAX] = acc[A_ZMAX] = -math.inf
+
+
+def last_tip(stock: DexelStock, cutter: Cutter) -> tuple[float, float, float] | None:
+    """Tip (grid coordinates, mm) of the stock's last cut if ``cutter`` made it, else None."""
+    last = stock.last_cut
+    if last is not None and (last[0] is cutter or last[0] == cutter):
+        return last[1]
+    return None
+
+
 def prepare(
     stock: DexelStock,
     ws: Workspace,
@@ -790,28 +930,16 @@ def prepare(
 ) -> Step:
     """Kernel parameters for cutting ``stock`` with ``cutter``'s tip at ``tip_mm`` (machine
     coordinates, mm); records the cut as the stock's last."""
-    ox0, oy0, oz0, px, py, pz, nx, ny, nz, sx, sy, sz, gap = ws.grid
-    tx, ty, tz = tip_mm[0] - ox0, tip_mm[1] - oy0, tip_mm[2] - oz0
-    big = 0.5 * cutter.diameter_mm
-    length = cutter.flute_length_mm
-    last = stock.last_cut
-    if last is not None and (last[0] is cutter or last[0] == cutter):
-        (ox, oy, oz), use_old = last[1], 1.0
-    else:
-        ox = oy = oz = use_old = 0.0
-    prm = np.array(
-        [
-            tx, ty, tz, ox, oy, oz, use_old, big, cutter.corner_radius_mm, length,
-            feed_dir[0], feed_dir[1], px, py, pz, gap,
-        ]
-    )  # fmt: skip
-    k0 = max(0, math.ceil(tz / pz - 0.5))
-    k1 = min(nz - 1, math.floor((tz + length) / pz - 0.5))
-    ints = np.array([nx, ny, nz, k0, max(0, k1 - k0 + 1)], dtype=np.int64)
-    acc = np.array(_ACC0)
-    reaches = -big < tx < sx + big and -big < ty < sy + big and -length < tz < sz
+    origin = ws.grid[:3]
+    tx, ty, tz = tip_mm[0] - origin[0], tip_mm[1] - origin[1], tip_mm[2] - origin[2]
+    prm, ints = parameters(ws, cutter)
+    old = last_tip(stock, cutter)
+    ox, oy, oz = old if old is not None else (0.0, 0.0, 0.0)
+    reaches = place(prm, ints, tx, ty, tz, ox, oy, oz, old is not None, feed_dir[0], feed_dir[1])
+    acc = np.empty(N_ACC)
+    reset_accumulators(acc)
     stock.last_cut = (cutter, (tx, ty, tz))
-    return Step(prm, ints, acc, reaches)
+    return Step(prm, ints, acc, bool(reaches))
 
 
 def grow_for(status: int, stock: DexelStock, ws: Workspace) -> None:

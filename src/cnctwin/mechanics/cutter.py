@@ -2,6 +2,8 @@
 
 A flat, ball or bull-nose end mill is a profile of revolution: a corner arc of radius ``rc``
 (0 for a flat end mill, ``D/2`` for a ball end mill) below a cylinder of radius ``R = D/2``.
+A conical tool (V-bit) or a snub nose (a cone with a flat tip of radius ``r_t``) is a cone of
+included angle ``theta``, ``r(z) = r_t + z tan(theta/2)``, below the cylinder.
 At a point of the cutting edge the model needs the local radius ``r``, the axial immersion
 (lead) angle ``kappa`` between the tool axis and the surface normal (90 deg on the cylinder,
 0 at a ball's tip), the chip width of the element (its length along the profile) and the lag
@@ -26,7 +28,9 @@ if TYPE_CHECKING:
 
 __all__ = ["CutterKind", "CutterSlices", "EndMill"]
 
-CutterKind = Literal["flat", "ball", "bull"]
+CutterKind = Literal["flat", "ball", "bull", "conical", "snub"]
+
+_CONES = ("conical", "snub")
 
 
 @dataclass(frozen=True)
@@ -68,10 +72,11 @@ class EndMill:
     helix_rad
         Helix angle beta in rad, 0 <= beta < pi/2 (right-hand helix for a clockwise spindle).
     kind
-        ``"flat"``, ``"ball"`` or ``"bull"`` (nose with a corner radius).
+        ``"flat"``, ``"ball"``, ``"bull"`` (nose with a corner radius), ``"conical"`` (V-bit)
+        or ``"snub"`` (cone with a flat tip).
     corner_radius_m
-        Corner radius rc in m: 0 for ``flat``, ``D/2`` for ``ball`` (0 is taken as ``D/2``),
-        strictly between 0 and ``D/2`` for ``bull``.
+        Corner radius rc in m: 0 for ``flat``, ``conical`` and ``snub``, ``D/2`` for ``ball``
+        (0 is taken as ``D/2``), strictly between 0 and ``D/2`` for ``bull``.
     runout_m
         Radial runout (parallel offset of the tool axis from the spindle axis) rho in m, >= 0.
     runout_angle_rad
@@ -86,6 +91,8 @@ class EndMill:
     corner_radius_m: float = 0.0
     runout_m: float = 0.0
     runout_angle_rad: float = 0.0
+    tip_angle_rad: float = 0.0
+    tip_diameter_m: float = 0.0
 
     def __post_init__(self) -> None:
         d = self.diameter_m
@@ -103,7 +110,14 @@ class EndMill:
             raise ConfigError(f"runout_angle_rad={self.runout_angle_rad!r}; give a finite angle")
         half = d / 2.0
         rc = self.corner_radius_m
-        if self.kind == "flat":
+        if self.kind in _CONES:
+            self._check_cone(half)
+        elif self.tip_angle_rad != 0.0 or self.tip_diameter_m != 0.0:
+            raise ConfigError(
+                f"tip_angle_rad={self.tip_angle_rad!r}, tip_diameter_m={self.tip_diameter_m!r} "
+                f"for kind {self.kind!r}; they must be 0 (use kind 'conical' or 'snub')"
+            )
+        elif self.kind == "flat":
             if rc != 0.0:
                 raise ConfigError(f"corner_radius_m={rc!r} for a flat end mill; it must be 0")
         elif self.kind == "ball":
@@ -117,7 +131,30 @@ class EndMill:
                     f"corner_radius_m={rc!r} for a bull-nose end mill; give 0 < rc < D/2 ({half})"
                 )
         else:
-            raise ConfigError(f"kind={self.kind!r}; give 'flat', 'ball' or 'bull'")
+            raise ConfigError(
+                f"kind={self.kind!r}; give 'flat', 'ball', 'bull', 'conical' or 'snub'"
+            )
+
+    def _check_cone(self, half: float) -> None:
+        if self.corner_radius_m != 0.0:
+            raise ConfigError(
+                f"corner_radius_m={self.corner_radius_m!r} for a {self.kind} tool; it must be 0"
+            )
+        angle = self.tip_angle_rad
+        if not (math.isfinite(angle) and 0.0 < angle < math.pi):
+            raise ConfigError(
+                f"tip_angle_rad={angle!r} for a {self.kind} tool; give an included angle in "
+                "(0, pi) rad"
+            )
+        tip = self.tip_diameter_m
+        if self.kind == "conical" and tip != 0.0:
+            raise ConfigError(
+                f"tip_diameter_m={tip!r} for a conical tool; it must be 0 (use kind 'snub')"
+            )
+        if self.kind == "snub" and not (math.isfinite(tip) and 0.0 < tip < 2.0 * half):
+            raise ConfigError(
+                f"tip_diameter_m={tip!r} for a snub nose; give 0 < tip < diameter ({2 * half} m)"
+            )
 
     @classmethod
     def from_tool(
@@ -181,6 +218,8 @@ def _slices(cutter: EndMill, z_bytes: bytes) -> CutterSlices:
     if z[0] < 0.0 or np.any(np.diff(z) <= 0.0):
         raise ConfigError(f"z_bounds_m from {z[0]!r}; give increasing heights >= 0 m")
     rc = cutter.corner_radius_m
+    if cutter.kind in _CONES:
+        return _cone_slices(cutter, z)
     if rc > 0.0:
         # Arc length along the profile: rc * kappa on the corner, then the cylinder.
         kappa_z = np.arccos(np.clip((rc - np.minimum(z, rc)) / rc, -1.0, 1.0))
@@ -197,8 +236,38 @@ def _slices(cutter: EndMill, z_bytes: bytes) -> CutterSlices:
         z_mid = 0.5 * (z[:-1] + z[1:])
         kappa = np.full(z_mid.shape, math.pi / 2)
     radius = cutter.radius_m - rc + rc * np.sin(kappa)
+    return _frozen_slices(cutter, z_mid, radius, kappa, np.diff(s))
+
+
+def _cone_slices(cutter: EndMill, z: np.ndarray) -> CutterSlices:
+    """Slices of a conical or snub-nose tool (heights ``z`` above the tip, m).
+
+    On the cone ``r(z) = r_t + z tan(theta/2)`` and the lead angle is constant,
+    ``kappa = pi/2 - theta/2`` (the angle between the axis and the cone's normal); an element of
+    height ``dz`` has the chip width ``dz / cos(theta/2)`` along the edge. Above the cone's
+    height ``(R - r_t) / tan(theta/2)`` the tool is a cylinder. The flat tip of a snub nose, like
+    the bottom of a flat end mill, does not cut sideways and has no slice.
+    """
+    half_angle = 0.5 * cutter.tip_angle_rad
+    tip_radius = 0.5 * cutter.tip_diameter_m
+    height = (cutter.radius_m - tip_radius) / math.tan(half_angle)
+    z_mid = 0.5 * (z[:-1] + z[1:])
+    on_cone = z_mid < height
+    radius = np.where(on_cone, tip_radius + z_mid * math.tan(half_angle), cutter.radius_m)
+    kappa = np.where(on_cone, 0.5 * math.pi - half_angle, 0.5 * math.pi)
+    # Length along the profile of each slice, split at the cone's height.
+    dz = np.diff(z)
+    dz_cone = np.clip(np.minimum(z[1:], height) - z[:-1], 0.0, None)
+    width = dz_cone / math.cos(half_angle) + (dz - dz_cone)
+    return _frozen_slices(cutter, z_mid, radius, kappa, width)
+
+
+def _frozen_slices(
+    cutter: EndMill, z_mid: np.ndarray, radius: np.ndarray, kappa: np.ndarray, width: np.ndarray
+) -> CutterSlices:
+    """Slices with the helix lag ``psi = z tan(beta) / R`` (Altintas 2012, ch. 2), read-only."""
     lag = z_mid * math.tan(cutter.helix_rad) / cutter.radius_m
-    arrays = (z_mid, radius, kappa, np.diff(s), lag)
+    arrays = (z_mid, radius, kappa, width, lag)
     for array in arrays:
         array.setflags(write=False)
     return CutterSlices(*arrays)

@@ -462,6 +462,8 @@ def simulate_signals(
                 helix_rad=cutter.helix_rad,
                 kind=cutter.kind,
                 corner_radius_m=cutter.corner_radius_mm * 1e-3,
+                tip_angle_rad=cutter.tip_angle_rad,
+                tip_diameter_m=cutter.tip_diameter_mm * 1e-3,
             )
         index.append(step.index)
         loads.append(step_forces(step, end_mill, coefficients, pitch_z).values())
