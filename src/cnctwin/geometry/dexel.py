@@ -35,16 +35,18 @@ Each family keeps, per ray, its material as sorted, disjoint, non-empty interval
 * ``block`` (int32, one per ray): the capacity of the ray's block;
 * ``heap_top`` (int64[1]): the first free row of the heap.
 
-A ray that outgrows its block moves to a new block of twice the capacity at the heap's top (its
-old block is left unused). When the heap is full, a kernel stops before touching the ray and
-reports it; the Python side compacts the heap into a larger array and runs the kernel again
-(cuts are idempotent). Material is never dropped: a ray holds any number of intervals. One
-``rows`` array (not inline and heap apart) keeps the kernels free of array aliasing, which costs
-numba a reference count per access.
+A ray that outgrows its block moves to a new block of twice the capacity at the heap's top (its old
+block is left unused). When the heap is full, a kernel stops before touching the ray and reports it;
+the Python side copies the rows into an array with a heap four times as large (the first time at
+least twice the inline rows) and runs the kernel again (cuts are idempotent). The unused blocks
+stay: a ray's unused blocks hold fewer rows than its block in use, since each block doubles the
+last. Material is never dropped: a ray holds any number of intervals. One ``rows`` array (not inline
+and heap apart) keeps the kernels free of array aliasing, which costs numba a reference count per
+access.
 
 Memory is ``n_rays * (8 capacity + 12)`` bytes per family plus the heap, which starts with a
 quarter of the inline rows (room for a quarter of the rays to double their capacity before the
-first growth, which copies every row): a 200 x 200 x 50 mm stock at 10 /mm with capacity 2
+first growth, which copies every used row): a 200 x 200 x 50 mm stock at 10 /mm with capacity 2
 takes 192 MB (183 MiB; :meth:`DexelStock.estimate_nbytes`).
 """
 
@@ -78,6 +80,10 @@ _INITIAL_HEAP_ROWS = 1024
 #: the rays to double their capacity before the first (costly: a copy of every row) growth.
 _INITIAL_HEAP_FRACTION = 0.25
 _BYTES_PER_RAY_FIXED = 12  # count, start, block (int32 each)
+#: A full heap grows to this many times its size, and at least to this many times the inline
+#: rows: few growths (each copies every used row of the family) over a long cut.
+_HEAP_GROWTH = 4
+_FIRST_GROWTH_INLINE = 2
 
 
 @dataclass(frozen=True, slots=True)
@@ -186,18 +192,24 @@ class _Family:
         return sum(a.nbytes for a in self.arrays())
 
     def grow_heap(self, capacity: int) -> None:
-        """Compact the heap into one at least twice as large (live blocks only)."""
+        """Copy the rows into an array with a heap :data:`_HEAP_GROWTH` times as large (the
+        first time at least :data:`_FIRST_GROWTH_INLINE` times the inline rows).
+
+        Dead blocks (those rays left for larger ones) are kept: a ray's dead blocks have
+        fewer rows than its live one (each block doubles), and a plain copy of the used rows
+        is several times faster than compacting the live blocks ray by ray.
+        """
         heap_base = self.count.shape[0] * capacity
-        live = int(_live_heap_rows(self.start, self.block, heap_base))
-        old_heap = self.rows.shape[0] - heap_base
-        heap_rows = max(2 * old_heap, 2 * (live + 4 * capacity), _INITIAL_HEAP_ROWS)
-        rows = np.empty((heap_base + heap_rows, 2), dtype=np.float32)
-        rows[:heap_base] = self.rows[:heap_base]
-        self.heap_top[0] = _compact_heap(
-            self.count, self.start, self.block, self.rows, rows, heap_base
+        used = int(self.heap_top[0])
+        heap_rows = max(
+            _HEAP_GROWTH * (self.rows.shape[0] - heap_base),
+            _FIRST_GROWTH_INLINE * heap_base,
+            _INITIAL_HEAP_ROWS,
         )
+        rows = np.empty((heap_base + heap_rows, 2), dtype=np.float32)
+        rows[:used] = self.rows[:used]
         self.rows = rows
-        logger.debug("dexel heap grown to %d rows (%d live)", heap_rows, live)
+        logger.debug("dexel heap grown to %d rows (%d used)", heap_rows, used - heap_base)
 
 
 class DexelStock:
@@ -285,7 +297,7 @@ class DexelStock:
         return self._families[_check_axis(axis)].arrays()
 
     def grow_heap(self, axis: Axis) -> None:
-        """Compact and enlarge a family's overflow heap (called when a kernel reports it full)."""
+        """Enlarge a family's overflow heap (called when a kernel reports it full)."""
         self._families[_check_axis(axis)].grow_heap(self.capacity)
         self.version += 1
 
@@ -442,29 +454,6 @@ def _total_length(count, start, rows):
     return total
 
 
-@njit(cache=True)
-def _live_heap_rows(start, block, heap_base):
-    live = 0
-    for r in range(start.shape[0]):
-        if start[r] >= heap_base:
-            live += block[r]
-    return live
-
-
-@njit(cache=True)
-def _compact_heap(count, start, block, rows, new_rows, heap_base):
-    top = heap_base
-    for r in range(count.shape[0]):
-        first = start[r]
-        if first >= heap_base:
-            for q in range(count[r]):
-                new_rows[top + q, 0] = rows[first + q, 0]
-                new_rows[top + q, 1] = rows[first + q, 1]
-            start[r] = top
-            top += block[r]
-    return top
-
-
 @njit(cache=True, inline="always")
 def subtract_interval(r, fa, fb, hint, count, start, block, rows, heap_top):
     """Remove ``[fa, fb]`` (float32, ray coordinates) from ray ``r`` of a family.
@@ -477,83 +466,133 @@ def subtract_interval(r, fa, fb, hint, count, start, block, rows, heap_top):
     strictly inside material (there the boundary of the removed piece is the cutting tool's
     surface); the lowest and highest removed coordinate (``inf``/``-inf`` when nothing was
     removed); the index of the first interval ending after ``fa``.
+
+    Array indices are unsigned (``_u``), which spares numba's wrap-around of negative indices
+    on every access (a sixth of the time of a row kernel).
     """
-    n = count[r]
-    base = start[r]
-    if hint < n and rows[base + hint, 1] > fa and (hint == 0 or rows[base + hint - 1, 1] <= fa):
+    u = _u(r)
+    n = count[u]
+    base = start[u]
+    if (
+        hint < n
+        and rows[_u(base + hint), 1] > fa
+        and (hint == 0 or rows[_u(base + hint - 1), 1] <= fa)
+    ):
         i = hint
     elif n <= 8:
         i = 0
-        while i < n and rows[base + i, 1] <= fa:
+        while i < n and rows[_u(base + i), 1] <= fa:
             i += 1
     else:
         i = 0
         top = n
         while i < top:
             mid = (i + top) >> 1
-            if rows[base + mid, 1] <= fa:
+            if rows[_u(base + mid), 1] <= fa:
                 i = mid + 1
             else:
                 top = mid
-    if i == n or rows[base + i, 0] >= fb or not fa < fb:
+    if i == n or rows[_u(base + i), 0] >= fb or not fa < fb:
         return (0, 0.0, False, False, np.inf, -np.inf, i)
-    lo = rows[base + i, 0]
-    hi = rows[base + i, 1]
+    at = _u(base + i)
+    lo = rows[at, 0]
+    hi = rows[at, 1]
     keep_left = lo < fa
-    if hi >= fb or i == n - 1 or rows[base + i + 1, 0] >= fb:
+    if hi >= fb or i == n - 1 or rows[_u(base + i + 1), 0] >= fb:
         # One interval overlaps (the common case): trim it, empty it or split it.
         keep_right = hi > fb
         cut_lo = max(lo, fa)
         cut_hi = min(hi, fb)
         removed = np.float64(cut_hi) - np.float64(cut_lo)
         if keep_left and keep_right:
-            if n + 1 > block[r]:
+            if n + 1 > block[u]:
                 if not _move_to_heap(r, n, base, start, block, rows, heap_top):
                     return (1, 0.0, False, False, np.inf, -np.inf, i)
-                base = start[r]
+                base = start[u]
+                at = _u(base + i)
             for q in range(n - 1, i, -1):
-                rows[base + q + 1, 0] = rows[base + q, 0]
-                rows[base + q + 1, 1] = rows[base + q, 1]
-            rows[base + i, 1] = fa
-            rows[base + i + 1, 0] = fb
-            rows[base + i + 1, 1] = hi
-            count[r] = n + 1
+                rows[_u(base + q + 1), 0] = rows[_u(base + q), 0]
+                rows[_u(base + q + 1), 1] = rows[_u(base + q), 1]
+            rows[at, 1] = fa
+            rows[_u(base + i + 1), 0] = fb
+            rows[_u(base + i + 1), 1] = hi
+            count[u] = n + 1
         elif keep_left:
-            rows[base + i, 1] = fa
+            rows[at, 1] = fa
         elif keep_right:
-            rows[base + i, 0] = fb
+            rows[at, 0] = fb
         else:
             for q in range(i + 1, n):
-                rows[base + q - 1, 0] = rows[base + q, 0]
-                rows[base + q - 1, 1] = rows[base + q, 1]
-            count[r] = n - 1
+                rows[_u(base + q - 1), 0] = rows[_u(base + q), 0]
+                rows[_u(base + q - 1), 1] = rows[_u(base + q), 1]
+            count[u] = n - 1
         return (0, removed, keep_left, keep_right, np.float64(cut_lo), np.float64(cut_hi), i)
     # Several intervals overlap: keep the left part of the first and the right part of the
     # last one (never more intervals than before).
     j = i + 1
-    while j + 1 < n and rows[base + j + 1, 0] < fb:
+    while j + 1 < n and rows[_u(base + j + 1), 0] < fb:
         j += 1
-    right_hi = rows[base + j, 1]
+    right_hi = rows[_u(base + j), 1]
     keep_right = right_hi > fb
     removed = 0.0
     for q in range(i, j + 1):
-        removed += np.float64(min(rows[base + q, 1], fb)) - np.float64(max(rows[base + q, 0], fa))
+        removed += np.float64(min(rows[_u(base + q), 1], fb)) - np.float64(
+            max(rows[_u(base + q), 0], fa)
+        )
     cut_lo = np.float64(max(lo, fa))
     cut_hi = np.float64(min(right_hi, fb))
     w = i
     if keep_left:
-        rows[base + w, 1] = fa
+        rows[_u(base + w), 1] = fa
         w += 1
     if keep_right:
-        rows[base + w, 0] = fb
-        rows[base + w, 1] = right_hi
+        rows[_u(base + w), 0] = fb
+        rows[_u(base + w), 1] = right_hi
         w += 1
     for q in range(j + 1, n):
-        rows[base + w, 0] = rows[base + q, 0]
-        rows[base + w, 1] = rows[base + q, 1]
+        rows[_u(base + w), 0] = rows[_u(base + q), 0]
+        rows[_u(base + w), 1] = rows[_u(base + q), 1]
         w += 1
-    count[r] = w
+    count[u] = w
     return (0, removed, keep_left, keep_right, cut_lo, cut_hi, i)
+
+
+@njit(cache=True, inline="always")
+def trim_interval(r, fa, fb, hint, count, start, block, rows, heap_top):
+    """:func:`subtract_interval` (same arguments and results) with the common case of a cut
+    first: ``[fa, fb]`` overlaps only the interval at ``hint`` and trims one of its ends. The
+    branch returns whether each end lay inside material as constants, which lets the compiler
+    simplify the caller's contact bookkeeping after it (measured 10% faster a row kernel).
+    """
+    u = _u(r)
+    n = count[u]
+    base = start[u]
+    if hint < n and fa < fb:
+        at = _u(base + hint)
+        lo = rows[at, 0]
+        hi = rows[at, 1]
+        if (
+            hi > fa
+            and lo < fb
+            and (hint == 0 or rows[_u(base + hint - 1), 1] <= fa)
+            and (hi >= fb or hint == n - 1 or rows[_u(base + hint + 1), 0] >= fb)
+        ):
+            if lo < fa and hi <= fb:  # the interval's upper end is cut away
+                rows[at, 1] = fa
+                return (0, np.float64(hi) - np.float64(fa), True, False, np.float64(fa),
+                        np.float64(hi), hint)  # fmt: skip
+            if lo >= fa and hi > fb:  # its lower end
+                rows[at, 0] = fb
+                return (0, np.float64(fb) - np.float64(lo), False, True, np.float64(lo),
+                        np.float64(fb), hint)  # fmt: skip
+    return subtract_interval(r, fa, fb, hint, count, start, block, rows, heap_top)
+
+
+@njit(cache=True, inline="always")
+def _u(index):
+    """``index`` (>= 0) as an unsigned array index: numba then omits the wrap-around of
+    negative indices (a compare and an add on every access)."""
+    return np.uintp(index)
 
 
 @njit(cache=True, inline="always")

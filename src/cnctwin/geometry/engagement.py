@@ -320,10 +320,14 @@ def cut(
         else xyz_mm(previous_position_mm, "previous_position_mm")
     )
     ws = workspace(stock)
-    if not isinstance(ws.outputs, _Outputs):
-        ws.outputs = _Outputs(1, ws)
     outputs = ws.outputs
-    _run(stock, cutter, np.array([tip]), previous, np.full(1, feed_per_tooth_mm), cycle_s, outputs)
+    if not isinstance(outputs, _Outputs):
+        outputs = ws.outputs = _Outputs(1, ws)
+    # The tip in grid coordinates and the feed, in the buffers kept for one position.
+    ox, oy, oz = ws.grid[:3]
+    outputs.tip[0, 0], outputs.tip[0, 1], outputs.tip[0, 2] = tip[0] - ox, tip[1] - oy, tip[2] - oz
+    outputs.fz[0] = feed_per_tooth_mm
+    _run(stock, ws, cutter, outputs.tip, previous, outputs.fz, cycle_s, outputs)
     m, q = int(outputs.slice_offsets[1]), int(outputs.interval_offsets[1])
     row = outputs.out[0].tolist()
     slices = outputs.slices[:, :m].copy()
@@ -402,8 +406,10 @@ def cut_path(
         if previous_position_mm is None
         else xyz_mm(previous_position_mm, "previous_position_mm")
     )
-    outputs = _Outputs(len(tips), workspace(stock))
-    _run(stock, cutter, tips, previous, np.ascontiguousarray(fz), cycle_s, outputs)
+    ws = workspace(stock)
+    outputs = _Outputs(len(tips), ws)
+    grid_tips = tips - np.array(ws.grid[:3])
+    _run(stock, ws, cutter, grid_tips, previous, np.ascontiguousarray(fz), cycle_s, outputs)
     out = outputs.out
     m, q = int(outputs.slice_offsets[-1]), int(outputs.interval_offsets[-1])
     return EngagementPath(
@@ -431,19 +437,32 @@ def cut_path(
 
 class _Outputs:
     """The output buffers of :func:`_path` for ``n`` positions: a row of :data:`_N_OUT` values
-    per position, and the slices and intervals of all positions one after the other."""
+    per position, and the slices and intervals of all positions one after the other; and its
+    small input arrays (kept with the buffers of :func:`cut`, which fills them at every call
+    instead of allocating them: a few microseconds a position)."""
 
     __slots__ = (
+        "fz",
         "interval_offsets",
         "interval_slice",
         "intervals",
+        "old_tip",
         "out",
+        "prev",
         "slice_offsets",
         "slices",
+        "state",
+        "tip",
     )
 
     def __init__(self, n: int, ws: Workspace) -> None:
         self.out = np.empty((n, _N_OUT))
+        # The inputs of one position (cut) and the small arrays of every call (see _run).
+        self.tip = np.zeros((1, 3))
+        self.fz = np.zeros(1)
+        self.state = np.zeros(4, dtype=np.int64)
+        self.prev = np.zeros(3)
+        self.old_tip = np.zeros(3)
         self.slice_offsets = np.zeros(n + 1, dtype=np.int64)
         self.interval_offsets = np.zeros(n + 1, dtype=np.int64)
         # Room for one position's most slices and intervals, and for four of each a position.
@@ -471,26 +490,31 @@ def _check_feed_and_cycle(feed_per_tooth_mm: float, cycle_s: float) -> None:
 
 def _run(
     stock: DexelStock,
+    ws: Workspace,
     cutter: Cutter,
-    tips_mm: np.ndarray,
+    tips: np.ndarray,
     previous_mm: tuple[float, float, float] | None,
     fz: np.ndarray,
     cycle_s: float,
     outputs: _Outputs,
 ) -> None:
-    """Cut at every tip (machine coordinates, mm) with :func:`_path` into ``outputs``, growing
+    """Cut at every tip (grid coordinates, mm) with :func:`_path` into ``outputs``, growing
     buffers as needed; record the last tip as the stock's last cut."""
-    ws = workspace(stock)
-    n = len(tips_mm)
+    n = len(tips)
     ox, oy, oz = ws.grid[:3]
-    tips = tips_mm - np.array((ox, oy, oz))
     prm, ints = parameters(ws, cutter)
     old = last_tip(stock, cutter)
-    state = np.array([0, 0, previous_mm is not None, old is not None], dtype=np.int64)
-    prev = np.zeros(3)
-    if previous_mm is not None:
-        prev[:] = previous_mm[0] - ox, previous_mm[1] - oy, previous_mm[2] - oz
-    old_tip = np.array(old if old is not None else (0.0, 0.0, 0.0))
+    # (element by element: assigning a tuple to a slice costs more than the whole cut of a
+    # small tool)
+    state, prev, old_tip = outputs.state, outputs.prev, outputs.old_tip
+    state[0] = state[1] = 0
+    state[2] = previous_mm is not None
+    state[3] = old is not None
+    if previous_mm is None:
+        prev[0] = prev[1] = prev[2] = 0.0
+    else:
+        prev[0], prev[1], prev[2] = previous_mm[0] - ox, previous_mm[1] - oy, previous_mm[2] - oz
+    old_tip[0], old_tip[1], old_tip[2] = old if old is not None else (0.0, 0.0, 0.0)
     widen_mm = _WIDEN_PITCHES * max(ws.grid[3], ws.grid[4])
     while True:
         status = _path(

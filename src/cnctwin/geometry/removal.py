@@ -56,10 +56,14 @@ coarser earlier steps leave cusps that still count. The removed volume counts ev
 Performance
 -----------
 Rays of consecutive levels whose new and previous disc radii agree (the cylinder of the tool)
-share one table of operations (ray row, piece), so the per-ray work is the subtraction itself;
-the kernels run without numba's reference counting (see :data:`kernel`). The cost of a step
-grows with the number of rays the tool crosses, ``rho^2`` per mm^2 of the tool's silhouette
-(Boess et al., cited by Heide 2025, Eq. 1), plus the z rays of the new crescent.
+share one table of operations (ray row, piece, and what the contact bookkeeping needs of the
+row), so the per-ray work is the subtraction itself, through
+:func:`~cnctwin.geometry.dexel.trim_interval` (the common case, a trimmed end, first). The
+kernels run without numba's reference counting (see :data:`kernel`) and cut the row families
+before the z rays, whose crescent is new to the cache at every step. A step costs about one
+operation per ray whose material changes: along x and y one or two per row the tool's
+silhouette crosses at every level, ``rho^2`` per mm^2 of silhouette (Boess et al., cited by
+Heide 2025, Eq. 1), about 7 ns each; along z the rays of the new crescent only.
 """
 
 from __future__ import annotations
@@ -74,7 +78,7 @@ from numba import njit
 
 from cnctwin.errors import ConfigError
 from cnctwin.geometry.cutter import Cutter
-from cnctwin.geometry.dexel import AXES, DexelStock, subtract_interval
+from cnctwin.geometry.dexel import AXES, DexelStock, subtract_interval, trim_interval
 
 __all__ = ["GAP_PITCHES", "THIN_CUSPS", "ContactRecord", "Removal", "remove"]
 
@@ -301,6 +305,10 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
                         a2 = otop
             r = j * nx + (i - 1)
             pn = dx * (-fy) + dy * fx
+            # The level of a corner contact of the first piece, emitted after the loop over
+            # the pieces (inside it, the compiler would compute the contact's angle for every
+            # ray, in case it is needed).
+            contact_level = -1
             for piece in range(2):
                 if piece == 0:
                     a, b = bot, b1
@@ -329,16 +337,15 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
                     nmax = max(nmax, pn)
                     zmin = min(zmin, clo)
                     zmax = max(zmax, chi)
-                    if lo_in and piece == 0:
-                        if d2 > inner2 and nslices > 0:
-                            k = int(math.floor(a / pz))
-                            s = min(max(k - k0, 0), nslices - 1)
-                            n_arcs = _emit_arc(
-                                s, dx, dy, dx, dy, fx, fy, -fy, fx, arc_slice, arc_lo, arc_hi,
-                                n_arcs,
-                            )  # fmt: skip
+                    if lo_in and piece == 0 and d2 > inner2 and nslices > 0:
+                        contact_level = int(math.floor(a / pz))
                     if hi_in and (piece == 1 or b1 == top):
                         above = True
+            if contact_level >= 0:
+                s = min(max(contact_level - k0, 0), nslices - 1)
+                n_arcs = _emit_arc(
+                    s, dx, dy, dx, dy, fx, fy, -fy, fx, arc_slice, arc_lo, arc_hi, n_arcs
+                )
             if status != _DONE:
                 break
         if status != _DONE:
@@ -353,10 +360,12 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
 
 # Rows of the chord table of one level group (see _chords): per row q = j - j0 the half chord
 # and the row's offset from the axis; then the operations: ray row, piece start and end
-# (float32 values), flags.
+# (float32 values), flags, the part of the row a removed piece must reach to be a cut, and the
+# row's offset times the feed normal's component across the rows (the operation carries what
+# its row's removal needs, so the kernel reads one column of the table per operation).
 T_HALF, T_DV, T_OP_ROW, T_OP_FA, T_OP_FB, T_OP_FLAGS = 0, 1, 2, 3, 4, 5
-T_CUT_LO, T_CUT_HI = 6, 7  # per row q: the part of the row a removed piece must reach to be a cut
-N_TABLE = 8
+T_OP_CUT_LO, T_OP_CUT_HI, T_OP_DV_N = 6, 7, 8
+N_TABLE = 9
 # Bits of T_OP_FLAGS.
 F_LO = 1  # record a contact at the piece's start if it lies inside material
 F_HI = 2  # record a contact at the piece's end if it lies inside material
@@ -365,9 +374,10 @@ F_SECOND = 8  # the second piece of its row
 
 
 @njit(cache=True, inline="always")
-def _chords(table, r, orad, c_al, c_row, oc_al, oc_row, p_row, j0, j1, gap2, deep2):
+def _chords(table, r, orad, c_al, c_row, oc_al, oc_row, p_row, n_row, j0, j1, gap2, deep2):
     """Fill the chord table of rows j0..j1 for a disc of radius r (and the previous one of
-    radius orad, -1 for none); returns the number of operations.
+    radius orad, -1 for none); returns the number of operations (``n_row``: the feed normal's
+    component across the rows).
 
     Per row the half chord (-1 outside the disc) and its offset from the axis; per non-empty
     piece of the new chord outside the previous one (the first from the new chord's start to
@@ -388,15 +398,14 @@ def _chords(table, r, orad, c_al, c_row, oc_al, oc_row, p_row, j0, j1, gap2, dee
         w = r2 - dv * dv
         table[T_DV, q] = dv
         # Points of the row closer than sqrt(deep2) to the axis: a removed piece reaching
-        # into (T_CUT_LO, T_CUT_HI) is a cut (module notes, "Thin material").
+        # into (cut_lo, cut_hi) is a cut (module notes, "Thin material").
         cut_w = deep2 - dv * dv
+        cut_lo = math.inf
+        cut_hi = -math.inf
         if cut_w > 0.0:
             cut_w = math.sqrt(cut_w)
-            table[T_CUT_LO, q] = c_al - cut_w
-            table[T_CUT_HI, q] = c_al + cut_w
-        else:
-            table[T_CUT_LO, q] = math.inf
-            table[T_CUT_HI, q] = -math.inf
+            cut_lo = c_al - cut_w
+            cut_hi = c_al + cut_w
         if w < 0.0:
             table[T_HALF, q] = -1.0
             prev_half = -1.0
@@ -429,20 +438,36 @@ def _chords(table, r, orad, c_al, c_row, oc_al, oc_row, p_row, j0, j1, gap2, dee
         fa0 = np.float32(c_al - half)
         fb0 = np.float32(b1)
         if fb0 > fa0:
-            table[T_OP_ROW, n_ops] = j
-            table[T_OP_FA, n_ops] = fa0
-            table[T_OP_FB, n_ops] = fb0
-            table[T_OP_FLAGS, n_ops] = flags if whole else flags & ~F_HI
+            _op(
+                table,
+                n_ops,
+                j,
+                fa0,
+                fb0,
+                flags if whole else flags & ~F_HI,
+                cut_lo,
+                cut_hi,
+                dv * n_row,
+            )
             n_ops += 1
         fa1 = np.float32(a2)
         fb1 = np.float32(c_al + half)
         if fb1 > fa1:
-            table[T_OP_ROW, n_ops] = j
-            table[T_OP_FA, n_ops] = fa1
-            table[T_OP_FB, n_ops] = fb1
-            table[T_OP_FLAGS, n_ops] = (flags & ~F_LO) | F_SECOND
+            _op(table, n_ops, j, fa1, fb1, (flags & ~F_LO) | F_SECOND, cut_lo, cut_hi, dv * n_row)
             n_ops += 1
     return n_ops
+
+
+@njit(cache=True, inline="always")
+def _op(table, o, j, fa, fb, flags, cut_lo, cut_hi, dv_n):
+    """Write operation o of the chord table (see N_TABLE)."""
+    table[T_OP_ROW, o] = j
+    table[T_OP_FA, o] = fa
+    table[T_OP_FB, o] = fb
+    table[T_OP_FLAGS, o] = flags
+    table[T_OP_CUT_LO, o] = cut_lo
+    table[T_OP_CUT_HI, o] = cut_hi
+    table[T_OP_DV_N, o] = dv_n
 
 
 @kernel
@@ -500,7 +525,9 @@ def _cut_rows(
             # inside the circle: closer than r - thin to the axis.
             thin = min(max(prm[P_THIN] / r, prm[P_THIN0]), 0.5 * r)
             deep2 = (r - thin) * (r - thin) if r > thin else -1.0
-            n_ops = _chords(table, r, orad, c_al, c_row, oc_al, oc_row, p_row, j0, j1, gap2, deep2)
+            n_ops = _chords(
+                table, r, orad, c_al, c_row, oc_al, oc_row, p_row, n_row, j0, j1, gap2, deep2
+            )
             table_r = r
             table_orad = orad
         level_cut = False
@@ -514,7 +541,7 @@ def _cut_rows(
             j = int(table[T_OP_ROW, o])
             flags = int(table[T_OP_FLAGS, o])
             second = flags & F_SECOND
-            st, removed, lo_in, hi_in, clo, chi, found = subtract_interval(
+            st, removed, lo_in, hi_in, clo, chi, found = trim_interval(
                 base_ray + j,
                 np.float32(table[T_OP_FA, o]),
                 np.float32(table[T_OP_FB, o]),
@@ -535,13 +562,12 @@ def _cut_rows(
             if removed <= 0.0:
                 continue
             removed_total += removed
-            q = j - j0
-            is_cut = clo < table[T_CUT_HI, q] and chi > table[T_CUT_LO, q]
+            is_cut = clo < table[T_OP_CUT_HI, o] and chi > table[T_OP_CUT_LO, o]
             if is_cut:
-                dv = table[T_DV, q]
+                dv_n = table[T_OP_DV_N, o]
                 level_cut = True
-                p_lo = (clo - c_al) * n_al + dv * n_row
-                p_hi = (chi - c_al) * n_al + dv * n_row
+                p_lo = (clo - c_al) * n_al + dv_n
+                p_hi = (chi - c_al) * n_al + dv_n
                 nmin = min(nmin, min(p_lo, p_hi))
                 nmax = max(nmax, max(p_lo, p_hi))
             if lo_in and flags & F_LO:
@@ -633,11 +659,8 @@ def _cut(
 
     The families' arrays come one by one (a tuple argument would cost the dispatcher ~0.4 ms).
     """
-    st = _cut_z(
-        prm, ints, z_count, z_start, z_block, z_rows, z_heap_top, arc_slice, arc_lo, arc_hi, acc
-    )
-    if st != _DONE:
-        return st
+    # The row families first: their rays stay in the cache from step to step, while the z
+    # rays of the crescent are new to it every step (z last measured 4% faster a step).
     st = _cut_rows(
         prm, ints, x_count, x_start, x_block, x_rows, x_heap_top, arc_slice, arc_lo, arc_hi,
         table, acc, 0,
@@ -650,6 +673,11 @@ def _cut(
     )  # fmt: skip
     if st != _DONE:
         return st if st == _ARCS_FULL else st + 20
+    st = _cut_z(
+        prm, ints, z_count, z_start, z_block, z_rows, z_heap_top, arc_slice, arc_lo, arc_hi, acc
+    )
+    if st != _DONE:
+        return st
     return _DONE
 
 
@@ -854,7 +882,10 @@ def xyz_mm(value: object, name: str) -> tuple[float, float, float]:
         When ``value`` is not three finite numbers; the message names ``name``.
     """
     try:
-        u, v, w = cast("Sequence[float]", value)
+        # An array's values as Python numbers (faster to unpack than numpy scalars).
+        u, v, w = (
+            value.tolist() if isinstance(value, np.ndarray) else cast("Sequence[float]", value)
+        )
         x, y, z = float(u), float(v), float(w)
     except (TypeError, ValueError):
         raise ConfigError(f"{name}={value!r}; give three finite numbers (x, y, z) mm") from None
