@@ -10,7 +10,6 @@ Units as in the NC and geometry layers: mm, mm/min, rpm, s (names say so).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 
@@ -18,7 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cnctwin.errors import NCError
-from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
+from cnctwin.geometry import Cutter, DexelStock, Engagement
+from cnctwin.geometry.engagement import cut_path
 from cnctwin.nc.sampler import AxisLimits, TrajectorySampler
 from cnctwin.nc.segments import MotionKind, Segment
 
@@ -162,39 +162,51 @@ def simulate_cut(
         rows[:, 6] = chunk.kind == rapid
         rows[:, 7] = chunk.spindle_rpm
         rows[:, 8] = chunk.path_speed_mm_min
-        for i in range(n):
-            tool = int(chunk.tool[i])
+        tools = chunk.tool.astype(np.int64)
+        # Runs of consecutive positions with the same tool: one compiled cut per run.
+        breaks = np.flatnonzero(np.diff(tools)) + 1
+        for lo, hi in zip(
+            np.concatenate(([0], breaks)), np.concatenate((breaks, [n])), strict=True
+        ):
+            tool = int(tools[lo])
             cutter = cutters.get(tool)
             if cutter is None:
                 raise NCError(
                     f"tool T{tool} has no geometry: add it to the configuration's [[tools]] "
                     "with its kind, diameter_mm, flute_length_mm and flutes",
-                    line=int(chunk.line[i]),
+                    line=int(chunk.line[lo]),
                 )
             if tool != previous_tool:
                 previous = None
                 previous_tool = tool
-            rpm = float(chunk.spindle_rpm[i])
-            speed = float(chunk.path_speed_mm_min[i])
-            fz = speed / (rpm * cutter.flutes) if rpm > 0 else 0.0
-            position = chunk.tcp_mm[i]
-            engagement = cut(stock, cutter, position, previous, fz, cycle_s)
-            previous = position
-            if engagement.contact:
-                rows[i, 9:] = (
-                    fz,
-                    1.0,
-                    engagement.removed_volume_mm3,
-                    engagement.mrr_mm3_s,
-                    engagement.ae_mm,
-                    engagement.ap_mm,
-                    engagement.feed_mm_min if math.isfinite(engagement.feed_mm_min) else 0.0,
-                    engagement.h_mean_mm,
-                    engagement.h_max_mm,
-                    float(engagement.bottom_contact),
-                    float(engagement.above_flutes),
+            rpm = chunk.spindle_rpm[lo:hi]
+            speed = chunk.path_speed_mm_min[lo:hi]
+            fz = np.divide(speed, rpm * cutter.flutes, out=np.zeros(hi - lo), where=rpm > 0.0)
+            positions = chunk.tcp_mm[lo:hi]
+            path = cut_path(stock, cutter, positions, previous, fz, cycle_s)
+            previous = positions[-1]
+            run = rows[lo:hi]
+            run[:, 9] = fz
+            hit = path.contact
+            feed = np.where(np.isfinite(path.feed_mm_min), path.feed_mm_min, 0.0)
+            run[hit, 10:] = np.column_stack(
+                (
+                    np.ones(int(hit.sum())),
+                    path.removed_volume_mm3[hit],
+                    path.mrr_mm3_s[hit],
+                    path.ae_mm[hit],
+                    path.ap_mm[hit],
+                    feed[hit],
+                    path.h_mean_mm[hit],
+                    path.h_max_mm[hit],
+                    path.bottom_contact[hit],
+                    path.above_flutes[hit],
                 )
-                if on_step is not None:
+            )
+            if on_step is not None:
+                for k in np.flatnonzero(hit):
+                    i = lo + int(k)
+                    position = chunk.tcp_mm[i]
                     on_step(
                         CutStep(
                             index + i,
@@ -203,12 +215,10 @@ def simulate_cut(
                             int(chunk.line[i]),
                             tool,
                             cutter,
-                            rpm,
-                            fz,
-                            engagement,
+                            float(rpm[k]),
+                            float(fz[k]),
+                            path.engagement(int(k)),
                         )
                     )
-            else:
-                rows[i, 9] = fz
         index += n
         yield rows
