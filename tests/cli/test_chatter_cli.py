@@ -7,6 +7,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 import typer
 from typer.testing import CliRunner
@@ -212,3 +213,85 @@ def test_errors_name_the_bad_value(
     assert isinstance(raised, error), raised
     assert message in str(raised)
     assert "\n" not in str(raised)
+
+
+# ---------------------------------------------------------------------------------------------
+# chatter detect
+
+
+def test_detect_reads_the_simulated_signals_and_agrees_with_the_library(tmp_path: Path) -> None:
+    """simulate --signals writes a CSV; detect finds what the library finds on the arrays."""
+    from cnctwin.dynamics.chatter_detection import DetectorSettings, detect_chatter
+
+    config = str(EXAMPLES / "insperger_slot.toml")
+    signals = tmp_path / "cut.csv"
+    # 10000 rpm: the SDM's critical depth is 0.329 mm; 0.41 mm chatters, 0.25 mm does not.
+    for depth, expected in (("0.41", True), ("0.25", False)):
+        code, out, error = invoke(["simulate", "--config", config, "--rpm", "10000",
+                                   "--depth-mm", depth, "--feed-mm", "0.1", "--seconds", "0.6",
+                                   "--signals", str(signals)])  # fmt: skip
+        assert (code, error) == (0, None), out
+        header = signals.read_text().splitlines()[0]
+        assert header == ",".join(chatter.SIGNAL_COLUMNS)
+        detect = ["detect", str(signals), "--rpm", "10000", "--teeth", "2", "--column"]
+        report = run_json([*detect, "ax_m_s2", "--window-s", "0.1", "--hop-s", "0.05"])
+        lists = ("start_s", "end_s", "energy_ratio", "chatter_frequency_hz", "chatter_flags")
+        assert len({len(report[key]) for key in lists}) == 1 and report["windows"] == 11
+        assert report["tooth_passing_hz"] == pytest.approx(10000 * 2 / 60)
+        settled = [flag for flag, t in zip(report["chatter_flags"], report["start_s"],
+                                           strict=True) if t >= 0.3]  # fmt: skip
+        assert all(flag == expected for flag in settled)
+        data = np.loadtxt(signals, delimiter=",", skiprows=1)
+        library = detect_chatter(
+            data[:, 3], DetectorSettings(1.0 / np.mean(np.diff(data[:, 0])), 10000.0, 2, 0.1, 0.05)
+        )
+        assert report["energy_ratio"] == pytest.approx(library.energy_ratio.tolist(), rel=1e-12)
+        if expected:
+            assert report["dominant_chatter_frequency_hz"] == pytest.approx(932.5, abs=10.0)
+    code, out, error = invoke(["detect", str(signals), "--rpm", "10000", "--teeth", "2"])
+    assert (code, error) == (0, None) and "chatter detection" in out and "x_m" in out
+
+
+@pytest.mark.parametrize(
+    ("content", "args", "message"),
+    [
+        ("t_s,a\n" + "".join(f"{i * 1e-3},{i % 3}\n" for i in range(200)), ["--column", "b"],
+         "no column 'b' (--column)"),
+        ("x,a\n" + "".join(f"{i * 1e-3},{i % 3}\n" for i in range(200)), [], "no time column"),
+        ("t_s,a\n" + "".join(f"{i * 1e-3},{i % 3}\n" for i in range(200)) + "0.2,oops\n", [],
+         ":202: column 'a' is 'oops'"),
+        ("t_s,a\n" + "".join(f"{(i * i) * 1e-6},{i % 3}\n" for i in range(200)), [],
+         "not evenly increasing"),
+        ("t_s,a\n" + "".join(f"{i * 1e-3},{i % 3}\n" for i in range(50)), [],
+         "shorter than one window"),
+        ("t_s,a\n" + "".join(f"{i * 1e-3},{i % 3}\n" for i in range(200)), ["--window-s", "0"],
+         "--window-s 0.0"),
+        ("t_s,a\n" + "".join(f"{i * 1e-3},{i % 3}\n" for i in range(200)),
+         ["--threshold", "2"], "--threshold"),
+    ],
+)  # fmt: skip
+def test_detect_errors_are_one_line(
+    content: str, args: list[str], message: str, tmp_path: Path
+) -> None:
+    path = tmp_path / "signal.csv"
+    path.write_text(content, encoding="utf-8")
+    code, out, error = invoke(["detect", str(path), "--rpm", "6000", "--teeth", "2", *args])
+    assert isinstance(error, CnctwinError) and message in str(error)
+    assert "\n" not in str(error)
+
+
+def test_vibration_simulate_is_chatter_simulate(capsys: pytest.CaptureFixture[str]) -> None:
+    from cnctwin.cli.app import run
+
+    args = ["simulate", "--config", str(EXAMPLES / "insperger_slot.toml"), "--rpm", "10000",
+            "--depth-mm", "0.25", "--feed-mm", "0.1", "--seconds", "0.1", "--json"]  # fmt: skip
+    reports = []
+    for group in ("vibration", "chatter"):
+        assert run([group, *args]) == 0
+        report = json.loads(capsys.readouterr().out)
+        report.pop("wall_s")
+        reports.append(report)
+    assert reports[0] == reports[1]
+    assert run(["vibration", "simulate", "--config", "nowhere.toml", "--rpm", "1",
+                "--depth-mm", "1"]) == 2  # fmt: skip
+    assert capsys.readouterr().err.count("\n") == 1

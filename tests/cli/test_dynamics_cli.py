@@ -174,3 +174,40 @@ def test_real_files(shared_data: Path, capsys) -> None:
         found = [m["natural_frequency_hz"] for m in report["modes"]]
         for f_n in (1074.0, 1961.0):
             assert min(abs(f / f_n - 1.0) for f in found) < 0.015
+
+
+def test_modal_fit_is_dynamics_fit_frf(tmp_path: Path, capsys) -> None:
+    path = _frf_table(tmp_path / "tool.csv", np.arange(0.0, 3000.0, 1.0), TRUTH)
+    outputs = []
+    for command in (["modal", "fit"], ["dynamics", "fit-frf"]):
+        assert run([*command, str(path), "--modes", "2", "--json"]) == 0
+        outputs.append(json.loads(capsys.readouterr().out))
+    assert outputs[0] == outputs[1]
+    assert run(["modal", "fit", str(tmp_path / "missing.csv")]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_modes_out_feeds_stability_lobes(tmp_path: Path, capsys) -> None:
+    """Tap test -> modes file -> lobes, on the command line alone (issue 5, 'done when')."""
+    from cnctwin.config.stability import load_modes_file
+
+    path = _frf_table(tmp_path / "tool.csv", np.arange(0.0, 3000.0, 1.0), TRUTH)
+    for axis in ("x", "y"):
+        code = run(["modal", "fit", str(path), "--modes", "2", "--modes-out",
+                    str(tmp_path / f"{axis}.toml"), "--direction", axis])  # fmt: skip
+        assert code == 0
+    capsys.readouterr()
+    both = tmp_path / "modes.toml"
+    both.write_text((tmp_path / "x.toml").read_text() + (tmp_path / "y.toml").read_text())
+    modes = load_modes_file(both)
+    assert [m.direction for m in modes] == ["x", "x", "y", "y"]
+    for mode, true in zip(modes, TRUTH + TRUTH, strict=True):
+        assert mode.fn_hz == pytest.approx(true.omega_n / TWO_PI, rel=1e-7)
+        assert mode.damping_ratio == pytest.approx(true.zeta, rel=1e-6)
+        assert mode.stiffness_n_m == pytest.approx(true.stiffness, rel=1e-6)
+    code = run(["stability", "lobes", "--modes-file", str(both), "--teeth", "2", "--ktc", "600",
+                "--krc", "200", "--rpm", "3000,6000", "--json"])  # fmt: skip
+    assert code == 0
+    assert len(json.loads(capsys.readouterr().out)["critical_depth_mm"]) == 2
+    assert run(["modal", "fit", str(path), "--direction", "z"]) == 2
+    assert "--direction 'z'" in capsys.readouterr().err

@@ -168,3 +168,21 @@ def test_predict_errors_are_one_line(
     assert isinstance(error, DataError), error
     assert message in str(error)
     assert "\n" not in str(error)
+
+
+def test_fit_with_the_issue_column_names(tmp_path: Path) -> None:
+    """``roughness fit DATA.csv --target Ra --features ap,S,fz,V --json`` (issue 5, item 8)."""
+    source = _synthetic_csv(tmp_path / "cuts.csv").read_text().splitlines()
+    names = {"ap_mm": "ap", "spindle_rpm": "S", "fz_mm": "fz", "vibration_g": "V", "ra_um": "Ra"}
+    header = ",".join(names.get(name, name) for name in source[0].split(","))
+    data = tmp_path / "short.csv"
+    data.write_text("\n".join([header, *source[1:]]) + "\n")
+    code, out, error = invoke("fit", str(data), "--target", "Ra", "--features", "ap,S,fz,V",
+                              "--json")  # fmt: skip
+    assert error is None and code == 0
+    report = json.loads(out)
+    assert {"b0", "exponents", "r2", "mape_percent", "rmse"} <= set(report)
+    assert report["target"] == "Ra"
+    assert report["b0"] == pytest.approx(B0, rel=1e-9)
+    assert report["exponents"] == pytest.approx({names[k]: v for k, v in TRUTH.items()}, abs=1e-10)
+    assert list(report["exponents"]) == ["ap", "S", "fz", "V"]

@@ -6,6 +6,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 import typer
 from typer.testing import CliRunner
@@ -156,3 +157,194 @@ def test_process_damping_raises_the_sdm_limit(tmp_path: Path) -> None:
     for low, high in zip(plain["critical_depth_mm"], with_pd["critical_depth_mm"], strict=True):
         assert high is None or high > low * 1.05
     assert math.isfinite(plain["min_critical_depth_mm"])
+
+
+# ---------------------------------------------------------------------------------------------
+# --rpm LIST and --rpm-range (issue 5, item 8)
+
+
+def test_rpm_list_gives_those_speeds_and_the_library_values() -> None:
+    from cnctwin.dynamics.stability import zoa_lobes
+
+    config = EXAMPLES / "insperger_slot.toml"
+    report = run_json(["--config", str(config), "--method", "zoa", "--rpm", "8000,9000,10500"])
+    assert report["spindle_rpm"] == [8000.0, 9000.0, 10500.0]
+    assert all(len(report[key]) == 3 for key in LISTS)
+    settings = load_stability_config(config)
+    direct = zoa_lobes(settings.tool_dynamics(), settings.process(),
+                       [v * math.pi / 30 for v in (8000, 9000, 10500)])  # fmt: skip
+    assert report["critical_depth_mm"] == pytest.approx(
+        (direct.critical_depth_m * 1e3).tolist(), rel=1e-12
+    )
+    assert report["chatter_frequency_hz"] == pytest.approx(direct.chatter_frequency_hz.tolist())
+    best = int(np.argmin(report["critical_depth_mm"]))
+    assert report["min_critical_depth_mm"] == report["critical_depth_mm"][best]
+    assert report["min_critical_rpm"] == report["spindle_rpm"][best]
+
+
+def test_rpm_range_spans_min_max_with_n_speeds() -> None:
+    report = run_json(["--config", str(EXAMPLES / "ubc_two_mode.toml"), "--rpm-range",
+                       "2000:16000:400"])  # fmt: skip
+    assert len(report["spindle_rpm"]) == 400
+    assert report["spindle_rpm"][0] == 2000.0 and report["spindle_rpm"][-1] == 16000.0
+    assert len({len(report[key]) for key in LISTS}) == 1
+    finite = [v for v in report["critical_depth_mm"] if v is not None]
+    assert report["min_critical_depth_mm"] == min(finite)
+    # The same as the older form --rpm LOW HIGH --points N.
+    legacy = run_json(["--config", str(EXAMPLES / "ubc_two_mode.toml"), "--rpm", "2000",
+                       "16000", "--points", "400"])  # fmt: skip
+    assert legacy["critical_depth_mm"] == report["critical_depth_mm"]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--rpm-range", "9000:5000:10"], "--rpm-range '9000:5000:10'"),
+        (["--rpm-range", "5000:9000"], "MIN:MAX:N"),
+        (["--rpm-range", "5000:9000:1"], "N >= 2"),
+        (["--rpm", "8000,x"], "--rpm '8000,x'"),
+        (["--rpm", "8000,-1"], "each > 0"),
+        (["--rpm", "8000", "--rpm-range", "1:2:3"], "exclude each other"),
+        (["--rpm-range", "1000:2000:5", "--points", "5"], "--points"),
+    ],
+)
+def test_speed_option_errors_exit_2_in_one_line(
+    args: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from cnctwin.cli.app import run
+
+    code = run(["stability", "lobes", "--config", str(EXAMPLES / "insperger_slot.toml"), *args])
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert message in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in EXAMPLES.glob("*.toml")))
+def test_the_example_configs_run_through_the_cli(name: str) -> None:
+    report = run_json(["--config", str(EXAMPLES / name), "--rpm-range", "6000:12000:5"])
+    assert len({len(report[key]) for key in LISTS}) == 1 and len(report["spindle_rpm"]) == 5
+    assert report["min_critical_depth_mm"] is not None
+
+
+# ---------------------------------------------------------------------------------------------
+# stability roadmap (issue 5, item 7)
+
+CELL = """
+[machine]
+name = "test mill"
+max_spindle_rpm = 24000.0
+
+[[tools]]
+number = 1
+kind = "flat"
+diameter_mm = 10.0
+flutes = 2
+helix_deg = 0.0
+flute_length_mm = 20.0
+
+[stock]
+kind = "box"
+min_mm = [0.0, 0.0, -10.0]
+max_mm = [60.0, 40.0, 0.0]
+
+[simulation]
+density_per_mm = 5.0
+"""
+PASSES = """G21 G90 G17 G94
+T1 M6
+S10000 M3
+G0 X-10 Y10 Z5
+G0 Z-0.5
+G1 X70 F1000
+G0 Z5
+G0 X-10 Y30
+G0 Z-2.0
+G1 X70 F1000
+G0 Z5
+M30
+"""
+
+
+def roadmap_json(args: list[str], capsys: pytest.CaptureFixture[str]) -> dict:
+    from cnctwin.cli.app import run
+
+    code = run(["stability", "roadmap", *args, "--json"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert out.count("\n") == 1
+    return json.loads(out)
+
+
+def test_roadmap_of_two_slots_schedules_stable_speeds(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from cnctwin.dynamics.stability import MillingProcess, zoa_lobes
+
+    (tmp_path / "cell.toml").write_text(CELL)
+    (tmp_path / "passes.ngc").write_text(PASSES)
+    stability_file = EXAMPLES / "insperger_slot.toml"
+    plot = tmp_path / "roadmap.png"
+    report = roadmap_json([str(tmp_path / "passes.ngc"), "--config", str(tmp_path / "cell.toml"),
+                           "--stability", str(stability_file), "--method", "zoa",
+                           "--plot", str(plot)], capsys)  # fmt: skip
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert report["method"] == "zoa" and report["margin"] == 1.2
+    # [lobes] rpm 5000-25000 capped by machine.max_spindle_rpm, every 10 rpm.
+    assert report["spindle_rpm_min"] == 5000.0 and report["spindle_rpm_max"] == 24000.0
+    assert report["spindle_rpm_points"] == 1901
+    segments = report["segments"]
+    assert [s["line"] for s in segments] == [6, 10]
+    assert [s["ap_mm"] for s in segments] == pytest.approx([0.5, 2.0], abs=0.21)
+    assert report["changed_lines"] == [6, 10] and report["lines_without_stable_speed"] == []
+    settings = load_stability_config(stability_file)
+    for seg in segments:
+        assert seg["radial_immersion"] == pytest.approx(1.0, abs=0.01)
+        process = MillingProcess(2, 6e8, 2e8, math.radians(seg["entry_deg"]),
+                                 math.radians(seg["exit_deg"]))  # fmt: skip
+        speed = [seg["scheduled_rpm"] * math.pi / 30.0]
+        at = zoa_lobes(settings.tool_dynamics(), process, speed).critical_depth_m[0] * 1e3
+        assert at >= 1.2 * seg["ap_mm"]
+        assert seg["scheduled_critical_depth_mm"] == pytest.approx(at, rel=1e-9)
+        assert seg["programmed_critical_depth_mm"] < 1.2 * seg["ap_mm"]
+    code, out, err = invoke_roadmap([str(tmp_path / "passes.ngc"), "--config",
+                                     str(tmp_path / "cell.toml"), "--stability",
+                                     str(stability_file), "--margin", "0.5"], capsys)  # fmt: skip
+    assert code == 2 and "--margin 0.5" in err and err.count("\n") == 1
+
+
+def invoke_roadmap(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    from cnctwin.cli.app import run
+
+    code = run(["stability", "roadmap", *args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_roadmap_of_a_real_program(shared_data: Path, tmp_path: Path, capsys) -> None:
+    """The KIT DMC 60H notch program (three 6 mm passes of a 10 mm four-flute end mill at
+    S3800) with the UBC two-mode tool: full slots, and no stable speed for 6 mm."""
+    from cnctwin.dynamics.stability import MillingProcess, zoa_lobes
+
+    program = shared_data / "gcode" / "siemens_kit_dmc60h" / "AL_2007_T4_Notch_Normal.mpf"
+    config = Path(__file__).resolve().parents[2] / "examples" / "kit_dmc60h_al2007.toml"
+    plot = tmp_path / "kit.png"
+    report = roadmap_json([str(program), "--config", str(config), "--stability",
+                           str(EXAMPLES / "ubc_two_mode.toml"), "--density", "5",
+                           "--plot", str(plot)], capsys)  # fmt: skip
+    assert plot.stat().st_size > 0
+    segments = report["segments"]
+    assert len(segments) == 15
+    assert {s["programmed_rpm"] for s in segments} == {3800.0}
+    assert all(s["ap_mm"] == pytest.approx(6.0, abs=0.2) for s in segments)
+    assert all(s["radial_immersion"] == pytest.approx(1.0, abs=0.01) for s in segments)
+    settings = load_stability_config(EXAMPLES / "ubc_two_mode.toml")
+    slot = MillingProcess.from_immersion(4, settings.coefficients(), 1.0)
+    expected = zoa_lobes(settings.tool_dynamics(), slot, [3800 * math.pi / 30])
+    for seg in segments:
+        assert seg["programmed_critical_depth_mm"] == pytest.approx(
+            expected.critical_depth_m[0] * 1e3, rel=0.01
+        )
+    # The slot lobes of this tool stay below 1.2 x 6 mm at every speed of 1000-16000 rpm.
+    assert report["lines_without_stable_speed"] == sorted({s["line"] for s in segments})
+    lobes = zoa_lobes(settings.tool_dynamics(), slot, np.linspace(1000, 16000, 1501) * math.pi / 30)
+    assert np.max(lobes.critical_depth_m) * 1e3 < 1.2 * 6.0

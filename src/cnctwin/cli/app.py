@@ -18,20 +18,26 @@ import typer
 
 from cnctwin import __version__
 from cnctwin.cli import (
+    bench,
     chatter,
     demo,
     dynamics,
     forces,
+    modal,
     nc,
+    roadmap,
     roughness,
+    runs,
     signals,
     simulate,
     stability,
     study,
+    vibration,
     wear,
     wear_ekf,
     wear_registry,
 )
+from cnctwin.cli import run as run_cli
 from cnctwin.errors import CnctwinError
 
 __all__ = ["app", "main", "run"]
@@ -46,8 +52,13 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    # Plain help text: option help and docstrings name TOML tables such as [lobes] and
+    # [[modes]], which rich markup would swallow.
+    rich_markup_mode=None,
 )
 app.add_typer(nc.app, name="nc")
+bench.app.command("latency")(bench.latency)
+app.add_typer(bench.app, name="bench")
 wear.app.command("ekf")(wear_ekf.ekf)
 for _name in ("mount", "compensate", "retire", "history"):
     wear.app.command(_name)(getattr(wear_registry, _name))
@@ -55,9 +66,14 @@ app.add_typer(wear.app, name="wear")
 app.add_typer(study.app, name="study")
 app.add_typer(roughness.app, name="roughness")
 app.add_typer(dynamics.app, name="dynamics")
+stability.app.command("roadmap")(roadmap.roadmap)
 app.add_typer(stability.app, name="stability")
 app.add_typer(chatter.app, name="chatter")
+app.add_typer(vibration.app, name="vibration")
+app.add_typer(modal.app, name="modal")
+app.add_typer(runs.app, name="runs")
 app.command("demo")(demo.demo)
+app.command("run")(run_cli.run)
 app.command("forces")(forces.forces)
 app.command("simulate")(simulate.simulate)
 app.command("signals")(signals.signals)

@@ -4,7 +4,8 @@
 described by a stability file (``--config``, docs/stability.md) and options: RMS vibration,
 chatter verdict, the semi-discretization's verdict at the same point. ``calibrate-damping``
 finds the process-damping coefficient of each measured cut of a CSV and fits Royandi 2026's
-Gamma model per spindle speed (:mod:`cnctwin.dynamics.process_damping`). Guide:
+Gamma model per spindle speed (:mod:`cnctwin.dynamics.process_damping`). ``detect`` finds
+chatter in a measured signal (:mod:`cnctwin.cli.chatter_detect`). Guide:
 docs/chatter.md. The physics works in SI; this edge speaks rpm, mm, um, g and N/m^2.
 """
 
@@ -22,6 +23,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin.cli.chatter_detect import detect
 from cnctwin.errors import ConfigError, DataError
 
 if TYPE_CHECKING:
@@ -31,10 +33,17 @@ if TYPE_CHECKING:
     from cnctwin.dynamics.time_domain import MillingVibration
     from cnctwin.mechanics.cutter import EndMill
 
-__all__ = ["app", "calibrate_damping", "calibration_report", "simulate", "simulation_report"]
+__all__ = [
+    "app",
+    "calibrate_damping",
+    "calibration_report",
+    "detect",
+    "simulate",
+    "simulation_report",
+]
 
 app = typer.Typer(
-    help="Time-domain milling vibration and chatter; process-damping calibration.",
+    help="Time-domain milling vibration, chatter detection, process-damping calibration.",
     no_args_is_help=True,
 )
 
@@ -333,6 +342,12 @@ def simulate(
         Path | None,
         typer.Option("--plot", help="Write displacement, force and spectrum to this PNG."),
     ] = None,
+    signals: Annotated[
+        Path | None,
+        typer.Option(
+            "--signals", help="Write the signals over time to this CSV (for chatter detect)."
+        ),
+    ] = None,
     as_json: JsonOption = False,
 ) -> None:
     """Simulate one milling cut in time: vibration RMS, chatter, and the SDM's verdict."""
@@ -358,10 +373,24 @@ def simulate(
     )
     if plot is not None:
         _plot_simulation(plot, result, report, config.stem)
+    if signals is not None:
+        _write_signals(signals, result)
     if as_json:
         sys.stdout.write(json.dumps(report) + "\n")
         return
     Console().print(_simulation_table(report))
+
+
+#: Columns of ``simulate --signals`` (SI units, named so).
+SIGNAL_COLUMNS = ("t_s", "x_m", "y_m", "ax_m_s2", "ay_m_s2", "fx_n", "fy_n")
+
+
+def _write_signals(path: Path, result: MillingVibration) -> None:
+    """The simulated displacement, acceleration and force over time as a CSV."""
+    data = np.column_stack(
+        (result.time_s, result.displacement_m, result.acceleration_m_s2, result.force_n)
+    )
+    np.savetxt(path, data, delimiter=",", header=",".join(SIGNAL_COLUMNS), comments="", fmt="%.10g")
 
 
 def calibration_report(
@@ -540,6 +569,9 @@ def calibrate_damping(
     console = Console()
     console.print(_cuts_table(report))
     console.print(_fits_table(report))
+
+
+app.command("detect")(detect)
 
 
 def _pair(values: np.ndarray) -> list[float]:

@@ -1,74 +1,148 @@
-"""``cnctwin demo``: the main job on its packaged default.
+"""``cnctwin demo``: the twin watching a virtual machine, both of Heide 2025's use cases armed.
 
-Interprets the packaged example program with the packaged configuration, samples the
-tool tip at the twin's cycle time under the machine's axis limits, and prints a summary.
-Later this grows into the live twin.
+Starts the packaged virtual machine (``cnctwin/examples/demo_twin.toml`` and
+``demo_twin.ngc``: a slender end mill, three passes, a hole in the machine's blank that the
+twin does not know of) in a child process serving OPC UA (or Modbus TCP) on loopback, runs
+the twin against it, and prints a summary. On the way the predicted form error of the heavy
+second pass makes the twin lower the feed override (use case 2), and the hole in the blank
+drops the measured force out of the band around the prediction, so the twin stops the
+machine (use case 1). See docs/demo.md.
 """
 
 from __future__ import annotations
 
-from importlib.resources import as_file
-from typing import TYPE_CHECKING
+import asyncio
+import json
+import math
+import sys
+import tempfile
+from importlib.resources import as_file, files
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Literal
 
-import numpy as np
+import typer
 from rich.console import Console
 
-from cnctwin.cli.nc import inspect_report, report_table
-from cnctwin.config import MachineConfig, load_config
-from cnctwin.examples import example_file
-from cnctwin.nc.segments import Segment
+from cnctwin.cli.run import (
+    LiveView,
+    note,
+    quiet_protocol_logs,
+    run_until_interrupted,
+    summary_report,
+    summary_table,
+)
+from cnctwin.errors import ConfigError
 
 if TYPE_CHECKING:
-    from cnctwin.nc.sampler import AxisLimits
+    from cnctwin.twin.pipeline import Twin
 
-__all__ = ["CYCLE_S", "demo"]
+__all__ = ["DEMO_CONFIG", "demo"]
 
-#: The twin's cycle time in s (Heide 2025, Fig. 5: 12.5 ms).
-CYCLE_S = 0.0125
-
-
-def demo() -> None:
-    """Run the packaged example: interpret, sample every 12.5 ms, summarize."""
-    from cnctwin.nc.sampler import TrajectorySampler  # heavy: numba kernels
-
-    with (
-        as_file(example_file("demo.toml")) as config_path,
-        as_file(example_file("demo.ngc")) as program,
-    ):
-        config = load_config(config_path)
-        segments: list[Segment] = []  # the packaged program is small
-        report = inspect_report(program, config, on_segment=segments.append)
-    report["file"] = "demo.ngc (packaged example)"
-    sampler = TrajectorySampler(
-        segments,
-        rapid_mm_min=config.machine.rapid_mm_min,
-        cycle_s=CYCLE_S,
-        limits=_axis_limits(config.machine),
-    )
-    samples = 0
-    peak_speed_mm_min = 0.0
-    for chunk in sampler:
-        samples += len(chunk.t_s)
-        peak_speed_mm_min = max(peak_speed_mm_min, float(np.max(chunk.path_speed_mm_min)))
-    table = report_table(report)
-    table.add_section()
-    table.add_row("sample period", f"{CYCLE_S * 1000.0:g} ms")
-    table.add_row("samples", str(samples))
-    table.add_row("duration with axis limits", f"{sampler.duration_s:.1f} s")
-    table.add_row("peak path speed", f"{peak_speed_mm_min:.0f} mm/min")
-    Console().print(table)
+#: The packaged twin configuration of the demo (in :mod:`cnctwin.examples`).
+DEMO_CONFIG = "demo_twin.toml"
 
 
-def _axis_limits(machine: MachineConfig) -> AxisLimits:
-    """The sampler's acceleration (mm/s^2) and velocity (mm/s) limits of X, Y and Z."""
-    from cnctwin.nc.sampler import AxisLimits
-
-    x, y, z = machine.axes.x, machine.axes.y, machine.axes.z
-    return AxisLimits(
-        accel_mm_s2=(x.max_accel_mm_s2, y.max_accel_mm_s2, z.max_accel_mm_s2),
-        velocity_mm_s=(
-            x.max_velocity_mm_min / 60.0,
-            y.max_velocity_mm_min / 60.0,
-            z.max_velocity_mm_min / 60.0,
+def demo(
+    duration: Annotated[
+        float,
+        typer.Option("--duration", help="Longest run in seconds (the demo ends at the stop)."),
+    ] = 40.0,
+    speed: Annotated[
+        float | None,
+        typer.Option(
+            "--speed",
+            help="Machine seconds per wall-clock second (default: the demo's 2).",
         ),
+    ] = None,
+    db: Annotated[
+        str | None,
+        typer.Option(
+            "--db",
+            help="Historian: SQLite file or postgresql://USER@HOST:PORT/DB "
+            "(default: the installation's file).",
+        ),
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+    transport: Annotated[
+        str, typer.Option("--transport", help="Protocol of the virtual machine: opcua or modbus.")
+    ] = "opcua",
+) -> None:
+    """Run the twin against a virtual machine on loopback: feed adaptation, then a stop.
+
+    The virtual machine cuts a block with a slender end mill; the twin mirrors it, lowers the
+    feed override while the predicted form error is above 40 um, and stops the machine when
+    a hole in the blank drops the measured force out of the predicted band.
+    """
+    from cnctwin.store.historian import Historian
+    from cnctwin.twin.config import load_run_config
+    from cnctwin.twin.host import MachineProcess
+    from cnctwin.twin.process import TwinProcess
+    from cnctwin.twin.session import run_session
+
+    if not (math.isfinite(duration) and duration > 0):
+        raise ConfigError(f"--duration {duration}: give a number of seconds > 0")
+    if speed is not None and not (math.isfinite(speed) and 0 < speed <= 20):
+        raise ConfigError(f"--speed {speed}: give 0 < speed <= 20 machine seconds per second")
+    if transport not in ("opcua", "modbus"):
+        raise ConfigError(f"--transport {transport!r}; valid: opcua, modbus")
+    protocol: Literal["opcua", "modbus"] = "opcua" if transport == "opcua" else "modbus"
+    quiet_protocol_logs()
+    with as_file(files("cnctwin.examples")) as folder:
+        config = load_run_config(folder / DEMO_CONFIG)
+        with Historian.open(db) as historian:
+            note(f"history: {historian.location}")
+            log = Path(tempfile.gettempdir()) / "cnctwin-demo-machine.log"
+            log.write_text("")
+            machine = MachineProcess(config, protocol, speed, log=log)
+            try:
+                machine.spawn()
+                # compile the twin's kernels while the machine compiles its own
+                TwinProcess(config, density_per_mm=config.twin.density_per_mm).warm_up()
+                endpoint = machine.wait_ready()
+                factor = speed if speed is not None else machine.speed_factor
+                note(
+                    f"virtual machine: {endpoint} ({protocol}, {factor:g}x real time; "
+                    f"its log: {log})"
+                )
+                settings = config.model_copy(
+                    update={
+                        "connection": config.connection.model_copy(
+                            update={"endpoint": endpoint, "transport": protocol}
+                        )
+                    }
+                )
+                view = LiveView(enabled=not as_json and sys.stdout.isatty())
+
+                def start(twin: Twin) -> None:
+                    view.attach(twin)
+                    machine.go()
+
+                with view.running():
+                    summary = asyncio.run(
+                        run_until_interrupted(
+                            lambda stop: run_session(
+                                settings,
+                                historian=historian,
+                                duration_s=duration,
+                                stop_event=stop,
+                                on_cycle=view.observe,
+                                on_start=start,
+                                meta={"command": "cnctwin demo", "virtual_machine": endpoint},
+                                base_dir=folder,
+                            ),
+                            view,
+                        )
+                    )
+                machine_state = machine.state() or {}
+            finally:
+                machine.stop()
+    report = summary_report(
+        summary,
+        transport=protocol,
+        endpoint=endpoint,
+        machine_time_s=machine_state.get("t_s"),
     )
+    if as_json:
+        sys.stdout.write(json.dumps(report) + "\n")
+        return
+    Console().print(summary_table(report, title="cnctwin demo"))

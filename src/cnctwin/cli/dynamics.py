@@ -41,6 +41,7 @@ __all__ = [
     "fit_frf",
     "fit_frf_report",
     "load_tap_test",
+    "modes_file_text",
     "read_frf_mat",
     "read_impact_record",
     "read_table",
@@ -342,6 +343,38 @@ def fit_frf_report(
     }
 
 
+def modes_file_text(report: dict[str, Any], direction: str) -> str:
+    """The fitted modes of ``report`` as ``[[modes]]`` tables of a modes file (TOML).
+
+    Parameters
+    ----------
+    report
+        The JSON of ``fit-frf`` (:func:`fit_frf_report`).
+    direction
+        ``"x"`` or ``"y"``: the direction of the measured driving-point FRF.
+
+    Returns
+    -------
+    str
+        TOML text read by ``cnctwin stability lobes --modes-file`` (docs/stability.md).
+    """
+    low, high = report["band_hz"]
+    lines = [
+        f"# Modes fitted to {report['file']} ({low:.0f}-{high:.0f} Hz) by cnctwin dynamics "
+        f"fit-frf, direction {direction}."
+    ]
+    for mode in report["modes"]:
+        lines += [
+            "",
+            "[[modes]]",
+            f'direction = "{direction}"',
+            f"fn_hz = {mode['natural_frequency_hz']!r}",
+            f"damping_ratio = {mode['damping_ratio']!r}",
+            f"stiffness_n_m = {mode['stiffness_n_m']!r}",
+        ]
+    return "\n".join(lines) + "\n"
+
+
 def _plot(path: Path, frf: FRF, fit: ModalFit, title: str) -> None:
     """Real part, imaginary part and magnitude, measured and fitted, over the band +- 20 %.
 
@@ -414,13 +447,25 @@ def fit_frf(
         float | None,
         typer.Option("--tau-ms", help="Exponential window on an impact record, time constant ms."),
     ] = None,
+    modes_out: Annotated[
+        Path | None,
+        typer.Option(
+            "--modes-out", help="Write the modes as a modes file for 'stability lobes' (TOML)."
+        ),
+    ] = None,
+    direction: Annotated[
+        str, typer.Option("--direction", help="Direction of the measured FRF: x or y.")
+    ] = "x",
 ) -> None:
     """Fit modes (natural frequency, damping, stiffness, mass) to a tap test's FRF.
 
     Each mode is 1 / (k - m w^2 + j c w) (Royandi 2026, Eq. 13); the fit is nonlinear least
     squares on the complex receptance with upper and lower residuals. Fit each direction's
-    FRF (x, y) separately.
+    FRF (x, y) separately; --modes-out writes each fit's modes, along --direction, as
+    [[modes]] tables: concatenate the x and y files into one modes file.
     """
+    if direction not in ("x", "y"):
+        raise ConfigError(f"--direction {direction!r}; valid: x, y")
     if kind not in ("auto", "frf", "impact"):
         raise ConfigError(f"--kind {kind!r}; valid: auto, frf, impact")
     if quantity is not None and quantity not in ("receptance", "mobility", "accelerance"):
@@ -429,6 +474,8 @@ def fit_frf(
         file, modes=modes, band_hz=band, kind=kind, variable=variable,  # type: ignore[arg-type]
         quantity=quantity, tau_ms=tau_ms, plot=plot,  # type: ignore[arg-type]
     )  # fmt: skip
+    if modes_out is not None:
+        modes_out.write_text(modes_file_text(report, direction), encoding="utf-8")
     if as_json:
         sys.stdout.write(json.dumps(report) + "\n")
         return

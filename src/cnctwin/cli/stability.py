@@ -1,8 +1,11 @@
-"""``cnctwin stability``: chatter stability; ``stability lobes``: the lobe diagram of a cut.
+"""``cnctwin stability``: chatter stability; ``stability lobes``: the lobe diagram of a cut;
+``stability roadmap``: stable spindle speeds along a program (:mod:`cnctwin.cli.roadmap`).
 
 The tool-tip modes and the cut come from a stability file (``--config``, docs/stability.md) or
 from a modes file (``--modes-file``) completed by options; options override the file. The
-physics (:mod:`cnctwin.dynamics.stability`) works in SI; this edge speaks rpm, mm and Hz.
+spindle speeds: the file's ``[lobes]`` range, ``--rpm LIST`` (comma-separated speeds),
+``--rpm-range MIN:MAX:N`` or the older ``--rpm LOW HIGH`` (with ``--points``). The physics
+(:mod:`cnctwin.dynamics.stability`) works in SI; this edge speaks rpm, mm and Hz.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from rich.table import Table
 
 from cnctwin.errors import ConfigError
 
-__all__ = ["app", "lobes", "lobes_report"]
+__all__ = ["app", "lobes", "lobes_report", "parse_rpm_list", "parse_rpm_range"]
 
 logger = logging.getLogger(__name__)
 
@@ -36,13 +39,56 @@ def _stability() -> None:
     """Chatter stability of milling and turning."""
 
 
-def lobes_report(config: Any) -> dict[str, Any]:
+def parse_rpm_list(text: str, option: str = "--rpm") -> np.ndarray:
+    """Spindle speeds from ``"8000,9000,10500"`` (rpm, each finite and > 0).
+
+    Raises
+    ------
+    ConfigError
+        Naming the option and the text, for an empty list or a value that is not > 0.
+    """
+    try:
+        values = np.array([float(v) for v in text.split(",") if v.strip()])
+    except ValueError:
+        values = np.array([math.nan])
+    if values.size == 0 or not np.all(np.isfinite(values) & (values > 0.0)):
+        raise ConfigError(
+            f"{option} {text!r}; give spindle speeds in rpm separated by commas, each > 0"
+        )
+    return values
+
+
+def parse_rpm_range(text: str, option: str = "--rpm-range") -> np.ndarray:
+    """``N`` spindle speeds evenly spaced from ``MIN`` to ``MAX`` rpm, from ``"MIN:MAX:N"``.
+
+    Raises
+    ------
+    ConfigError
+        Naming the option and the text, unless ``0 < MIN < MAX`` and ``N >= 2``.
+    """
+    parts = text.split(":")
+    try:
+        low, high, count = float(parts[0]), float(parts[1]), int(parts[2])
+        valid = len(parts) == 3 and math.isfinite(high) and 0.0 < low < high and count >= 2
+    except (ValueError, IndexError):
+        valid = False
+    if not valid:
+        raise ConfigError(
+            f"{option} {text!r}; give MIN:MAX:N with 0 < MIN < MAX rpm and N >= 2, "
+            "e.g. 5000:25000:400"
+        )
+    return np.linspace(low, high, count)
+
+
+def lobes_report(config: Any, rpm: np.ndarray | None = None) -> dict[str, Any]:
     """Compute the lobe diagram a stability configuration asks for.
 
     Parameters
     ----------
     config
         A :class:`cnctwin.config.stability.StabilityConfig`.
+    rpm
+        Spindle speeds in rpm; default the ``[lobes]`` range and number of points.
 
     Returns
     -------
@@ -61,7 +107,8 @@ def lobes_report(config: Any) -> dict[str, Any]:
     process = config.process()
     damping = config.process_damping_model()
     spec = config.lobes
-    rpm = np.linspace(spec.rpm[0], spec.rpm[1], spec.points)
+    if rpm is None:
+        rpm = np.linspace(spec.rpm[0], spec.rpm[1], spec.points)
     started = time.perf_counter()
     if spec.method == "zoa":
         if damping is not None:
@@ -127,8 +174,15 @@ def lobes(
         ),
     ] = None,
     rpm: Annotated[
-        tuple[float, float] | None,
-        typer.Option("--rpm", help="Lowest and highest spindle speed in rpm."),
+        str | None,
+        typer.Option(
+            "--rpm",
+            help="Spindle speeds in rpm, comma-separated (8000,9000); LOW HIGH: a range.",
+        ),
+    ] = None,
+    rpm_range: Annotated[
+        str | None,
+        typer.Option("--rpm-range", help="MIN:MAX:N: N speeds from MIN to MAX rpm."),
     ] = None,
     points: Annotated[
         int | None, typer.Option("--points", help="Number of spindle speeds (default 200).")
@@ -156,10 +210,16 @@ def lobes(
         Path | None, typer.Option("--plot", help="Write the lobe diagram to this PNG file.")
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+    high_rpm: Annotated[
+        list[str] | None, typer.Argument(hidden=True, help="HIGH of --rpm LOW HIGH.")
+    ] = None,
 ) -> None:
     """Stability lobes: the critical depth of cut and chatter frequency per spindle speed.
 
     Modes and cut from --config FILE, or modes from --modes-file FILE and the cut from options.
+
+    Speeds: the file's [lobes] range, --rpm 8000,9000,10500, --rpm-range 5000:25000:400, or
+    --rpm LOW HIGH with --points N.
 
     Milling cut options: --teeth, --material NAME (or --ktc and --krc), --immersion, --down/--up.
     """
@@ -168,11 +228,12 @@ def lobes(
     path = config if config is not None else modes_file
     if path is None or (config is not None and modes_file is not None):
         raise ConfigError("give either --config FILE or --modes-file FILE")
+    span, speeds = _speeds(rpm, rpm_range, points, high_rpm or [])
     overrides = _overrides(
         immersion=immersion,
         down=down,
         method=method,
-        rpm=rpm,
+        rpm=span,
         points=points,
         max_depth_mm=max_depth_mm,
         steps=steps,
@@ -182,7 +243,7 @@ def lobes(
         krc=krc,
     )
     settings = load_stability_config(path, overrides, modes_only=modes_file is not None)
-    report = lobes_report(settings)
+    report = lobes_report(settings, speeds)
     if plot is not None:
         _plot(plot, report, path.stem)
     if as_json:
@@ -192,6 +253,31 @@ def lobes(
 
 
 app.command("lobes")(lobes)
+
+
+def _speeds(
+    rpm: str | None, rpm_range: str | None, points: int | None, extra: list[str]
+) -> tuple[tuple[float, float] | None, np.ndarray | None]:
+    """The speed options as a ``[lobes]`` range (the ``--rpm LOW HIGH`` form) or speeds."""
+    if extra:
+        # --rpm LOW HIGH: click hands HIGH over as a stray argument.
+        if rpm is None or len(extra) != 1 or "," in rpm:
+            raise ConfigError(f"unexpected argument {' '.join(extra)!r}; see --help")
+        try:
+            low, high = float(rpm), float(extra[0])
+        except ValueError:
+            raise ConfigError(f"--rpm {rpm} {extra[0]}; give LOW HIGH in rpm") from None
+        return (low, high), None
+    if rpm is not None and rpm_range is not None:
+        raise ConfigError("--rpm and --rpm-range exclude each other; give one")
+    if points is not None and (rpm is not None or rpm_range is not None):
+        raise ConfigError("--points goes with the file's range or --rpm LOW HIGH; "
+                          "give N in --rpm-range MIN:MAX:N instead")  # fmt: skip
+    if rpm is not None:
+        return None, parse_rpm_list(rpm)
+    if rpm_range is not None:
+        return None, parse_rpm_range(rpm_range)
+    return None, None
 
 
 def _overrides(**given: Any) -> dict[str, dict[str, Any]]:
@@ -278,7 +364,7 @@ def _table(report: dict[str, Any]) -> Table:
         title=f"stability lobes ({report['method']}, {report['operation']})",
         show_header=False,
         caption=f"{len(report['spindle_rpm'])} spindle speeds "
-        f"{report['spindle_rpm'][0]:.0f}-{report['spindle_rpm'][-1]:.0f} rpm "
+        f"{min(report['spindle_rpm']):.0f}-{max(report['spindle_rpm']):.0f} rpm "
         f"in {report['seconds']:.2f} s",
         caption_justify="left",
     )
@@ -313,21 +399,23 @@ def _plot(path: Path, report: dict[str, Any], title: str) -> None:
     """Critical depth over spindle speed; unstable above the curve, flip points marked."""
     from matplotlib.figure import Figure  # matplotlib only when asked for
 
-    rpm = np.array(report["spindle_rpm"])
-    depth = np.array([np.nan if v is None else v for v in report["critical_depth_mm"]])
+    order = np.argsort(report["spindle_rpm"], kind="stable")
+    rpm = np.array(report["spindle_rpm"])[order]
+    depth = np.array([np.nan if v is None else v for v in report["critical_depth_mm"]])[order]
     top = report["max_depth_mm"] or (1.5 * np.nanmax(depth) if np.isfinite(depth).any() else 1)
     shown = np.where(np.isnan(depth), top, np.minimum(depth, top))
     figure = Figure(figsize=(9.0, 5.0), dpi=100, layout="constrained")
     axes = figure.subplots()
     axes.fill_between(rpm, shown, top, color="tab:red", alpha=0.15, linewidth=0, label="chatter")
     axes.plot(rpm, shown, color="black", linewidth=1.0, label="critical depth")
-    flip = np.array([kind == "flip" for kind in report["bifurcation"]])
+    flip = np.array([kind == "flip" for kind in report["bifurcation"]])[order]
     if flip.any():
         axes.plot(rpm[flip], shown[flip], ".", color="tab:blue", label="period doubling (flip)")
     if report["absolute_depth_mm"] is not None and report["absolute_depth_mm"] < top:
         axes.axhline(report["absolute_depth_mm"], color="tab:gray", linestyle="--",
                      linewidth=0.8, label="ZOA absolute limit")  # fmt: skip
-    axes.set_xlim(rpm[0], rpm[-1])
+    if rpm.size > 1:
+        axes.set_xlim(rpm[0], rpm[-1])
     axes.set_ylim(0.0, top)
     axes.set_xlabel("spindle speed [rpm]")
     axes.set_ylabel("axial depth of cut [mm]")

@@ -7,7 +7,7 @@ import tomllib
 import types
 import typing
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar, overload
 
 from pydantic import BaseModel, ValidationError
 from pydantic_core import ErrorDetails
@@ -19,8 +19,20 @@ __all__ = ["load_config"]
 
 _SCALARS = (str, int, float, bool)
 
+_Model = TypeVar("_Model", bound=TwinConfig)
 
-def load_config(path: str | os.PathLike[str]) -> TwinConfig:
+
+@overload
+def load_config(path: str | os.PathLike[str]) -> TwinConfig: ...
+
+
+@overload
+def load_config(path: str | os.PathLike[str], *, model: type[_Model]) -> _Model: ...
+
+
+def load_config(
+    path: str | os.PathLike[str], *, model: type[TwinConfig] = TwinConfig
+) -> TwinConfig:
     """Read and validate a configuration file.
 
     Parameters
@@ -28,12 +40,16 @@ def load_config(path: str | os.PathLike[str]) -> TwinConfig:
     path
         A TOML file; relative paths inside it (``tool_table``) are relative to its folder.
         A CAMotics project (``.camotics``) is read for its tools and workpiece instead
-        (:func:`cnctwin.config.camotics.load_camotics_project`).
+        (:func:`cnctwin.config.camotics.load_camotics_project`; only with the default
+        ``model``).
+    model
+        The root model to validate against: :class:`TwinConfig` or a subclass that adds
+        tables (e.g. :class:`cnctwin.twin.config.RunConfig`, the running twin's file).
 
     Returns
     -------
     TwinConfig
-        The validated configuration.
+        The validated configuration, an instance of ``model``.
 
     Raises
     ------
@@ -43,7 +59,7 @@ def load_config(path: str | os.PathLike[str]) -> TwinConfig:
     """
     path = Path(path)
     source = str(path)
-    if path.suffix.lower() == ".camotics":
+    if path.suffix.lower() == ".camotics" and model is TwinConfig:
         from cnctwin.config.camotics import load_camotics_project
 
         return load_camotics_project(path)
@@ -58,9 +74,9 @@ def load_config(path: str | os.PathLike[str]) -> TwinConfig:
     except tomllib.TOMLDecodeError as err:
         raise ConfigError(f"invalid TOML: {err}", source) from err
     try:
-        return TwinConfig.model_validate(data, context={"base_dir": path.parent})
+        return model.model_validate(data, context={"base_dir": path.parent})
     except ValidationError as err:
-        raise ConfigError(_describe_validation_error(err, TwinConfig), source) from err
+        raise ConfigError(_describe_validation_error(err, model), source) from err
 
 
 def _describe_validation_error(error: ValidationError, root: type[BaseModel]) -> str:

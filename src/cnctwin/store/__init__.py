@@ -1,5 +1,28 @@
-"""Storage: the twin registry (SQLite, embedded) for machines, tools and their twins."""
+"""Storage: the historian of the twin's runs (SQLite or PostgreSQL) and the twin registry
+(SQLite, embedded) for machines, tools and their twins."""
 
+from cnctwin.store.config import HistorianConfig
+from cnctwin.store.historian import (
+    DecisionRecord,
+    EventRecord,
+    Historian,
+    HistorianStats,
+    RunDetail,
+    RunSummary,
+    default_database_path,
+)
 from cnctwin.store.registry import MeasurementRecord, ToolRecord, TwinRegistry
 
-__all__ = ["MeasurementRecord", "ToolRecord", "TwinRegistry"]
+__all__ = [
+    "DecisionRecord",
+    "EventRecord",
+    "Historian",
+    "HistorianConfig",
+    "HistorianStats",
+    "MeasurementRecord",
+    "RunDetail",
+    "RunSummary",
+    "ToolRecord",
+    "TwinRegistry",
+    "default_database_path",
+]

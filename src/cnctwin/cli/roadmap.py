@@ -1,0 +1,361 @@
+"""``cnctwin stability roadmap``: stable spindle speeds along a program, and a speed schedule.
+
+The program runs through the stock of the configuration (``--config``: machine, tools, stock)
+into an engagement map (:mod:`cnctwin.geometry.engagement_map`); the stability file
+(``--stability``, docs/stability.md) gives the tool-tip modes, the cutting coefficients (its
+``[cut]`` material or ``ktc_n_mm2``/``krc_n_mm2``; else the configuration's ``[material]``)
+and the speed range (``[lobes] rpm``). :mod:`cnctwin.dynamics.roadmap` does the rest (Ward
+2021, sec. 3.4). The teeth come from the program's tools, the immersion from the map.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from cnctwin.cli.stability import parse_rpm_range
+from cnctwin.errors import CnctwinError, ConfigError, NCError
+
+if TYPE_CHECKING:
+    from cnctwin.config import TwinConfig
+    from cnctwin.config.stability import StabilityConfig
+    from cnctwin.dynamics.roadmap import StabilityRoadmap
+    from cnctwin.mechanics.coefficients import CuttingCoefficients
+    from cnctwin.nc.segments import Segment
+
+__all__ = ["roadmap", "roadmap_report"]
+
+RPM_STEP = 10.0
+"""Default spacing of the speed grid, rpm (the schedule's resolution)."""
+
+
+def _recording(segments: Iterable[Segment], speeds: dict[int, float]) -> Iterator[Segment]:
+    """Pass the segments on, noting each line's programmed spindle speed (rpm)."""
+    for segment in segments:
+        speeds[segment.line] = segment.spindle_rpm
+        yield segment
+
+
+def _coefficients(stability: StabilityConfig, config: TwinConfig) -> CuttingCoefficients:
+    """The stability file's coefficients, else those of the configuration's material."""
+    from cnctwin.mechanics.materials import milling_material
+
+    cut = stability.cut
+    if cut.operation != "milling":
+        raise ConfigError("stability file: cut.operation is 'orthogonal'; a roadmap needs milling")
+    if cut.material is not None or cut.ktc_n_mm2 is not None or cut.krc_n_mm2 is not None:
+        return stability.coefficients()
+    try:
+        return milling_material(config.material.name).coefficients
+    except CnctwinError:
+        raise ConfigError(
+            f"no cutting coefficients: the stability file's [cut] names none and the "
+            f"configuration's material {config.material.name!r} is not in the library; give "
+            "cut.material or cut.ktc_n_mm2 and cut.krc_n_mm2"
+        ) from None
+
+
+def _grid(stability: StabilityConfig, config: TwinConfig, rpm_range: str | None) -> np.ndarray:
+    """The speed grid: --rpm-range, else [lobes] rpm every 10 rpm; capped by the machine."""
+    if rpm_range is not None:
+        grid = parse_rpm_range(rpm_range)
+    else:
+        low, high = stability.lobes.rpm
+        grid = np.linspace(low, high, max(2, round((high - low) / RPM_STEP) + 1))
+    cap = config.machine.max_spindle_rpm
+    if cap is not None:
+        grid = grid[grid <= cap]
+        if grid.size == 0:
+            raise ConfigError(
+                f"machine.max_spindle_rpm={cap:g} is below the lowest speed of the grid; "
+                "give a lower --rpm-range"
+            )
+    return grid
+
+
+def roadmap_report(
+    program: Path,
+    config: TwinConfig,
+    stability: StabilityConfig,
+    *,
+    margin: float,
+    rpm_range: str | None = None,
+    density_per_mm: float | None = None,
+    step_mm: float | None = None,
+) -> tuple[dict[str, Any], StabilityRoadmap]:
+    """Build the program's engagement map and its stability roadmap.
+
+    Parameters
+    ----------
+    program
+        NC file.
+    config
+        Machine, tools (with geometry) and stock.
+    stability
+        Modes, coefficients, method and speed range (:class:`StabilityConfig`).
+    margin
+        Factor on the depth of cut, >= 1.
+    rpm_range
+        ``MIN:MAX:N`` speed grid; default the stability file's range every 10 rpm.
+    density_per_mm
+        Dexels per mm; default the configuration's.
+    step_mm
+        Map step along the path, mm; default the dexel pitch.
+
+    Returns
+    -------
+    tuple
+        The ``--json`` object and the roadmap. JSON: ``program``, ``method``, ``margin``,
+        ``spindle_rpm_min``, ``spindle_rpm_max``, ``spindle_rpm_points``, ``segments``
+        (per segment ``line``, ``tool``, ``start_s_mm``, ``end_s_mm``, ``ap_mm``, ``ae_mm``,
+        ``radial_immersion``, ``entry_deg``, ``exit_deg``, ``programmed_rpm``,
+        ``programmed_critical_depth_mm``, ``programmed_chatter_hz``, ``programmed_stable``,
+        ``stable_ranges_rpm``, ``scheduled_rpm``, ``scheduled_critical_depth_mm``; null for
+        a missing value), ``changed_lines``, ``lines_without_stable_speed``,
+        ``plunge_lines`` (bottom contact only: no lobes), ``engagements`` (distinct
+        engagements: teeth, angles, lowest critical depth), ``seconds``.
+    """
+    from cnctwin.dynamics.roadmap import stability_roadmap
+    from cnctwin.geometry import Cutter, DexelStock
+    from cnctwin.geometry.engagement_map import EngagementMap
+    from cnctwin.nc.interpreter import Interpreter
+
+    rho = config.simulation.density_per_mm if density_per_mm is None else density_per_mm
+    if not (math.isfinite(rho) and 0.0 < rho <= 100.0):
+        raise ConfigError(f"--density {rho!r}; give 0 < density <= 100 dexels per mm")
+    step = 1.0 / rho if step_mm is None else step_mm
+    if not (math.isfinite(step) and step > 0.0):
+        raise ConfigError(f"--step-mm {step!r}; give a finite length > 0 mm")
+    grid = _grid(stability, config, rpm_range)
+    coefficients = _coefficients(stability, config)
+    cutters = {tool.number: Cutter.from_tool_config(tool) for tool in config.tools}
+    teeth = {tool.number: tool.flutes for tool in config.tools}
+    diameter = {tool.number: tool.diameter_mm for tool in config.tools}
+    stock = DexelStock.box(config.stock.min_mm, config.stock.max_mm, rho)
+    speeds: dict[int, float] = {}
+    started = time.perf_counter()
+    segments = _recording(Interpreter(config.nc_setup()).run_file(program), speeds)
+    try:
+        emap = EngagementMap.build(segments, stock, cutters, step_mm=step)
+    except NCError as err:
+        if err.file == "<string>":
+            raise NCError(err.message, str(program), err.line, err.column) from None
+        raise
+    steps = None if stability.lobes.steps == "auto" else stability.lobes.steps
+    result = stability_roadmap(
+        emap, speeds, stability.tool_dynamics(), coefficients, teeth, grid, margin=margin,
+        method=stability.lobes.method, max_depth_mm=stability.lobes.max_depth_mm, steps=steps,
+    )  # fmt: skip
+    seconds = time.perf_counter() - started
+    rows = []
+    for seg in result.segments:
+        rows.append(
+            {
+                "line": seg.line,
+                "tool": seg.tool,
+                "start_s_mm": seg.start_s_mm,
+                "end_s_mm": seg.end_s_mm,
+                "ap_mm": seg.ap_mm,
+                "ae_mm": seg.ae_mm,
+                "radial_immersion": seg.ae_mm / diameter[seg.tool],
+                "entry_deg": _null(math.degrees(seg.entry_rad)),
+                "exit_deg": _null(math.degrees(seg.exit_rad)),
+                "programmed_rpm": seg.programmed_rpm,
+                "programmed_critical_depth_mm": _null(seg.programmed_critical_depth_mm),
+                "programmed_chatter_hz": _null(seg.programmed_chatter_hz),
+                "programmed_stable": seg.programmed_stable,
+                "stable_ranges_rpm": [list(pair) for pair in seg.stable_ranges_rpm],
+                "scheduled_rpm": _null(seg.scheduled_rpm),
+                "scheduled_critical_depth_mm": _null(seg.scheduled_critical_depth_mm),
+            }
+        )
+    with_lobes = [seg for seg in result.segments if seg.lobes >= 0]
+    report = {
+        "program": str(program),
+        "method": result.method,
+        "margin": result.margin,
+        "spindle_rpm_min": float(grid[0]),
+        "spindle_rpm_max": float(grid[-1]),
+        "spindle_rpm_points": int(grid.size),
+        "segments": rows,
+        "changed_lines": sorted({s.line for s in with_lobes if not s.programmed_stable}),
+        "lines_without_stable_speed": sorted({s.line for s in result.unstable_segments}),
+        "plunge_lines": sorted({s.line for s in result.segments if s.lobes < 0}),
+        "engagements": [
+            {
+                "teeth": lobes.teeth,
+                "entry_deg": math.degrees(lobes.entry_rad),
+                "exit_deg": math.degrees(lobes.exit_rad),
+                "min_critical_depth_mm": _null(float(np.min(lobes.critical_depth_mm))),
+            }
+            for lobes in result.lobes
+        ],
+        "seconds": seconds,
+    }
+    return report, result
+
+
+def roadmap(
+    program: Annotated[Path, typer.Argument(help="NC program.")],
+    config: Annotated[
+        Path, typer.Option("--config", "-c", help="Configuration: machine, tools, stock.")
+    ],
+    stability: Annotated[
+        Path,
+        typer.Option("--stability", help="Stability file: modes, coefficients, method, rpm."),
+    ],
+    margin: Annotated[
+        float, typer.Option("--margin", help="Critical depth at least this times the depth.")
+    ] = 1.2,
+    method: Annotated[
+        str | None, typer.Option("--method", help="zoa or sdm (default: the stability file).")
+    ] = None,
+    rpm_range: Annotated[
+        str | None,
+        typer.Option("--rpm-range", help="MIN:MAX:N speed grid (default: file's, every 10 rpm)."),
+    ] = None,
+    density: Annotated[
+        float | None, typer.Option("--density", help="Dexels per mm (overrides the config).")
+    ] = None,
+    step_mm: Annotated[
+        float | None,
+        typer.Option("--step-mm", help="Map step along the path, mm (default 1/density)."),
+    ] = None,
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="Write the roadmap and lobes to this PNG.")
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+) -> None:
+    """Stability roadmap: stable spindle speeds per program segment and a speed schedule.
+
+    Per segment (a program line's cut) the widest immersion and largest depth; the speeds
+    whose critical depth is at least --margin times that depth; the scheduled speed: the
+    programmed one if stable, else the nearest stable one (Ward 2021, Fig. 12).
+    """
+    from cnctwin.config import load_config
+    from cnctwin.config.stability import load_stability_config
+
+    if not (math.isfinite(margin) and margin >= 1.0):
+        raise ConfigError(f"--margin {margin!r}; give a factor >= 1")
+    overrides: dict[str, dict[str, Any]] = {}
+    if method is not None:
+        if method not in ("zoa", "sdm"):
+            raise ConfigError(f"--method {method!r}; give zoa or sdm")
+        overrides["lobes"] = {"method": method}
+    settings = load_config(config)
+    modes = load_stability_config(stability, overrides)
+    report, result = roadmap_report(
+        program, settings, modes, margin=margin, rpm_range=rpm_range,
+        density_per_mm=density, step_mm=step_mm,
+    )  # fmt: skip
+    if plot is not None:
+        _plot(plot, result, program.name)
+    if as_json:
+        sys.stdout.write(json.dumps(report) + "\n")
+        return
+    Console().print(_table(report))
+
+
+def _null(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None
+
+
+def _table(report: dict[str, Any]) -> Table:
+    table = Table(
+        title=f"stability roadmap: {report['program']} ({report['method']}, "
+        f"margin {report['margin']:g})",
+        title_justify="left",
+        caption=f"speeds {report['spindle_rpm_min']:.0f}-{report['spindle_rpm_max']:.0f} rpm "
+        f"({report['spindle_rpm_points']} points); {len(report['engagements'])} engagements "
+        f"in {report['seconds']:.2f} s",
+        caption_justify="left",
+    )
+    for name in ("line", "s [mm]", "ap [mm]", "ae/D", "programmed", "a_lim there", "scheduled"):
+        table.add_column(name, justify="right")
+    for row in report["segments"]:
+        limit = row["programmed_critical_depth_mm"]
+        scheduled = row["scheduled_rpm"]
+        if row["entry_deg"] is None:
+            verdict = "plunge (no lobes)"
+        elif scheduled is None:
+            verdict = "[red]no stable speed[/red]"
+        elif row["programmed_stable"]:
+            verdict = "kept"
+        else:
+            verdict = f"[yellow]{scheduled:.0f} rpm[/yellow]"
+        table.add_row(
+            str(row["line"]),
+            f"{row['start_s_mm']:.1f}-{row['end_s_mm']:.1f}",
+            f"{row['ap_mm']:.2f}",
+            f"{row['radial_immersion']:.2f}",
+            f"{row['programmed_rpm']:.0f}",
+            "-" if limit is None else f"{limit:.3g} mm",
+            verdict,
+        )
+    return table
+
+
+def _plot(path: Path, result: StabilityRoadmap, title: str) -> None:
+    """Ward 2021 Fig. 12: unstable speeds along the path with the schedule; and the lobes."""
+    from matplotlib.colors import ListedColormap
+    from matplotlib.figure import Figure  # matplotlib only when asked for
+
+    grid = result.spindle_rpm
+    segments = [s for s in result.segments if s.lobes >= 0]
+    figure = Figure(figsize=(13.0, 5.0), dpi=100, layout="constrained")
+    road, lobes_axes = figure.subplots(1, 2, width_ratios=(3, 2))
+    step = float(np.median(np.diff(grid))) if grid.size > 1 else 1.0
+    edges = np.concatenate(([grid[0] - step / 2], 0.5 * (grid[1:] + grid[:-1]),
+                            [grid[-1] + step / 2]))  # fmt: skip
+    for seg in segments:
+        critical = result.lobes[seg.lobes].critical_depth_mm
+        unstable = (critical < result.margin * seg.ap_mm).astype(float)[:, None]
+        end = max(seg.end_s_mm, seg.start_s_mm + 1e-6)
+        road.pcolormesh([seg.start_s_mm, end], edges, unstable, vmin=0, vmax=1,
+                        cmap=ListedColormap(["white", "tab:red"]), alpha=0.6)  # fmt: skip
+    for i, seg in enumerate(segments):
+        a, b = seg.start_s_mm, seg.end_s_mm
+        road.plot([a, b], [seg.programmed_rpm] * 2, color="black", linewidth=1.5,
+                  label="programmed" if i == 0 else None)  # fmt: skip
+        if seg.has_stable_speed:
+            road.plot([a, b], [seg.scheduled_rpm] * 2, color="tab:blue", linewidth=2.5,
+                      label="scheduled" if i == 0 else None)  # fmt: skip
+    road.set_ylim(edges[0], edges[-1])
+    road.set_xlabel("path length s [mm]")
+    road.set_ylabel("spindle speed [rpm]")
+    road.set_title(f"{title}: stability roadmap (red: chatter at the segment's depth "
+                   f"x {result.margin:g})")  # fmt: skip
+    road.legend(loc="upper right", fontsize="small")
+    shown = sorted({seg.lobes for seg in segments})[:8]
+    colours = [f"C{i}" for i in range(len(shown))]
+    top = 0.0
+    for colour, index in zip(colours, shown, strict=True):
+        lobe = result.lobes[index]
+        depth = np.where(np.isfinite(lobe.critical_depth_mm), lobe.critical_depth_mm, np.nan)
+        label = f"{math.degrees(lobe.entry_rad):.0f}-{math.degrees(lobe.exit_rad):.0f} deg"
+        lobes_axes.plot(grid, depth, color=colour, linewidth=1.0, label=label)
+        mine = [seg for seg in segments if seg.lobes == index]
+        lobes_axes.plot([s.programmed_rpm for s in mine], [s.ap_mm for s in mine], "x",
+                        color=colour)  # fmt: skip
+        moved = [s for s in mine if s.has_stable_speed and not s.programmed_stable]
+        lobes_axes.plot([s.scheduled_rpm for s in moved], [s.ap_mm for s in moved], "o",
+                        color=colour, markerfacecolor="none")  # fmt: skip
+        top = max(top, max(s.ap_mm for s in mine))
+    lobes_axes.set_ylim(0.0, 3.0 * top if top > 0.0 else 1.0)
+    lobes_axes.set_xlim(grid[0], grid[-1])
+    lobes_axes.set_xlabel("spindle speed [rpm]")
+    lobes_axes.set_ylabel("axial depth of cut [mm]")
+    lobes_axes.set_title("lobes per engagement: x programmed, o scheduled")
+    lobes_axes.grid(alpha=0.3)
+    lobes_axes.legend(loc="upper left", fontsize="small", title="immersion")
+    figure.savefig(path)

@@ -1,0 +1,360 @@
+"""``cnctwin run``: the running twin against a machine, with a live terminal view.
+
+Connects to the machine of the configuration's ``[connection]`` (OPC UA or Modbus TCP), runs
+the twin cycle until the program ends, the machine stops, ``--duration`` is up or Ctrl-C,
+records the run in the historian, and prints a summary (``--json``: one object).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+import math
+import signal
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+from rich.console import Console, Group
+from rich.live import Live
+from rich.table import Table
+from rich.text import Text
+
+from cnctwin.errors import ConfigError
+from cnctwin.thread.signals import RunState
+
+if TYPE_CHECKING:
+    from cnctwin.twin.pipeline import Twin
+    from cnctwin.twin.runtime import RunSummary, TwinRuntime
+    from cnctwin.twin.state import CycleState
+
+__all__ = [
+    "LiveView",
+    "note",
+    "quiet_protocol_logs",
+    "run",
+    "run_until_interrupted",
+    "summary_report",
+    "summary_table",
+]
+
+#: Keys of the summary every ``--json`` output has (see docs/twin.md).
+SUMMARY_KEYS = (
+    "cycles",
+    "cycle_p50_ms",
+    "cycle_p99_ms",
+    "overruns",
+    "stop_reaction_ms",
+    "feed_override_min",
+    "events",
+    "samples_recorded",
+    "database",
+)
+
+
+def run(
+    config: Annotated[
+        Path, typer.Option("--config", "-c", help="Twin configuration TOML (see docs/twin.md).")
+    ],
+    db: Annotated[
+        str | None,
+        typer.Option(
+            "--db",
+            help="Historian: SQLite file or postgresql://USER@HOST:PORT/DB "
+            "(default: [historian] url, else the installation's file).",
+        ),
+    ] = None,
+    duration: Annotated[
+        float | None,
+        typer.Option("--duration", help="Stop after this many seconds (default: program end)."),
+    ] = None,
+    endpoint: Annotated[
+        str | None,
+        typer.Option(
+            "--endpoint",
+            help="Machine address (opc.tcp://... or modbus://...), overriding [connection].",
+        ),
+    ] = None,
+    connect_timeout: Annotated[
+        float,
+        typer.Option("--connect-timeout", help="Seconds to keep trying to reach the machine."),
+    ] = 10.0,
+    as_json: Annotated[
+        bool, typer.Option("--json", help="Print one JSON object at the end, no live view.")
+    ] = False,
+) -> None:
+    """Run the twin against a machine until its program ends or Ctrl-C.
+
+    Reads the machine every cycle, cuts the twin's own stock, predicts forces and form error,
+    evaluates the rules and (with [control] enabled) commands the machine through the safety
+    filter; everything goes to the historian.
+    """
+    from cnctwin.store.historian import Historian
+    from cnctwin.twin.config import load_run_config
+    from cnctwin.twin.session import run_session
+
+    if duration is not None and not (math.isfinite(duration) and duration > 0):
+        raise ConfigError(f"--duration {duration}: give a number of seconds > 0")
+    if not (math.isfinite(connect_timeout) and connect_timeout > 0):
+        raise ConfigError(f"--connect-timeout {connect_timeout}: give a number of seconds > 0")
+    settings = load_run_config(config)
+    quiet_protocol_logs()
+    if endpoint is not None:
+        update: dict[str, str] = {"endpoint": endpoint}
+        if endpoint.startswith("modbus://"):
+            update["transport"] = "modbus"
+        elif endpoint.startswith("opc.tcp://"):
+            update["transport"] = "opcua"
+        else:
+            raise ConfigError(
+                f"--endpoint {endpoint!r}; give opc.tcp://HOST:PORT/PATH or modbus://HOST:PORT"
+            )
+        settings = settings.model_copy(
+            update={"connection": settings.connection.model_copy(update=update)}
+        )
+    historian = Historian.open(db) if db is not None else Historian.from_config(settings.historian)
+    with historian:
+        note(f"history: {historian.location}")
+        view = LiveView(enabled=not as_json and sys.stdout.isatty())
+        with view.running():
+            summary = asyncio.run(
+                run_until_interrupted(
+                    lambda stop: run_session(
+                        settings,
+                        historian=historian,
+                        duration_s=duration,
+                        stop_event=stop,
+                        on_cycle=view.observe,
+                        on_start=view.attach,
+                        meta={"config": str(config.resolve()), "command": "cnctwin run"},
+                        base_dir=config.resolve().parent,
+                        connect_timeout_s=connect_timeout,
+                    ),
+                    view,
+                )
+            )
+    report = summary_report(summary)
+    if as_json:
+        sys.stdout.write(json.dumps(report) + "\n")
+        return
+    Console().print(summary_table(report, title=f"twin run: {config.name}"))
+
+
+async def run_until_interrupted(
+    start: Callable[[asyncio.Event], Any], view: LiveView
+) -> RunSummary:
+    """Run a session; Ctrl-C (SIGINT) or SIGTERM ends it cleanly after the current cycle."""
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    installed = []
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        with contextlib.suppress(NotImplementedError, RuntimeError):
+            loop.add_signal_handler(sig, stop.set)
+            installed.append(sig)
+    refresher = loop.create_task(view.refresh_loop())
+    try:
+        result: RunSummary = await start(stop)
+        return result
+    finally:
+        refresher.cancel()
+        for sig in installed:
+            loop.remove_signal_handler(sig)
+
+
+def summary_report(summary: RunSummary, **extra: Any) -> dict[str, Any]:
+    """The summary as one JSON-ready object, the keys of :data:`SUMMARY_KEYS` first."""
+    data = summary.to_dict()
+    report = {key: data.pop(key) for key in SUMMARY_KEYS}
+    report.update(data)
+    report.update(extra)
+    return report
+
+
+def summary_table(report: dict[str, Any], title: str) -> Table:
+    """A two-column table of a summary report."""
+
+    def ms(value: float | None) -> str:
+        return "-" if value is None else f"{value:.2f} ms"
+
+    table = Table(title=title, show_header=False, title_justify="left")
+    override = report["feed_override_min"]
+    rows = [
+        ("ended", str(report["ended"])),
+        ("cycles", str(report["cycles"])),
+        ("cycle time p50 / p99", f"{ms(report['cycle_p50_ms'])} / {ms(report['cycle_p99_ms'])}"),
+        ("overruns", str(report["overruns"])),
+        ("stop reaction", ms(report["stop_reaction_ms"])),
+        ("lowest feed override", "-" if override is None else f"{override:.0f} %"),
+        ("decisions", str(report["decisions"])),
+        ("events", str(report["events"])),
+        ("reconnections", str(report["reconnects"])),
+        ("samples recorded", str(report["samples_recorded"])),
+        ("history", str(report["database"])),
+    ]
+    for key, value in rows:
+        table.add_row(key, value)
+    return table
+
+
+class LiveView:
+    """The live terminal view: machine signals, predictions, cycle time and decisions.
+
+    :meth:`observe` is called by the runtime after each cycle (it only keeps the state);
+    :meth:`refresh_loop` redraws a few times a second between cycles.
+
+    Parameters
+    ----------
+    enabled
+        Draw at all (off for ``--json`` and when stdout is not a terminal).
+    refresh_s
+        Time between redraws, s.
+    """
+
+    def __init__(self, enabled: bool, refresh_s: float = 0.25) -> None:
+        self.enabled = enabled
+        self.refresh_s = refresh_s
+        self.state: CycleState | None = None
+        self.cycles = 0
+        self.decisions: list[str] = []
+        self.events: list[str] = []
+        self.runtime: TwinRuntime | None = None
+        self._live: Live | None = None
+        self._started = time.monotonic()
+        self._cycle_ms: list[float] = []
+
+    def attach(self, twin: Twin) -> None:
+        """Show the cycle times of this twin (``on_start`` of the session)."""
+        self.runtime = twin.runtime
+
+    def observe(self, state: CycleState) -> None:
+        """Keep the latest cycle, its decisions and events."""
+        self.state = state
+        self.cycles += 1
+        for result in state.decisions:
+            verdict = result.verdict
+            value = "-" if verdict.value is None else f"{verdict.value:.4g}"
+            self.decisions.append(
+                f"{verdict.decision.rule}: {verdict.outcome} {verdict.command or ''}={value}"
+            )
+        for event in state.events:
+            self.events.append(event.message)
+        del self.decisions[:-5]
+        del self.events[:-4]
+
+    @contextlib.contextmanager
+    def running(self) -> Iterator[None]:
+        """Show the view while the block runs."""
+        if not self.enabled:
+            yield
+            return
+        with Live(self.render(), auto_refresh=False, transient=False) as live:
+            self._live = live
+            try:
+                yield
+            finally:
+                live.update(self.render(), refresh=True)
+                self._live = None
+
+    async def refresh_loop(self) -> None:
+        """Redraw every ``refresh_s`` until cancelled."""
+        while self._live is not None:
+            self._live.update(self.render(), refresh=True)
+            await asyncio.sleep(self.refresh_s)
+
+    def render(self) -> Group:
+        """The view's renderable."""
+        s = self.state
+        table = Table(show_header=True, expand=False, box=None)
+        table.add_column("machine")
+        table.add_column("", justify="right")
+        table.add_column("twin")
+        table.add_column("", justify="right")
+        if s is None:
+            return Group(Text("waiting for the machine ..."), table)
+        m, p = s.measured, s.predicted
+
+        def f(values: dict[str, float], key: str, fmt: str = ".1f") -> str:
+            value = values.get(key)
+            return "-" if value is None else format(value, fmt)
+
+        state = m.get("run_state")
+        state_name = RunState(int(state)).name if state is not None and 0 <= state <= 5 else "-"
+        rows = [
+            ("run state", state_name, "cycle", str(s.index)),
+            ("t (s)", f(m, "t_s", ".2f"), "line", str(s.line)),
+            ("X / Y / Z (mm)", _xyz(m), "tool", f"T{s.tool}"),
+            (
+                "spindle (rpm)",
+                f(m, "spindle_rpm", ".0f"),
+                "ae / ap (mm)",
+                f"{f(p, 'ae_mm', '.2f')} / {f(p, 'ap_mm', '.2f')}",
+            ),
+            (
+                "feed (mm/min)",
+                f(m, "feed_mm_min", ".0f"),
+                "force predicted (N)",
+                f(p, "predicted_force_xy_n"),
+            ),
+            (
+                "feed override (%)",
+                f(m, "feed_override_pct", ".0f"),
+                "force band (N)",
+                f"{f(p, 'force_band_low_n', '.0f')} .. {f(p, 'force_band_high_n', '.0f')}",
+            ),
+            (
+                "force measured (N)",
+                f(p, "measured_force_xy_n"),
+                "form error (um)",
+                f"{f(p, 'form_error_um')} / {f(p, 'form_error_tolerance_um', '.0f')}",
+            ),
+            (
+                "spindle power (W)",
+                f(m, "spindle_power_w", ".0f"),
+                "torque predicted (N m)",
+                f(p, "predicted_torque_nm", ".2f"),
+            ),
+        ]
+        runtime = self.runtime
+        if runtime is not None:
+            times = runtime.cycle_times
+            rows.append(
+                (
+                    "connected",
+                    "yes" if runtime.connected else "NO",
+                    "cycle p50 / p99 (ms)",
+                    f"{times.recent_percentile_ms(50):.2f} / {times.recent_percentile_ms(99):.2f}"
+                    f"  overruns {runtime.overruns}",
+                )
+            )
+        for row in rows:
+            table.add_row(*row)
+        parts: list[Any] = [table]
+        if self.decisions:
+            parts.append(Text("decisions: " + " | ".join(self.decisions[-3:])))
+        if self.events:
+            parts.append(Text("events: " + " | ".join(self.events[-2:])))
+        return Group(*parts)
+
+
+def quiet_protocol_logs() -> None:
+    """Keep the protocol libraries' notes (asyncua, pymodbus) off the terminal unless they
+    are errors; ``--debug`` shows everything."""
+    if not logging.getLogger("cnctwin").isEnabledFor(logging.DEBUG):
+        for name in ("asyncua", "pymodbus"):
+            logging.getLogger(name).setLevel(logging.ERROR)
+
+
+def note(line: str) -> None:
+    """One line of information on stderr (stdout stays for the result)."""
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+
+
+def _xyz(m: dict[str, float]) -> str:
+    values = [m.get(k) for k in ("x_mm", "y_mm", "z_mm")]
+    return " / ".join("-" if v is None else f"{v:.2f}" for v in values)

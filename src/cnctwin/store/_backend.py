@@ -1,0 +1,107 @@
+"""What the historian asks of a database: the schema and the few operations SQLite and
+PostgreSQL do differently (connecting, transactions, bulk insert of sample frames).
+
+The schema (both databases; ``?`` is the placeholder, PostgreSQL gets ``%s``):
+
+``hist_runs``
+    one row per run: id, ``started_at``/``ended_at`` (Unix time, s), status, ``meta`` and
+    ``summary`` (JSON text).
+``hist_layouts``
+    each distinct ordered set of signal names, as a JSON list, once.
+``hist_frames``
+    one row per recorded instant: run, kind (0 measured, 1 predicted), ``seq`` (the order the
+    twin recorded it in), ``t_s`` (twin time, s), layout and ``vals``: the values as
+    little-endian IEEE 754 float64, in the layout's order (bit-exact, NaN included).
+``hist_events``, ``hist_decisions``
+    one row each, sharing the ``seq`` counter with the frames so a run replays in order.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Iterator, Sequence
+from contextlib import AbstractContextManager
+from typing import Any
+
+__all__ = ["FRAME_COLUMNS", "Backend", "FrameRow"]
+
+#: Columns of ``hist_frames`` in insert order.
+FRAME_COLUMNS = ("run_id", "kind", "seq", "t_s", "layout_id", "vals")
+
+#: One ``hist_frames`` row: (run_id, kind, seq, t_s, layout_id, vals).
+FrameRow = tuple[int, int, int, float, int, bytes]
+
+
+class Backend(ABC):
+    """One database flavour: DDL types, connection and bulk insert.
+
+    Attributes
+    ----------
+    label
+        Where the data goes, for messages (a path, or a URL without its password).
+    errors
+        The driver's base error class(es).
+    transient
+        Errors after which the writer reconnects and retries the batch (busy file, lost
+        server); other errors drop the batch.
+    """
+
+    label: str
+    errors: tuple[type[BaseException], ...]
+    transient: tuple[type[BaseException], ...]
+    #: ``(id column, float, blob)`` type names of the DDL.
+    types: tuple[str, str, str]
+    #: Appended to the frame/event/decision tables (clustered primary key on SQLite).
+    table_suffix: str = ""
+
+    @abstractmethod
+    def connect(self) -> Any:
+        """A new autocommit DB-API connection, usable from any thread but one at a time."""
+
+    @abstractmethod
+    def transaction(self, conn: Any) -> AbstractContextManager[None]:
+        """A write transaction on ``conn``: committed on exit, rolled back on an error."""
+
+    @abstractmethod
+    def insert_frames(self, conn: Any, rows: Sequence[FrameRow]) -> None:
+        """Insert many frames inside the current transaction (the hot path)."""
+
+    def sql(self, text: str) -> str:
+        """``text`` with this driver's placeholder (``?`` in the source)."""
+        return text
+
+    def executemany(self, conn: Any, text: str, rows: Sequence[tuple[Any, ...]]) -> None:
+        """Run one statement for many rows."""
+        conn.executemany(self.sql(text), rows)
+
+    def query(self, conn: Any, text: str, args: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+        """Every row of a query."""
+        return list(conn.execute(self.sql(text), args).fetchall())
+
+    def statements(self) -> Iterator[str]:
+        """The schema's DDL statements (idempotent)."""
+        ident, real, blob = self.types
+        end = self.table_suffix
+        yield f"""CREATE TABLE IF NOT EXISTS hist_runs (
+            id {ident}, started_at {real} NOT NULL, ended_at {real},
+            status TEXT NOT NULL, meta TEXT NOT NULL, summary TEXT)"""
+        yield f"CREATE TABLE IF NOT EXISTS hist_layouts (id {ident}, names TEXT NOT NULL UNIQUE)"
+        yield f"""CREATE TABLE IF NOT EXISTS hist_frames (
+            run_id BIGINT NOT NULL, kind SMALLINT NOT NULL, seq BIGINT NOT NULL,
+            t_s {real} NOT NULL, layout_id BIGINT NOT NULL, vals {blob} NOT NULL,
+            PRIMARY KEY (run_id, kind, seq)){end}"""
+        yield f"""CREATE TABLE IF NOT EXISTS hist_events (
+            run_id BIGINT NOT NULL, seq BIGINT NOT NULL, t_s {real} NOT NULL,
+            kind TEXT NOT NULL, message TEXT NOT NULL, data TEXT NOT NULL,
+            PRIMARY KEY (run_id, seq)){end}"""
+        yield f"""CREATE TABLE IF NOT EXISTS hist_decisions (
+            run_id BIGINT NOT NULL, seq BIGINT NOT NULL, t_s {real} NOT NULL,
+            rule TEXT NOT NULL, action TEXT NOT NULL, value {real} NOT NULL,
+            reason TEXT NOT NULL, accepted SMALLINT NOT NULL, readback {real},
+            PRIMARY KEY (run_id, seq)){end}"""
+
+    def create_schema(self, conn: Any) -> None:
+        """Create the tables that are missing."""
+        with self.transaction(conn):
+            for statement in self.statements():
+                conn.execute(statement)

@@ -1,0 +1,70 @@
+"""The ``[connection]`` table of a twin configuration: which machine, over what, mapped how."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from cnctwin.config.base import Section
+
+__all__ = ["ConnectionConfig", "OpcUaSecurityConfig"]
+
+
+class OpcUaSecurityConfig(Section):
+    """OPC UA security (``[connection.security]``).
+
+    Attributes
+    ----------
+    policy
+        ``"None"`` (loopback demos) or ``"Basic256Sha256"``.
+    mode
+        ``"None"``, ``"Sign"`` or ``"SignAndEncrypt"`` (``"None"`` only with policy None).
+    certificate, private_key
+        This client's certificate (DER or PEM) and key (PEM), paths relative to the config file.
+    server_certificate
+        The server's certificate to trust, or ``None`` to take the one the server presents.
+    username, password
+        User identity; ``None`` for anonymous.
+    """
+
+    policy: Literal["None", "Basic256Sha256"] = "None"
+    mode: Literal["None", "Sign", "SignAndEncrypt"] = "None"
+    certificate: str | None = None
+    private_key: str | None = None
+    server_certificate: str | None = None
+    username: str | None = None
+    password: str | None = None
+
+
+class ConnectionConfig(Section):
+    """How the twin reaches the machine (``[connection]``).
+
+    Attributes
+    ----------
+    transport
+        ``"opcua"`` or ``"modbus"``.
+    endpoint
+        ``opc.tcp://HOST:PORT/PATH`` or ``modbus://HOST:PORT``.
+    timeout_s
+        Timeout of one request, s.
+    reconnect_initial_s, reconnect_max_s
+        Capped exponential backoff between reconnection attempts, s.
+    unit_id
+        Modbus unit (slave) id.
+    security
+        OPC UA security.
+    mapping
+        Canonical signal name -> protocol address, overriding the transport's default map
+        (the virtual machine's). OPC UA: a NodeId string (``"ns=2;s=Machine.X"``) or a browse
+        path; Modbus: ``"TABLE:ADDRESS:TYPE[:SCALE]"`` (see docs/modbus.md).
+    """
+
+    transport: Literal["opcua", "modbus"] = "opcua"
+    endpoint: str = "opc.tcp://127.0.0.1:4840/cnctwin"
+    timeout_s: float = Field(default=2.0, gt=0.0)
+    reconnect_initial_s: float = Field(default=0.1, gt=0.0)
+    reconnect_max_s: float = Field(default=5.0, gt=0.0)
+    unit_id: int = Field(default=1, ge=0, le=247)
+    security: OpcUaSecurityConfig = Field(default_factory=OpcUaSecurityConfig)
+    mapping: dict[str, str] = Field(default_factory=dict)

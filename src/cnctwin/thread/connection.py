@@ -1,0 +1,222 @@
+"""One interface for every machine connection: state, batched reads, commands, reconnection.
+
+A :class:`MachineConnection` reads all mapped signals in one batched request (or from a
+subscription's cache) and writes commands one at a time, each with a timeout. Transports
+(:mod:`cnctwin.thread.opcua`, :mod:`cnctwin.thread.modbus`, ...) implement the four
+``_``-methods; reconnection with capped exponential backoff and the connection state live
+here, once.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import enum
+import logging
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Self
+
+from cnctwin.errors import CnctwinError, DataError
+
+__all__ = [
+    "Backoff",
+    "CommandRejected",
+    "ConnectionLost",
+    "ConnectionState",
+    "MachineConnection",
+    "Reading",
+]
+
+logger = logging.getLogger(__name__)
+
+
+class ConnectionLost(CnctwinError, RuntimeError):
+    """The machine did not answer (timeout, refused, closed); the connection reconnects."""
+
+
+class CommandRejected(CnctwinError, ValueError):
+    """The machine answered a write with a refusal (out of range, wrong type, not allowed)."""
+
+
+class ConnectionState(enum.Enum):
+    """Where a connection stands."""
+
+    DISCONNECTED = "disconnected"
+    CONNECTING = "connecting"
+    CONNECTED = "connected"
+    RECONNECTING = "reconnecting"
+    CLOSED = "closed"
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One batched read of the machine.
+
+    Attributes
+    ----------
+    values
+        Canonical signal name -> value (see :data:`cnctwin.thread.signals.SIGNALS`). A
+        signal the machine did not deliver, or delivered as garbage (NaN, wrong type), is
+        absent; ``rejected`` says why.
+    received_s
+        ``time.monotonic()`` when the answer arrived, in s.
+    rejected
+        Signal name -> one-line reason for values that were dropped.
+    """
+
+    values: Mapping[str, float]
+    received_s: float
+    rejected: Mapping[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Backoff:
+    """Capped exponential backoff between reconnection attempts.
+
+    Attempt ``k`` (0-based) waits ``min(initial_s * factor**k, max_s)`` s.
+    """
+
+    initial_s: float = 0.1
+    factor: float = 2.0
+    max_s: float = 5.0
+
+    def delay_s(self, attempt: int) -> float:
+        """Wait before attempt ``attempt`` (0-based), in s."""
+        return min(self.initial_s * self.factor**attempt, self.max_s)
+
+
+class MachineConnection(ABC):
+    """A connection to one machine. Use as ``async with``; every call has a timeout.
+
+    Parameters
+    ----------
+    timeout_s
+        Timeout of one request (connect, read, write), in s.
+    backoff
+        Delays between reconnection attempts.
+    """
+
+    def __init__(self, *, timeout_s: float = 2.0, backoff: Backoff | None = None) -> None:
+        self.timeout_s = timeout_s
+        self.backoff = backoff or Backoff()
+        self.state = ConnectionState.DISCONNECTED
+        self.reconnects = 0
+        self._reconnect_task: asyncio.Task[None] | None = None
+
+    # Transport hooks ------------------------------------------------------------------
+    @abstractmethod
+    async def _open(self) -> None:
+        """Open the transport (raise OSError/TimeoutError/ConnectionLost on failure)."""
+
+    @abstractmethod
+    async def _close(self) -> None:
+        """Close the transport; must not raise."""
+
+    @abstractmethod
+    async def _read(self) -> Reading:
+        """One batched read of every mapped signal."""
+
+    @abstractmethod
+    async def _write(self, name: str, value: float) -> None:
+        """Write one command (a name of :data:`~cnctwin.thread.signals.COMMANDS`)."""
+
+    # Public API -----------------------------------------------------------------------
+    async def connect(self) -> None:
+        """Connect once; raise :class:`ConnectionLost` if the machine does not answer."""
+        self.state = ConnectionState.CONNECTING
+        try:
+            await asyncio.wait_for(self._open(), self.timeout_s)
+        except (OSError, TimeoutError, ConnectionLost) as err:
+            self.state = ConnectionState.DISCONNECTED
+            raise ConnectionLost(f"cannot connect: {err or type(err).__name__}") from err
+        self.state = ConnectionState.CONNECTED
+
+    async def read(self) -> Reading:
+        """Read every mapped signal; :class:`ConnectionLost` (and a reconnect) on failure."""
+        self._require_connected()
+        try:
+            return await asyncio.wait_for(self._read(), self.timeout_s)
+        except (OSError, TimeoutError, ConnectionLost) as err:
+            self._lost(err)
+            raise ConnectionLost(f"read failed: {err or type(err).__name__}") from err
+
+    async def read_signal(self, name: str) -> float:
+        """Read one signal now, e.g. a command's read-back.
+
+        Cheaper than :meth:`read` where the transport can read one address. Raises
+        :class:`ConnectionLost` (and reconnects) on failure, and
+        :class:`~cnctwin.errors.DataError` when the value is garbage.
+        """
+        self._require_connected()
+        try:
+            return await asyncio.wait_for(self._read_signal(name), self.timeout_s)
+        except (OSError, TimeoutError, ConnectionLost) as err:
+            self._lost(err)
+            raise ConnectionLost(f"read of {name} failed: {err or type(err).__name__}") from err
+
+    async def _read_signal(self, name: str) -> float:
+        """One signal; this default takes it from a full batched read."""
+        reading = await self._read()
+        if name not in reading.values:
+            reason = reading.rejected.get(name, "not mapped")
+            raise DataError(f"machine signal {name!r} unusable: {reason}")
+        return reading.values[name]
+
+    async def write(self, name: str, value: float) -> None:
+        """Write one command; :class:`ConnectionLost` (and a reconnect) on failure."""
+        self._require_connected()
+        try:
+            await asyncio.wait_for(self._write(name, value), self.timeout_s)
+        except (OSError, TimeoutError, ConnectionLost) as err:
+            self._lost(err)
+            raise ConnectionLost(f"write of {name}={value!r} failed: {err}") from err
+
+    async def close(self) -> None:
+        """Stop reconnecting and close the transport."""
+        if self._reconnect_task is not None:
+            self._reconnect_task.cancel()
+            self._reconnect_task = None
+        await self._close()
+        self.state = ConnectionState.CLOSED
+
+    async def __aenter__(self) -> Self:
+        await self.connect()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.close()
+
+    # Reconnection ---------------------------------------------------------------------
+    def _require_connected(self) -> None:
+        if self.state is not ConnectionState.CONNECTED:
+            raise ConnectionLost(f"not connected ({self.state.value})")
+
+    def _lost(self, err: BaseException) -> None:
+        if self.state is not ConnectionState.CONNECTED:
+            return
+        logger.warning("machine connection lost: %s", err)
+        self.state = ConnectionState.RECONNECTING
+        self._reconnect_task = asyncio.get_running_loop().create_task(self._reconnect())
+
+    async def _reconnect(self) -> None:
+        attempt = 0
+        await self._close()
+        while self.state is ConnectionState.RECONNECTING:
+            await asyncio.sleep(self.backoff.delay_s(attempt))
+            attempt += 1
+            try:
+                await asyncio.wait_for(self._open(), self.timeout_s)
+            except (OSError, TimeoutError, ConnectionLost) as err:
+                logger.info("reconnect attempt %d failed: %s", attempt, err)
+                await self._close()
+                continue
+            self.reconnects += 1
+            self.state = ConnectionState.CONNECTED
+            logger.info("machine connection restored after %d attempts", attempt)
+
+
+def now_s() -> float:
+    """Monotonic clock in s (what :attr:`Reading.received_s` uses)."""
+    return time.monotonic()

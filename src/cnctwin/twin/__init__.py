@@ -1,0 +1,54 @@
+"""The running twin: the cycle of ARCHITECTURE section 3 against a machine connection.
+
+Public API::
+
+    from cnctwin.twin import RunConfig, load_run_config, run_session
+
+    config = load_run_config("twin.toml")       # physics + [connection] [twin] [[rules]] ...
+    summary = asyncio.run(run_session(config, historian=Historian.open("h.sqlite")))
+
+:func:`build_twin` assembles the stages for a connection of your own (e.g. a
+:class:`LocalConnection` to an in-process :class:`~cnctwin.virtual.VirtualMachine`);
+:class:`MachineServer` and :class:`MachineProcess` serve a virtual machine on loopback.
+See docs/twin.md.
+"""
+
+from cnctwin.twin.config import RunConfig, load_run_config
+from cnctwin.twin.host import MachineProcess, MachineServer
+from cnctwin.twin.local import LocalConnection
+from cnctwin.twin.monitoring import BandResult, ForceBand
+from cnctwin.twin.pipeline import Twin, build_twin, signal_names
+from cnctwin.twin.runtime import RunSummary, TwinRuntime
+from cnctwin.twin.session import open_connection, run_session
+from cnctwin.twin.settings import (
+    FilterConfig,
+    ForceBandConfig,
+    FormErrorConfig,
+    TwinSection,
+    WindowConfig,
+)
+from cnctwin.twin.state import CycleState, TwinEvent
+
+__all__ = [
+    "BandResult",
+    "CycleState",
+    "FilterConfig",
+    "ForceBand",
+    "ForceBandConfig",
+    "FormErrorConfig",
+    "LocalConnection",
+    "MachineProcess",
+    "MachineServer",
+    "RunConfig",
+    "RunSummary",
+    "Twin",
+    "TwinEvent",
+    "TwinRuntime",
+    "TwinSection",
+    "WindowConfig",
+    "build_twin",
+    "load_run_config",
+    "open_connection",
+    "run_session",
+    "signal_names",
+]

@@ -1,0 +1,263 @@
+"""Step 10 of the cycle: rules decide, the safety filter bounds, commands go out and are read back.
+
+:class:`RuleStage` evaluates the ``[[rules]]`` on everything the cycle knows (measured and
+filtered signals, features, predictions). :class:`ActionStage` passes each decision through
+the :class:`~cnctwin.control.SafetyFilter` (enable switch, bounds, deduplication, rate
+limits), writes what passes, and verifies it by reading the machine back: a command counts as
+done only when the machine shows it (a stop: the latched ``stop`` reads back 1). Every
+decision is recorded with its rule, its reason, the filter's verdict and the read-back.
+
+Lost connection (the policy, docs/twin.md): while the machine is lost nothing is written and
+the rules' hold timers restart; when it is back, :meth:`SafetyFilter.after_reconnect`
+(:class:`~cnctwin.control.LostMachinePolicy`) says what to write so that nothing the twin
+commanded stays in a dangerous state: a stop or hold it set stays, a lowered feed override
+stays lowered, a feed override raised above 100 % comes back to 100 %.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from cnctwin.control import Decision, RuleEngine, SafetyFilter, Verdict
+from cnctwin.thread.connection import CommandRejected, ConnectionLost, MachineConnection
+from cnctwin.twin.recorder import Recorder
+from cnctwin.twin.state import CycleState, TwinEvent
+
+__all__ = ["ActionStage", "CommandResult", "RuleStage"]
+
+logger = logging.getLogger(__name__)
+
+
+class RuleStage:
+    """Evaluates the rules; their decisions go to ``state.commands``.
+
+    Parameters
+    ----------
+    engine
+        The rule engine of the ``[[rules]]``.
+    """
+
+    name = "rules"
+
+    def __init__(self, engine: RuleEngine) -> None:
+        self.engine = engine
+
+    def forget(self) -> None:
+        """Restart hold timers and cooldowns (after a gap: the signals were not seen)."""
+        self.engine.reset()
+
+    def process(self, state: CycleState) -> CycleState:
+        """Add this cycle's decisions (most conservative first) to ``state.commands``."""
+        if not state.connected:
+            return state
+        state.commands.extend(self.engine.evaluate(state.signals(), state.time_s))
+        return state
+
+
+@dataclass(frozen=True, slots=True)
+class CommandResult:
+    """One decision after the safety filter and, when written, the machine's read-back.
+
+    Attributes
+    ----------
+    verdict
+        The safety filter's verdict.
+    readback
+        The value the machine showed after the write, or ``None``.
+    confirmed
+        Whether the read-back showed the command in effect.
+    written_s
+        ``time.monotonic()`` of the write, s (NaN when nothing was written).
+    confirmed_s
+        ``time.monotonic()`` of the confirming read-back, s (NaN without).
+    """
+
+    verdict: Verdict
+    readback: float | None
+    confirmed: bool
+    written_s: float
+    confirmed_s: float
+
+
+class ActionStage:
+    """Passes decisions through the safety filter, writes them, verifies them by read-back.
+
+    Parameters
+    ----------
+    connection
+        The machine.
+    safety
+        The safety filter (it holds the ``[control]`` table: with control disabled every
+        decision is recorded as blocked and nothing is written).
+    recorder
+        Where decisions go, or ``None``.
+    readback_timeout_s
+        How long to poll the machine for a read-back that confirms a write, s.
+
+    Attributes
+    ----------
+    stop_reactions_ms
+        For each confirmed stop: from the first out-of-band sample of the anomaly (the
+        reading in which ``force_out_of_band`` first became 1; the cycle's own reading when
+        the stop came from another rule) to the read-back that showed the machine stopped, ms.
+    results
+        Every decision's result, in order (kept for tests and the live view; bounded).
+    writes
+        Commands written to the machine.
+    decision_count
+        Decisions recorded.
+    """
+
+    name = "actions"
+
+    def __init__(
+        self,
+        connection: MachineConnection,
+        safety: SafetyFilter,
+        recorder: Recorder | None = None,
+        *,
+        readback_timeout_s: float = 0.25,
+    ) -> None:
+        self.connection = connection
+        self.safety = safety
+        self.recorder = recorder
+        self.readback_timeout_s = readback_timeout_s
+        self.stop_reactions_ms: list[float] = []
+        self.results: list[CommandResult] = []
+        self.writes = 0
+        self.decision_count = 0
+        self._online = True
+        self._anomaly_s: float | None = None
+
+    # ------------------------------------------------------------------ the stage
+    async def process(self, state: CycleState) -> CycleState:
+        """Filter, write and verify this cycle's decisions; record each with its reason."""
+        if not state.connected:
+            return state
+        if state.predicted.get("force_out_of_band", 0.0) >= 0.5:
+            if self._anomaly_s is None:
+                self._anomaly_s = state.received_s
+        else:
+            self._anomaly_s = None
+        now = state.time_s
+        verdicts = [self.safety.check(d, now, state.measured) for d in state.commands]
+        # a ramp's step waiting for its rate limit is no decision: only steps sent count
+        verdicts.extend(v for v in self.safety.follow_up(now, state.measured) if v.send)
+        for verdict in verdicts:
+            await self._carry_out(state, verdict)
+        return state
+
+    async def _carry_out(self, state: CycleState, verdict: Verdict) -> None:
+        result = CommandResult(verdict, None, False, math.nan, math.nan)
+        if verdict.send and self._online and verdict.command is not None:
+            result = await self._write_and_verify(verdict)
+            if result.confirmed and verdict.command == "stop":
+                onset = self._anomaly_s if self._anomaly_s is not None else state.received_s
+                reaction_ms = (result.confirmed_s - onset) * 1e3
+                self.stop_reactions_ms.append(reaction_ms)
+                state.events.append(
+                    TwinEvent(
+                        "stop_confirmed",
+                        f"machine stopped by rule {verdict.decision.rule!r}, "
+                        f"{reaction_ms:.2f} ms after the first out-of-band sample",
+                        result.confirmed_s,
+                        {"stop_reaction_ms": reaction_ms, "rule": verdict.decision.rule},
+                    )
+                )
+        self._record(state, result)
+
+    async def _write_and_verify(self, verdict: Verdict) -> CommandResult:
+        name = str(verdict.command)
+        value = float(verdict.value if verdict.value is not None else math.nan)
+        written = time.monotonic()
+        try:
+            await self.connection.write(name, value)
+        except (ConnectionLost, CommandRejected) as err:
+            logger.warning("command %s=%g not carried out: %s", name, value, err)
+            return CommandResult(verdict, None, False, written, math.nan)
+        self.writes += 1
+        deadline = written + self.readback_timeout_s
+        readback: float | None = None
+        while True:
+            try:
+                reading = await self.connection.read()
+            except ConnectionLost:
+                break
+            now = time.monotonic()
+            readback = reading.values.get(name)
+            if _shows(name, value, reading.values, self.safety.config.readback_tolerance_pct):
+                self.safety.observe(reading.values)
+                return CommandResult(verdict, readback, True, written, now)
+            if now >= deadline:
+                break
+            await asyncio.sleep(0.001)
+        logger.warning("command %s=%g not confirmed by read-back (%r)", name, value, readback)
+        return CommandResult(verdict, readback, False, written, math.nan)
+
+    def _record(self, state: CycleState, result: CommandResult) -> None:
+        verdict = result.verdict
+        decision: Decision = verdict.decision
+        self.decision_count += 1
+        self.results.append(result)
+        if len(self.results) > 10_000:
+            del self.results[:5_000]
+        state.decisions.append(result)
+        reason = decision.reason
+        if verdict.note:
+            reason = f"{reason} [{verdict.outcome}: {verdict.note}]"
+        elif verdict.outcome != "sent":
+            reason = f"{reason} [{verdict.outcome}]"
+        if verdict.send and not result.confirmed:
+            reason += " [not confirmed by read-back]"
+        logger.info("decision %s: %s -> %s", decision.rule, decision.action, verdict.outcome)
+        if self.recorder is not None:
+            value = verdict.value if verdict.value is not None else decision.value
+            self.recorder.decision(
+                time.monotonic(),
+                decision.rule,
+                verdict.command or decision.action,
+                value if value is not None and math.isfinite(value) else 0.0,
+                reason,
+                verdict.send and result.confirmed,
+                result.readback,
+            )
+
+    # ------------------------------------------------------------------ lost machine
+    def connection_lost(self) -> None:
+        """The machine is lost: write nothing until it is back."""
+        self._online = False
+        self._anomaly_s = None
+
+    async def connection_restored(self, state: CycleState) -> list[TwinEvent]:
+        """The machine is back: apply the lost-connection policy; return its events."""
+        self._online = True
+        now = time.monotonic()
+        events = []
+        for verdict in self.safety.after_reconnect(state.measured, state.time_s):
+            await self._carry_out(state, verdict)
+            events.append(
+                TwinEvent(
+                    "reconnect_policy",
+                    verdict.note or verdict.decision.reason,
+                    now,
+                    {"command": verdict.command, "value": verdict.value},
+                )
+            )
+        return events
+
+
+def _shows(name: str, value: float, values: Mapping[str, float], tol_pct: float) -> bool:
+    """Whether a reading shows the command ``name`` = ``value`` in effect."""
+    got = values.get(name)
+    if got is None or not math.isfinite(got):
+        return False
+    if name == "stop":
+        # the control's latched stop reads back 1 (its run state follows at its next tick)
+        return got >= 0.5
+    tolerance = tol_pct if name.endswith("_pct") else 1e-6
+    return abs(got - value) <= tolerance

@@ -1,0 +1,383 @@
+"""Serving a virtual machine on loopback for the twin: in this process or in a child process.
+
+``cnctwin demo``, the reliability tests and the cycle benchmark need a machine the twin can
+reach over a real protocol. :class:`MachineServer` runs a
+:class:`~cnctwin.virtual.VirtualMachine` with its :class:`~cnctwin.virtual.MachineClock` and
+an OPC UA or Modbus TCP server in the running event loop; :class:`MachineProcess` runs the
+same in a child process, so the machine's simulation and server do not share the twin's
+event loop and CPU time slices (the twin then measures its own cycle, as it would next to a
+real control).
+
+The clock starts *paused* until :meth:`MachineServer.go` (or :meth:`MachineProcess.go`), so
+the twin can connect before the machine moves and sees the whole program.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import dataclasses
+import json
+import logging
+import select
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal, Protocol
+
+from cnctwin.errors import CnctwinError, ConfigError
+from cnctwin.twin.config import RunConfig
+from cnctwin.virtual import MachineClock, VirtualMachine
+
+__all__ = ["MachineProcess", "MachineServer", "Transport", "serve"]
+
+logger = logging.getLogger(__name__)
+
+Transport = Literal["opcua", "modbus"]
+
+
+class _Server(Protocol):
+    @property
+    def endpoint(self) -> str: ...
+
+    def publish(self, snapshot: dict[str, float]) -> Any: ...
+
+    async def start(self) -> None: ...
+
+    async def stop(self) -> None: ...
+
+
+@dataclass
+class MachineServer:
+    """A virtual machine served in the running event loop. Use as ``async with``.
+
+    Parameters
+    ----------
+    config
+        The run configuration; its ``[virtual]`` table (required) and physics describe the
+        machine.
+    transport
+        ``"opcua"`` or ``"modbus"``.
+    speed
+        Machine seconds per wall second; ``None`` takes ``[virtual].speed``.
+    host, port
+        Where to listen; port 0 picks a free one.
+    """
+
+    config: RunConfig
+    transport: Transport = "opcua"
+    speed: float | None = None
+    host: str = "127.0.0.1"
+    port: int = 0
+
+    def __post_init__(self) -> None:
+        if self.config.virtual is None:
+            raise ConfigError(
+                "the configuration has no [virtual] table; add one to describe the virtual "
+                "machine (program, speed, faults)"
+            )
+        self.vm = VirtualMachine(self.config.virtual, self.config)
+        speed = self.speed if self.speed is not None else self.config.virtual.speed
+        self.clock = MachineClock(self.vm, self.vm.tick_s, speed)
+        self.server: _Server = self._make_server(self.port)
+        self.clock.add_listener(self._publish)
+
+    def _make_server(self, port: int) -> _Server:
+        if self.transport == "opcua":
+            from cnctwin.virtual.opcua_server import OpcUaMachineServer
+
+            return OpcUaMachineServer(self.vm, self.host, port)
+        if self.transport == "modbus":
+            from cnctwin.virtual.modbus_server import ModbusMachineServer
+
+            return ModbusMachineServer(self.vm, self.host, port)
+        raise ConfigError(f"transport {self.transport!r}; valid: 'opcua', 'modbus'")
+
+    async def _publish(self, snapshot: dict[str, float]) -> None:
+        result = self.server.publish(snapshot)
+        if asyncio.iscoroutine(result):
+            await result
+
+    @property
+    def endpoint(self) -> str:
+        """The server's address (``opc.tcp://...`` or ``modbus://...``)."""
+        return self.server.endpoint
+
+    async def start(self) -> None:
+        """Listen (the clock stays paused until :meth:`go`)."""
+        await self.server.start()
+        self.port = int(self.endpoint.rsplit(":", 1)[1].split("/", 1)[0])
+
+    def go(self) -> None:
+        """Start the machine's clock."""
+        self.clock.start()
+
+    async def stop_server(self) -> None:
+        """Stop listening; the machine keeps running (a network outage, for tests)."""
+        await self.server.stop()
+
+    async def restart_server(self) -> None:
+        """Listen again on the same port after :meth:`stop_server`."""
+        self.server = self._make_server(self.port)
+        await self.server.start()
+
+    async def stop(self) -> None:
+        """Stop the clock and the server."""
+        if self.clock.running:
+            await self.clock.stop()
+        await self.server.stop()
+
+    async def __aenter__(self) -> MachineServer:
+        await self.start()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.stop()
+
+
+async def serve(
+    config: RunConfig, transport: Transport, speed: float | None, host: str, port: int
+) -> None:
+    """Child process: serve the machine; commands on stdin, answers on stdout (JSON lines).
+
+    Commands: ``go`` starts the clock, ``restart`` starts the program again on a fresh blank
+    (answered when done), ``state`` answers the machine's state, ``stop`` (or the end of
+    stdin) ends.
+    """
+    loop = asyncio.get_running_loop()
+    try:
+        _warm_up(config)
+        machine = MachineServer(config, transport, speed, host, port)
+        await machine.start()
+    except (CnctwinError, OSError) as err:
+        _answer({"error": str(err)})
+        return
+    _answer({"endpoint": machine.endpoint})
+    try:
+        while True:
+            line = await loop.run_in_executor(None, sys.stdin.readline)
+            command = line.strip()
+            if command == "go":
+                machine.go()
+            elif command == "restart":
+                machine.vm.restart()
+                _answer({"restarted": True})
+            elif command == "state":
+                vm = machine.vm
+                _answer(
+                    {
+                        "t_s": vm.time_s,
+                        "run_state": int(vm.run_state),
+                        "faults": [repr(e) for e in vm.fault_events],
+                        "clock": dataclasses.asdict(machine.clock.stats),
+                    }
+                )
+            elif command == "stop" or not line:
+                break
+    finally:
+        await machine.stop()
+
+
+def _warm_up(config: RunConfig) -> None:
+    """Compile the machine's numba kernels before it listens (its clock must not stall on
+    them once the twin watches): a throw-away machine runs its first ticks, and the cut and
+    force kernels run on a copy of the blank."""
+    from cnctwin.twin.process import TwinProcess
+
+    assert config.virtual is not None
+    vm = VirtualMachine(config.virtual, config)
+    for _ in range(20):
+        vm.step(vm.tick_s)
+    TwinProcess(config, density_per_mm=config.virtual.density_per_mm).warm_up()
+
+
+def _answer(message: dict[str, Any]) -> None:
+    sys.stdout.write(json.dumps(message) + "\n")
+    sys.stdout.flush()
+
+
+class MachineProcess:
+    """A virtual machine served from a child process. Use as a context manager.
+
+    Parameters
+    ----------
+    config
+        The run configuration (its ``[virtual]`` table describes the machine).
+    transport
+        ``"opcua"`` or ``"modbus"``.
+    speed
+        Machine seconds per wall second; ``None`` takes ``[virtual].speed``.
+    host, port
+        Where to listen; port 0 picks a free one.
+    start_timeout_s
+        How long the child may take to start listening, s.
+    log
+        File for the child's log (its stderr); ``None`` shares this process's stderr.
+    """
+
+    def __init__(
+        self,
+        config: RunConfig,
+        transport: Transport = "opcua",
+        speed: float | None = None,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        start_timeout_s: float = 60.0,
+        log: Path | None = None,
+    ) -> None:
+        if config.virtual is None:
+            raise ConfigError(
+                "the configuration has no [virtual] table; add one to describe the virtual "
+                "machine (program, speed, faults)"
+            )
+        self.config = config
+        self.transport = transport
+        self.speed = speed
+        self.host = host
+        self.port = port
+        self.start_timeout_s = start_timeout_s
+        self.log = log
+        self.endpoint = ""
+        self._process: subprocess.Popen[str] | None = None
+
+    @property
+    def speed_factor(self) -> float:
+        """Machine seconds per wall second the machine runs at."""
+        if self.speed is not None:
+            return self.speed
+        return self.config.virtual.speed if self.config.virtual is not None else 1.0
+
+    def start(self) -> str:
+        """Start the child and wait until it listens; returns the endpoint.
+
+        Raises
+        ------
+        CnctwinError
+            If the child fails to start or does not answer within ``start_timeout_s``.
+        """
+        self.spawn()
+        return self.wait_ready()
+
+    def spawn(self) -> None:
+        """Start the child without waiting (prepare something else, then :meth:`wait_ready`)."""
+        args = [
+            sys.executable,
+            "-m",
+            "cnctwin.twin.serve",
+            self.transport,
+            self.host,
+            str(self.port),
+            "" if self.speed is None else repr(self.speed),
+        ]
+        with contextlib.ExitStack() as stack:
+            stderr = None if self.log is None else stack.enter_context(self.log.open("a"))
+            process = subprocess.Popen(
+                args,
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=stderr,
+                text=True,
+                bufsize=1,
+            )
+        self._process = process
+        assert process.stdin is not None
+        process.stdin.write(self.config.model_dump_json(by_alias=True) + "\n")
+        process.stdin.flush()
+
+    def wait_ready(self) -> str:
+        """Wait until the child listens (it compiles the machine's kernels first); returns the
+        endpoint.
+
+        Raises
+        ------
+        CnctwinError
+            If the child fails to start or does not answer within ``start_timeout_s``.
+        """
+        answer = self._receive(self.start_timeout_s)
+        if answer is None or "endpoint" not in answer:
+            self.stop()
+            why = "no answer" if answer is None else answer.get("error", answer)
+            where = f" (its log: {self.log})" if self.log is not None else ""
+            raise CnctwinError(
+                f"the virtual machine did not start within {self.start_timeout_s:g} s: {why}{where}"
+            )
+        self.endpoint = str(answer["endpoint"])
+        return self.endpoint
+
+    def _send(self, command: str) -> bool:
+        process = self._process
+        if process is None or process.stdin is None:
+            return False
+        try:
+            process.stdin.write(command + "\n")
+            process.stdin.flush()
+        except (OSError, ValueError):
+            return False
+        return True
+
+    def _receive(self, timeout_s: float) -> dict[str, Any] | None:
+        process = self._process
+        if process is None or process.stdout is None:
+            return None
+        ready, _, _ = select.select([process.stdout], [], [], timeout_s)
+        if not ready:
+            return None
+        line = process.stdout.readline()
+        if not line:
+            return None
+        try:
+            answer = json.loads(line)
+        except json.JSONDecodeError:
+            return None
+        return answer if isinstance(answer, dict) else None
+
+    def go(self) -> None:
+        """Start the machine's clock."""
+        self._send("go")
+
+    def restart(self, timeout_s: float = 10.0) -> bool:
+        """Start the program again on a fresh blank (a latched stop is released); whether the
+        machine confirmed it."""
+        if not self._send("restart"):
+            return False
+        answer = self._receive(timeout_s)
+        return bool(answer and answer.get("restarted"))
+
+    def state(self, timeout_s: float = 5.0) -> dict[str, Any] | None:
+        """The machine's time, run state, started faults and clock counters (or ``None``)."""
+        if not self._send("state"):
+            return None
+        return self._receive(timeout_s)
+
+    def kill(self) -> None:
+        """Kill the child at once (SIGKILL): the machine's server vanishes."""
+        if self._process is not None:
+            self._process.kill()
+            self._process.wait()
+
+    def stop(self, timeout_s: float = 5.0) -> None:
+        """Stop the machine and end the child (killed if it does not end in ``timeout_s``)."""
+        process, self._process = self._process, None
+        if process is None:
+            return
+        try:
+            if process.stdin is not None:
+                process.stdin.write("stop\n")
+                process.stdin.close()
+        except (OSError, ValueError):
+            pass
+        try:
+            process.wait(timeout_s)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait(timeout_s)
+        if process.stdout is not None:
+            process.stdout.close()
+
+    def __enter__(self) -> MachineProcess:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()

@@ -1,0 +1,131 @@
+"""Assembling the twin: the stages of a :class:`~cnctwin.twin.config.RunConfig`, in cycle order."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+from cnctwin.control import RuleEngine, SafetyFilter
+from cnctwin.thread.connection import MachineConnection
+from cnctwin.thread.signals import SIGNALS
+from cnctwin.twin.actions import ActionStage, RuleStage
+from cnctwin.twin.config import RunConfig
+from cnctwin.twin.monitoring import ForceBand
+from cnctwin.twin.process import TwinProcess
+from cnctwin.twin.program import ProgramMap
+from cnctwin.twin.recorder import Recorder
+from cnctwin.twin.runtime import TwinRuntime
+from cnctwin.twin.stages import (
+    PREDICTIONS,
+    CutStage,
+    EngagementStage,
+    FeatureStage,
+    FilterStage,
+    ForceBandStage,
+    FormErrorStage,
+    KinematicsStage,
+    ProcessStage,
+    ReadStage,
+    Stage,
+)
+
+__all__ = ["Twin", "build_twin", "signal_names"]
+
+
+def signal_names(config: RunConfig) -> list[str]:
+    """Every name a rule may read with this configuration: signals, filtered signals,
+    features and predictions."""
+    names = list(SIGNALS)
+    names += [f"filtered_{name}" for name in config.twin.filters]
+    names += [f"{w.signal}_{f}" for w in config.twin.windows for f in w.features]
+    names += list(PREDICTIONS)
+    return names
+
+
+@dataclass
+class Twin:
+    """A twin ready to run: its runtime and the parts tests look into.
+
+    Attributes
+    ----------
+    runtime
+        The cycle.
+    process
+        The twin's stock, tools and material.
+    actions
+        The action stage (decisions, writes, read-backs, stop reactions).
+    safety
+        The safety filter.
+    """
+
+    runtime: TwinRuntime
+    process: TwinProcess
+    actions: ActionStage
+    safety: SafetyFilter
+
+
+def build_twin(
+    config: RunConfig,
+    connection: MachineConnection,
+    *,
+    recorder: Recorder | None = None,
+    program: str | os.PathLike[str] | None = None,
+    program_text: str | None = None,
+    realtime: bool = True,
+) -> Twin:
+    """The stages of ARCHITECTURE section 3 for ``config``, reading and writing ``connection``.
+
+    Parameters
+    ----------
+    config
+        The whole configuration.
+    connection
+        The machine (connected by the caller).
+    recorder
+        The historian's recorder, or ``None``.
+    program, program_text
+        The NC program the machine runs (file or text), for the tool offsets per line;
+        neither: G43 with the tool's length is assumed.
+    realtime
+        Keep the cycle period (``False``: back to back, for lockstep tests).
+
+    Raises
+    ------
+    cnctwin.errors.ConfigError
+        For an unknown material, a tool without fluted length, a rule that reads an unknown
+        name, a bad filter or window.
+    cnctwin.errors.NCError
+        For an error in the program.
+    """
+    twin_cfg = config.twin
+    cycle_s = twin_cfg.cycle_s
+    process = TwinProcess(config, density_per_mm=twin_cfg.density_per_mm, default_dt_s=cycle_s)
+    process.warm_up()
+    engine = RuleEngine(config.rules, valid_names=signal_names(config))
+    safety = SafetyFilter(config.control)
+    actions = ActionStage(connection, safety, recorder)
+    stages: list[Stage] = [
+        ReadStage(connection),
+        KinematicsStage(
+            ProgramMap(config, program, text=program_text), twin_cfg.position_deadband_mm
+        ),
+        CutStage(process, twin_cfg.attach_s),
+        EngagementStage(),
+        ProcessStage(process),
+        FilterStage(twin_cfg.filters, cycle_s),
+        FeatureStage(twin_cfg.windows, cycle_s),
+    ]
+    if twin_cfg.force_band.enabled:
+        stages.append(ForceBandStage(ForceBand(twin_cfg.force_band), process))
+    if twin_cfg.form_error.enabled:
+        stages.append(FormErrorStage(twin_cfg.form_error, process))
+    stages += [RuleStage(engine), actions]
+    runtime = TwinRuntime(
+        stages,
+        actions,
+        cycle_s=cycle_s,
+        watchdog_s=twin_cfg.watchdog_s,
+        recorder=recorder,
+        realtime=realtime,
+    )
+    return Twin(runtime, process, actions, safety)

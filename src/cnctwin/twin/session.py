@@ -1,0 +1,141 @@
+"""One run of the twin against one machine: connect, build, record, cycle, summarize."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+from cnctwin.errors import CnctwinError
+from cnctwin.store.historian import Historian
+from cnctwin.thread.config import ConnectionConfig
+from cnctwin.thread.connection import ConnectionLost, MachineConnection
+from cnctwin.twin.config import RunConfig
+from cnctwin.twin.pipeline import Twin, build_twin
+from cnctwin.twin.recorder import Recorder
+from cnctwin.twin.runtime import RunSummary
+from cnctwin.twin.state import CycleState
+
+__all__ = ["open_connection", "run_session"]
+
+logger = logging.getLogger(__name__)
+
+
+def open_connection(config: ConnectionConfig, base_dir: Path | None = None) -> MachineConnection:
+    """The client of ``[connection]``: OPC UA or Modbus TCP (not yet connected).
+
+    Parameters
+    ----------
+    config
+        The table.
+    base_dir
+        Folder of the configuration file (relative certificate paths).
+    """
+    if config.transport == "modbus":
+        from cnctwin.thread.modbus import ModbusConnection
+
+        return ModbusConnection(config)
+    from cnctwin.thread.opcua import OpcUaConnection
+
+    return OpcUaConnection(config, base_dir=base_dir)
+
+
+async def run_session(
+    config: RunConfig,
+    *,
+    connection: MachineConnection | None = None,
+    historian: Historian | None = None,
+    duration_s: float | None = None,
+    stop_event: asyncio.Event | None = None,
+    on_cycle: Callable[[CycleState], None] | None = None,
+    on_start: Callable[[Twin], None] | None = None,
+    meta: Mapping[str, object] | None = None,
+    base_dir: Path | None = None,
+    realtime: bool = True,
+    connect_timeout_s: float = 10.0,
+) -> RunSummary:
+    """Connect to the machine, run the twin until the program ends, record the run.
+
+    Parameters
+    ----------
+    config
+        The whole configuration.
+    connection
+        The machine; ``None`` opens ``[connection]``. It is closed at the end.
+    historian
+        Where to record; ``None`` records nothing.
+    duration_s
+        Longest run, s.
+    stop_event
+        Set to end the run (Ctrl-C).
+    on_cycle
+        Called with each cycle's state (the live view).
+    on_start
+        Called with the built twin once connected, before the first cycle.
+    meta
+        Extra description of the run for the historian.
+    base_dir
+        Folder of the configuration file.
+    realtime
+        Keep the cycle period.
+    connect_timeout_s
+        How long to keep trying to reach the machine at the start, s.
+
+    Raises
+    ------
+    CnctwinError
+        If the machine cannot be reached within ``connect_timeout_s``.
+    """
+    conn = connection if connection is not None else open_connection(config.connection, base_dir)
+    endpoint = getattr(conn, "endpoint", config.connection.endpoint)
+    await _connect(conn, endpoint, connect_timeout_s, stop_event)
+    try:
+        program = config.twin.program
+        if program is None and config.virtual is not None:
+            program = config.virtual.program
+        t0 = time.monotonic()
+        recorder = None
+        if historian is not None:
+            recorder = Recorder(
+                historian,
+                {
+                    "endpoint": endpoint,
+                    "transport": config.connection.transport,
+                    "program": str(program) if program is not None else None,
+                    "cycle_s": config.twin.cycle_s,
+                    "control_enabled": config.control.enabled,
+                    **dict(meta or {}),
+                },
+                t0,
+            )
+        twin = build_twin(config, conn, recorder=recorder, program=program, realtime=realtime)
+        twin.runtime.on_cycle = on_cycle
+        twin.runtime.prepare()
+        if on_start is not None:
+            on_start(twin)
+        return await twin.runtime.run(duration_s=duration_s, stop_event=stop_event)
+    finally:
+        await conn.close()
+
+
+async def _connect(
+    conn: MachineConnection, endpoint: str, timeout_s: float, stop_event: asyncio.Event | None
+) -> None:
+    deadline = time.monotonic() + timeout_s
+    attempt = 0
+    while True:
+        if stop_event is not None and stop_event.is_set():
+            raise KeyboardInterrupt  # Ctrl-C before the machine answered
+        try:
+            await conn.connect()
+            return
+        except ConnectionLost as err:
+            if time.monotonic() >= deadline:
+                raise CnctwinError(
+                    f"cannot reach the machine at {endpoint} within {timeout_s:g} s: {err}; "
+                    "check [connection] endpoint and that the machine's server runs"
+                ) from None
+            await asyncio.sleep(conn.backoff.delay_s(attempt))
+            attempt += 1

@@ -1,0 +1,191 @@
+"""The ``[twin]`` table: the runtime's cycle, watchdog, filters, windows and monitoring models."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field, ValidationInfo, field_validator
+from pydantic_core import PydanticCustomError
+
+from cnctwin.config.base import Section
+
+__all__ = [
+    "FilterConfig",
+    "ForceBandConfig",
+    "FormErrorConfig",
+    "TwinSection",
+    "WindowConfig",
+]
+
+
+class FilterConfig(Section):
+    """A causal filter on one measured signal (``[twin.filters.SIGNAL]``).
+
+    Attributes
+    ----------
+    kind
+        ``"hampel"`` (outlier rejection), ``"kalman"`` (random-walk state) or
+        ``"butterworth"`` (low pass).
+    window
+        Hampel: samples in the window (odd, >= 3).
+    n_sigma
+        Hampel: outlier threshold in scaled median absolute deviations.
+    process_var, measurement_var
+        Kalman: variances of the random walk per cycle and of the measurement, in the
+        signal's unit squared.
+    cutoff_hz, order
+        Butterworth: cut-off frequency (Hz, below half the cycle rate) and order.
+    """
+
+    kind: Literal["hampel", "kalman", "butterworth"]
+    window: int = Field(default=7, ge=3)
+    n_sigma: float = Field(default=3.0, gt=0.0)
+    process_var: float = Field(default=1.0, gt=0.0)
+    measurement_var: float = Field(default=25.0, gt=0.0)
+    cutoff_hz: float = Field(default=10.0, gt=0.0)
+    order: int = Field(default=2, ge=1, le=8)
+
+
+class WindowConfig(Section):
+    """A sliding window of one signal and the features computed over it (``[[twin.windows]]``).
+
+    Attributes
+    ----------
+    signal
+        A measured signal name (its filtered value when it has a filter) or a prediction.
+    length
+        Samples (cycles) in the window.
+    features
+        Names of :mod:`cnctwin.signals` features (``mean``, ``rms``, ``std``, ``slope``, ...).
+    """
+
+    signal: str
+    length: int = Field(default=80, ge=2)
+    features: list[str] = Field(default_factory=lambda: ["mean", "rms"])
+
+
+class ForceBandConfig(Section):
+    """Force monitoring (Heide 2025, use case 1): a band around the predicted force.
+
+    The band is ``predicted +- max(k * scatter, min_width_n, min_width_rel * predicted)``
+    where ``scatter`` is the standard deviation of the residual (measured minus predicted)
+    over the last ``scatter_window`` in-band cycles in contact (it also spans the previous
+    cycle's prediction, see :mod:`cnctwin.twin.monitoring`). Outside it, the prediction
+    ``force_out_of_band`` is 1.
+
+    Attributes
+    ----------
+    enabled
+        Compute the band.
+    k
+        Band half-width in residual standard deviations.
+    min_width_n
+        Smallest half-width, N (covers sensor noise before the scatter is known).
+    min_width_rel
+        Smallest half-width as a fraction of the predicted force (the model's relative
+        error: coefficients, runout, wear).
+    scatter_window
+        Cycles of residual kept for the scatter.
+    min_predicted_n
+        The band is armed only while the predicted force is above this, N (in air the
+        measured force is noise).
+    settle_cycles
+        Cycles in contact before the band is armed (entry transients), and after a gap in
+        the connection.
+    """
+
+    enabled: bool = True
+    k: float = Field(default=4.0, gt=0.0)
+    min_width_n: float = Field(default=15.0, ge=0.0)
+    min_width_rel: float = Field(default=0.1, ge=0.0, lt=1.0)
+    scatter_window: int = Field(default=200, ge=10)
+    min_predicted_n: float = Field(default=10.0, ge=0.0)
+    settle_cycles: int = Field(default=8, ge=0)
+
+
+class FormErrorConfig(Section):
+    """Form-error prediction from tool deflection (Heide 2025, use case 2).
+
+    Attributes
+    ----------
+    enabled
+        Predict the form error.
+    tolerance_um
+        Half-width of the allowed band, um (Heide 2025: +-40 um).
+    stiffness_n_um
+        Tool stiffness at the tip, N/um; ``None`` computes it from the tool's diameter and
+        ``overhang_mm`` (cantilever).
+    overhang_mm
+        Free length of the tool out of the holder, mm.
+    youngs_modulus_gpa
+        Young's modulus of the tool material, GPa (cemented carbide: about 600).
+    """
+
+    enabled: bool = True
+    tolerance_um: float = Field(default=40.0, gt=0.0)
+    stiffness_n_um: float | None = Field(default=None, gt=0.0)
+    overhang_mm: float = Field(default=30.0, gt=0.0)
+    youngs_modulus_gpa: float = Field(default=600.0, gt=0.0)
+
+
+class TwinSection(Section):
+    """The twin's runtime (``[twin]``).
+
+    Attributes
+    ----------
+    cycle_s
+        Cycle time, s (Heide 2025: 12.5 ms).
+    program
+        The NC program the machine runs, relative to the configuration file: the twin reads
+        the tool offset of each line from it. ``None``: ``[virtual].program`` when there is
+        one, else the length of the tool in the spindle is taken as its offset (G43).
+    watchdog_s
+        The connection counts as lost when the machine's heartbeat has not changed for this
+        long, s, or no read has succeeded for this long.
+    density_per_mm
+        Dexel density of the twin's stock, 1/mm; ``None`` takes ``[simulation]``'s.
+    attach_s
+        At the twin's first reading, a program already running for longer than this (machine
+        time, s) may have cut the blank: the twin's blank is then not the machine's, and
+        force monitoring stays off until the program starts again.
+    position_deadband_mm
+        An axis reading that moved less than this from the position the twin holds is taken
+        as sensor noise and the held position kept, mm. Without it a standing axis (a plunge,
+        the wall side of a pass) jitters across dexel ends and the twin's discrete cut takes
+        slivers thinner than a micrometre as full contact.
+    filters
+        Filters by measured signal name.
+    windows
+        Sliding windows and their features.
+    force_band
+        Force monitoring.
+    form_error
+        Form-error prediction.
+    """
+
+    cycle_s: float = Field(default=0.0125, gt=0.0, le=1.0)
+    program: Path | None = None
+    watchdog_s: float = Field(default=0.5, gt=0.0)
+    density_per_mm: float | None = Field(default=None, gt=0.0, le=100.0)
+    attach_s: float = Field(default=1.0, ge=0.0)
+    position_deadband_mm: float = Field(default=0.005, ge=0.0)
+    filters: dict[str, FilterConfig] = Field(default_factory=dict)
+    windows: list[WindowConfig] = Field(default_factory=list)
+    force_band: ForceBandConfig = Field(default_factory=ForceBandConfig)
+    form_error: FormErrorConfig = Field(default_factory=FormErrorConfig)
+
+    @field_validator("program")
+    @classmethod
+    def _relative_to_file(cls, value: Path | None, info: ValidationInfo) -> Path | None:
+        if value is None:
+            return None
+        base = (info.context or {}).get("base_dir", Path.cwd())
+        path = (Path(base) / value).resolve()
+        if not path.is_file():
+            raise PydanticCustomError(
+                "missing_file",
+                "no such file {path} (a relative path is relative to the configuration file)",
+                {"path": str(path)},
+            )
+        return path

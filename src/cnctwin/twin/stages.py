@@ -1,0 +1,596 @@
+"""The stages of one twin cycle (ARCHITECTURE section 3; Heide 2025, Fig. 5).
+
+Each stage is a small object with one method, :meth:`~Stage.process`, that takes the
+cycle's :class:`~cnctwin.twin.state.CycleState` and returns it enriched; the runtime times
+every stage. Stages know nothing of protocols: reading and writing go through a
+:class:`~cnctwin.thread.MachineConnection`.
+
+Names a stage adds to :attr:`CycleState.predicted` (units in the names):
+
+- engagement: ``contact``, ``ae_mm``, ``ap_mm``, ``mrr_mm3_s``, ``feed_per_tooth_mm``;
+- process variables: ``predicted_force_x_n``, ``predicted_force_y_n``,
+  ``predicted_force_z_n``, ``predicted_force_xy_n``, ``predicted_force_normal_n``,
+  ``predicted_torque_nm``, ``predicted_power_w``;
+- models: ``measured_force_xy_n``, ``force_band_low_n``, ``force_band_high_n``,
+  ``force_residual_n``, ``force_scatter_n``, ``force_band_armed``, ``force_out_of_band``,
+  ``deflection_um``, ``form_error_um``, ``form_error_out``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Awaitable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from cnctwin.signals.filters import (
+    ButterworthFilter,
+    CausalFilter,
+    HampelFilter,
+    KalmanFilter,
+)
+from cnctwin.signals.windows import SlidingWindow
+from cnctwin.thread.connection import ConnectionLost, MachineConnection
+from cnctwin.thread.signals import SIGNALS, RunState
+from cnctwin.twin.monitoring import ForceBand
+from cnctwin.twin.process import TwinProcess
+from cnctwin.twin.program import ProgramMap
+from cnctwin.twin.settings import FilterConfig, FormErrorConfig, WindowConfig
+from cnctwin.twin.state import CycleState, TwinEvent
+
+__all__ = [
+    "FEATURES",
+    "PLAUSIBLE_LIMITS",
+    "PREDICTIONS",
+    "CutStage",
+    "EngagementStage",
+    "FeatureStage",
+    "FilterStage",
+    "ForceBandStage",
+    "FormErrorStage",
+    "KinematicsStage",
+    "ProcessStage",
+    "ReadStage",
+    "Stage",
+    "make_filter",
+    "plausibility_problem",
+]
+
+#: Features a window may compute (methods of :class:`cnctwin.signals.windows.SlidingWindow`).
+FEATURES = ("mean", "rms", "peak_to_peak", "slope")
+
+#: Every prediction name the stages add, for rule checking (units in the names).
+PREDICTIONS = (
+    "contact",
+    "ae_mm",
+    "ap_mm",
+    "mrr_mm3_s",
+    "feed_per_tooth_mm",
+    "predicted_force_x_n",
+    "predicted_force_y_n",
+    "predicted_force_z_n",
+    "predicted_force_xy_n",
+    "predicted_force_normal_n",
+    "predicted_torque_nm",
+    "predicted_power_w",
+    "measured_force_xy_n",
+    "force_band_low_n",
+    "force_band_high_n",
+    "force_residual_n",
+    "force_scatter_n",
+    "force_band_armed",
+    "force_out_of_band",
+    "deflection_um",
+    "form_error_um",
+    "form_error_tolerance_um",
+    "form_error_out",
+)
+
+
+class Stage(Protocol):
+    """One step of the cycle."""
+
+    name: str
+
+    def process(self, state: CycleState) -> CycleState | Awaitable[CycleState]:
+        """Enrich the cycle's state (a coroutine for stages that talk to the machine)."""
+        ...
+
+
+#: Largest magnitude a reading may have to be taken as a measurement, by unit: beyond it a
+#: value is garbage (a wrong register, an uninitialised variable), not a machine state.
+PLAUSIBLE_LIMITS = {
+    "mm": 1e5,
+    "mm/min": 1e6,
+    "rpm": 1e6,
+    "N": 1e6,
+    "N m": 1e5,
+    "A": 1e5,
+    "W": 1e8,
+    "%": 1e4,
+    "s": 1e9,
+    "1": 1e12,
+}
+
+
+def plausibility_problem(name: str, value: float) -> str | None:
+    """Why a finite reading of signal ``name`` is garbage, or ``None`` when it is plausible.
+
+    A value is implausible outside the signal's range in :data:`cnctwin.thread.SIGNALS`
+    (when it has one) or beyond :data:`PLAUSIBLE_LIMITS` for its unit.
+    """
+    spec = SIGNALS.get(name)
+    if spec is None:
+        return None
+    if spec.low is not None and value < spec.low:
+        return f"{value!r} below {spec.low:g} {spec.unit}"
+    if spec.high is not None and value > spec.high:
+        return f"{value!r} above {spec.high:g} {spec.unit}"
+    limit = PLAUSIBLE_LIMITS.get(spec.unit)
+    if limit is not None and abs(value) > limit:
+        return f"{value!r} beyond the plausible +-{limit:g} {spec.unit}"
+    return None
+
+
+class ReadStage:
+    """Step 1: one batched read of the machine (Heide 2025, Fig. 5, "read machine state").
+
+    Values the connection delivered but that cannot be a machine state (out of the signal's
+    range or beyond :data:`PLAUSIBLE_LIMITS`) join the connection's rejects (NaN, wrong
+    types): a garbage value never reaches the stages, which hold the signal's last value.
+
+    Parameters
+    ----------
+    connection
+        The machine.
+
+    Attributes
+    ----------
+    failures
+        Reads that failed.
+    garbage
+        Values rejected so far.
+    """
+
+    name = "read"
+
+    def __init__(self, connection: MachineConnection) -> None:
+        self.connection = connection
+        self.failures = 0
+        self.garbage = 0
+
+    async def process(self, state: CycleState) -> CycleState:
+        """Fill ``measured``, ``rejected``, ``received_s`` and ``connected``."""
+        try:
+            reading = await self.connection.read()
+        except ConnectionLost:
+            self.failures += 1
+            state.connected = False
+            return state
+        state.connected = True
+        state.received_s = reading.received_s
+        measured: dict[str, float] = {}
+        rejected = dict(reading.rejected)
+        for name, value in reading.values.items():
+            if not isinstance(value, (int, float)) or not math.isfinite(value):
+                rejected[name] = f"not a finite number: {value!r}"
+                continue
+            problem = plausibility_problem(name, value)
+            if problem is None:
+                measured[name] = float(value)
+            else:
+                rejected[name] = problem
+        self.garbage += len(rejected)
+        state.measured = measured
+        state.rejected = rejected
+        return state
+
+
+class KinematicsStage:
+    """Step 2: the twin's tool tip from the machine's axes and its own reading of the program.
+
+    The machine reports its controlled point in the machine frame (``x_mm``, ``y_mm``,
+    ``z_mm``: the tool tip plus the tool length offset and the length wear offset), the tool
+    in the spindle and the executing line. The twin takes off the offset its own
+    interpretation of the program gives for that line (:class:`~cnctwin.twin.program.
+    ProgramMap`) and the wear offset the machine reads back. A missing or garbage axis keeps
+    the last good position; the machine time ``t_s`` gives the time between two positions.
+
+    Parameters
+    ----------
+    program
+        Tool offsets by line (and by tool).
+    deadband_mm
+        Axis noise dead band, mm: a reading within it of the held axis position keeps the
+        held one (:attr:`~cnctwin.twin.settings.TwinSection.position_deadband_mm`).
+    """
+
+    name = "kinematics"
+
+    def __init__(self, program: ProgramMap, deadband_mm: float = 0.0) -> None:
+        self.program = program
+        self.deadband_mm = deadband_mm
+        self._axes = np.full(3, np.nan)
+        self._t_s = math.nan
+        self._tool = 0
+        self._line = 0
+
+    def forget(self) -> None:
+        """Drop the previous machine time (after a gap in the connection)."""
+        self._t_s = math.nan
+
+    def process(self, state: CycleState) -> CycleState:
+        """Set ``position_mm``, ``tool``, ``line`` and ``dt_machine_s``."""
+        if not state.connected:
+            return state
+        m = state.measured
+        axes = self._axes.copy()
+        for axis, name in enumerate(("x_mm", "y_mm", "z_mm")):
+            value = m.get(name)
+            if value is not None and not abs(value - axes[axis]) <= self.deadband_mm:
+                axes[axis] = value
+        self._axes = axes
+        tool = m.get("tool_number")
+        if tool is not None and 0 <= tool < 1e6:
+            self._tool = int(tool)
+        line = m.get("program_line")
+        if line is not None and 0 <= line < 1e9:
+            self._line = int(line)
+        t = m.get("t_s")
+        if t is not None:
+            state.dt_machine_s = t - self._t_s if math.isfinite(self._t_s) else 0.0
+            self._t_s = t
+        dx, dy, dz = self.program.offset_mm(self._line, self._tool)
+        wear = m.get("tool_length_wear_mm", 0.0)
+        tip = axes - np.array((dx, dy, dz + wear))
+        state.position_mm = tip if bool(np.all(np.isfinite(tip))) else None
+        state.tool = self._tool
+        state.line = self._line
+        return state
+
+
+class CutStage:
+    """Step 3: Boolean cut of the twin's own dexel stock at the tool position.
+
+    The twin's blank is the configured one, so it stands for the machine's blank only when
+    the twin has watched the program from its start. On the first reading the stage checks
+    the machine's program clock: a program already running for more than ``attach_s`` makes
+    the blank *unsynchronized* (the force band stays off, an event says so); when the
+    program clock goes back (the program started again) the twin takes a fresh blank and is
+    synchronized again.
+
+    Parameters
+    ----------
+    process
+        The twin's stock, tools and material.
+    attach_s
+        Machine time after which a running program counts as already under way, s.
+    """
+
+    name = "cut"
+
+    def __init__(self, process: TwinProcess, attach_s: float = 1.0) -> None:
+        self.twin = process
+        self.attach_s = attach_s
+        self._last_t_s: float | None = None
+
+    def forget(self) -> None:
+        """Start a new path after a gap: the machine moved while the twin was blind."""
+        self.twin.forget_position()
+
+    def process(self, state: CycleState) -> CycleState:
+        """Set ``engagement`` and the predicted ``feed_per_tooth_mm``."""
+        m = state.measured
+        t = m.get("t_s")
+        if t is not None:
+            self._synchronize(state, t)
+        if state.position_mm is None:
+            return state
+        engagement, fz = self.twin.cut(
+            state.position_mm,
+            state.tool,
+            m.get("spindle_rpm", 0.0),
+            m.get("feed_mm_min", 0.0),
+            state.dt_machine_s,
+        )
+        state.engagement = engagement
+        state.predicted["feed_per_tooth_mm"] = fz
+        return state
+
+    def _synchronize(self, state: CycleState, t_s: float) -> None:
+        last, self._last_t_s = self._last_t_s, t_s
+        running = state.measured.get("run_state") in (RunState.RUNNING, RunState.FEED_HOLD)
+        if last is None:
+            if running and t_s > self.attach_s:
+                self.twin.synchronized = False
+                state.events.append(
+                    TwinEvent(
+                        "blank_unknown",
+                        f"attached to a program running for {t_s:.1f} s: the twin does not "
+                        "know what was cut, force monitoring is off until the program starts "
+                        "again",
+                        time.monotonic(),
+                        {"t_s": t_s},
+                    )
+                )
+        elif t_s < last - self.attach_s:
+            self.twin.reset_stock()
+            state.events.append(
+                TwinEvent(
+                    "blank_reset",
+                    "the program started again: the twin takes a fresh blank",
+                    time.monotonic(),
+                    {"t_s": t_s},
+                )
+            )
+
+
+class EngagementStage:
+    """Step 4: engagement figures of the cut (Heide 2025, Fig. 5, "engagement")."""
+
+    name = "engagement"
+
+    def process(self, state: CycleState) -> CycleState:
+        """Add ``contact``, ``ae_mm``, ``ap_mm`` and ``mrr_mm3_s`` to the predictions."""
+        e = state.engagement
+        p = state.predicted
+        if e is None or not e.contact:
+            p.update(contact=0.0, ae_mm=0.0, ap_mm=0.0, mrr_mm3_s=0.0)
+            return state
+        p.update(contact=1.0, ae_mm=e.ae_mm, ap_mm=e.ap_mm, mrr_mm3_s=e.mrr_mm3_s)
+        return state
+
+
+class ProcessStage:
+    """Step 6: process variables from the physics: forces, torque, power.
+
+    Parameters
+    ----------
+    process
+        The twin's tools and material (the mechanistic force model's inputs).
+    """
+
+    name = "process"
+
+    def __init__(self, process: TwinProcess) -> None:
+        self.twin = process
+
+    def process(self, state: CycleState) -> CycleState:
+        """Add the ``predicted_*`` forces (N), torque (N m) and power (W)."""
+        p = state.predicted
+        e = state.engagement
+        if e is None or not e.contact:
+            f = None
+        else:
+            f = self.twin.forces(
+                e, state.tool, state.measured.get("spindle_rpm", 0.0), p["feed_per_tooth_mm"]
+            )
+        if f is None:
+            p.update(
+                predicted_force_x_n=0.0,
+                predicted_force_y_n=0.0,
+                predicted_force_z_n=0.0,
+                predicted_force_xy_n=0.0,
+                predicted_force_normal_n=0.0,
+                predicted_torque_nm=0.0,
+                predicted_power_w=0.0,
+            )
+            return state
+        p.update(
+            predicted_force_x_n=f.fx_n,
+            predicted_force_y_n=f.fy_n,
+            predicted_force_z_n=f.fz_n,
+            predicted_force_xy_n=math.hypot(f.fx_n, f.fy_n),
+            predicted_force_normal_n=f.normal_n,
+            predicted_torque_nm=f.torque_nm,
+            predicted_power_w=f.power_w,
+        )
+        return state
+
+
+def make_filter(config: FilterConfig, cycle_s: float) -> CausalFilter:
+    """The filter a ``[twin.filters.SIGNAL]`` entry describes, sampling every ``cycle_s`` s.
+
+    Raises
+    ------
+    cnctwin.errors.ConfigError
+        If a Butterworth cut-off is not below half the cycle rate.
+    """
+    if config.kind == "hampel":
+        return HampelFilter(config.window, config.n_sigma)
+    if config.kind == "kalman":
+        return KalmanFilter(config.process_var, config.measurement_var)
+    return ButterworthFilter(config.order, config.cutoff_hz, 1.0 / cycle_s)
+
+
+class FilterStage:
+    """Step 7: causal filters on measured signals (Heide 2025, Sec. 2.3: Hampel, Kalman,
+    Butterworth).
+
+    Parameters
+    ----------
+    filters
+        Filter configuration by measured signal name.
+    cycle_s
+        Sample period, s.
+    """
+
+    name = "filters"
+
+    def __init__(self, filters: Mapping[str, FilterConfig], cycle_s: float) -> None:
+        self.filters = {name: make_filter(cfg, cycle_s) for name, cfg in filters.items()}
+
+    def process(self, state: CycleState) -> CycleState:
+        """Set ``filtered`` for every filtered signal (NaN-safe: a missing sample is held)."""
+        if not state.connected:
+            return state
+        for name, flt in self.filters.items():
+            state.filtered[name] = flt.update(state.measured.get(name, math.nan))
+        return state
+
+
+@dataclass
+class _Window:
+    signal: str
+    window: SlidingWindow
+    features: tuple[str, ...]
+
+
+class FeatureStage:
+    """Step 8: sliding windows and their features (``"<signal>_<feature>"``).
+
+    Parameters
+    ----------
+    windows
+        Which signals, how long, which features (of :data:`FEATURES`).
+    cycle_s
+        Sample period, s.
+
+    Raises
+    ------
+    cnctwin.errors.ConfigError
+        For a feature that is not one of :data:`FEATURES`.
+    """
+
+    name = "features"
+
+    def __init__(self, windows: Sequence[WindowConfig], cycle_s: float) -> None:
+        from cnctwin.errors import ConfigError
+
+        self.windows: list[_Window] = []
+        for k, w in enumerate(windows):
+            bad = [f for f in w.features if f not in FEATURES]
+            if bad:
+                raise ConfigError(
+                    f"twin.windows[{k}].features: unknown feature {bad[0]!r}; "
+                    f"valid: {', '.join(FEATURES)}"
+                )
+            self.windows.append(
+                _Window(w.signal, SlidingWindow(w.length, 1.0 / cycle_s), tuple(w.features))
+            )
+
+    def process(self, state: CycleState) -> CycleState:
+        """Push this cycle's value of each windowed signal; add its features."""
+        if not state.connected:
+            return state
+        for w in self.windows:
+            value = state.filtered.get(w.signal)
+            if value is None:
+                value = state.predicted.get(w.signal, state.measured.get(w.signal, math.nan))
+            if not math.isfinite(value):
+                continue
+            w.window.push(value, state.measured.get("t_s"))
+            for feature in w.features:
+                state.features[f"{w.signal}_{feature}"] = float(getattr(w.window, feature)())
+        return state
+
+
+class ForceBandStage:
+    """Step 9a: the force band of use case 1 (Heide 2025, Sec. 3.1).
+
+    The measured force is the XY resultant of the dynamometer (``force_x_n``, ``force_y_n``,
+    filtered where a filter is configured); the prediction is that of the process stage.
+
+    Parameters
+    ----------
+    band
+        The band model.
+    process
+        The twin's blank: while it is not synchronized with the machine's, the band is off.
+    """
+
+    name = "force_band"
+
+    def __init__(self, band: ForceBand, process: TwinProcess | None = None) -> None:
+        self.band = band
+        self.twin = process
+
+    def forget(self) -> None:
+        """Settle again before arming (after a gap in the connection)."""
+        self.band.reset_contact()
+
+    def process(self, state: CycleState) -> CycleState:
+        """Add ``measured_force_xy_n`` and the ``force_band_*`` / ``force_*`` predictions."""
+        if not state.connected:
+            return state
+        fx = state.filtered.get("force_x_n", state.measured.get("force_x_n", math.nan))
+        fy = state.filtered.get("force_y_n", state.measured.get("force_y_n", math.nan))
+        p = state.predicted
+        if not (math.isfinite(fx) and math.isfinite(fy)):
+            p["force_out_of_band"] = 0.0
+            p["force_band_armed"] = 0.0
+            return state
+        if self.twin is not None and not self.twin.synchronized:
+            p["force_out_of_band"] = 0.0
+            p["force_band_armed"] = 0.0
+            return state
+        measured = math.hypot(fx, fy)
+        result = self.band.update(p.get("predicted_force_xy_n", 0.0), measured)
+        p.update(
+            measured_force_xy_n=measured,
+            force_band_low_n=result.low_n,
+            force_band_high_n=result.high_n,
+            force_residual_n=result.residual_n,
+            force_scatter_n=result.scatter_n,
+            force_band_armed=float(result.armed),
+            force_out_of_band=float(result.out_of_band),
+        )
+        return state
+
+
+class FormErrorStage:
+    """Step 9b: form error of the wall from the tool's static deflection (Heide 2025, use
+    case 2; :mod:`cnctwin.quality.form_error`).
+
+    The predicted force normal to the feed direction in the XY plane (the wall's normal in
+    side milling) over the tool's bending stiffness at the tip gives the wall's deviation.
+
+    Parameters
+    ----------
+    config
+        Tolerance, stiffness or overhang, Young's modulus.
+    process
+        The twin's tools (diameter and fluted length for the stiffness).
+    """
+
+    name = "form_error"
+
+    def __init__(self, config: FormErrorConfig, process: TwinProcess) -> None:
+        from cnctwin.quality.form_error import end_mill_stiffness
+
+        self.tolerance_um = config.tolerance_um
+        self.stiffness_n_m: dict[int, float] = {}
+        for number, cutter in process.cutters.items():
+            if config.stiffness_n_um is not None:
+                self.stiffness_n_m[number] = config.stiffness_n_um * 1e6
+                continue
+            overhang = config.overhang_mm
+            self.stiffness_n_m[number] = end_mill_stiffness(
+                cutter.diameter_mm * 1e-3,
+                overhang * 1e-3,
+                min(cutter.flute_length_mm, overhang) * 1e-3,
+                youngs_modulus_pa=config.youngs_modulus_gpa * 1e9,
+            )
+
+    def process(self, state: CycleState) -> CycleState:
+        """Add ``deflection_um``, ``form_error_um``, ``form_error_tolerance_um`` and
+        ``form_error_out``."""
+        from cnctwin.quality.form_error import form_error
+
+        p = state.predicted
+        k = self.stiffness_n_m.get(state.tool)
+        if k is None or not state.connected:
+            p.update(deflection_um=0.0, form_error_um=0.0, form_error_out=0.0)
+        else:
+            normal = abs(p.get("predicted_force_normal_n", 0.0))
+            error_um = float(form_error(normal, k)) * 1e6
+            p.update(
+                deflection_um=float(form_error(p.get("predicted_force_xy_n", 0.0), k)) * 1e6,
+                form_error_um=error_um,
+                form_error_out=float(error_um > self.tolerance_um),
+            )
+        p["form_error_tolerance_um"] = self.tolerance_um
+        return state

@@ -1,0 +1,72 @@
+"""The virtual machine: a physics-consistent simulated CNC that runs NC programs.
+
+Public API::
+
+    from cnctwin.virtual import MachineClock, VirtualMachine, VirtualMachineConfig
+
+    vm = VirtualMachine(VirtualMachineConfig())    # the packaged demo program and machine
+    vm.command("feed_override_pct", 80.0)           # applied at once, read back
+    while not vm.finished:
+        vm.step(vm.tick_s)
+    vm.snapshot()                                   # every signal of cnctwin.thread.SIGNALS
+
+    async with MachineClock(vm, vm.tick_s, speed=1.0) as clock:   # real time, in asyncio
+        ...
+
+Units: the signals' own (mm, mm/min, rpm, N, N m, A, W, %, s); see docs/virtual-machine.md.
+"""
+
+from typing import TYPE_CHECKING, Any
+
+from cnctwin.virtual.clock import ClockStats, MachineClock
+from cnctwin.virtual.config import (
+    AxisDriveConfig,
+    ChatterFault,
+    FaultConfig,
+    HoleFault,
+    NoiseConfig,
+    ToolBreakageFault,
+    VirtualMachineConfig,
+    WearFault,
+)
+from cnctwin.virtual.faults import FaultEvent, FaultInjector, blank_with_holes
+from cnctwin.virtual.machine import VirtualMachine
+
+if TYPE_CHECKING:
+    from cnctwin.virtual.modbus_server import ModbusMachineServer
+    from cnctwin.virtual.opcua_server import OpcUaMachineServer, OpcUaServerSecurity
+
+# The servers load asyncua and pymodbus: imported on first use.
+_LAZY = {
+    "ModbusMachineServer": "cnctwin.virtual.modbus_server",
+    "OpcUaMachineServer": "cnctwin.virtual.opcua_server",
+    "OpcUaServerSecurity": "cnctwin.virtual.opcua_server",
+}
+
+__all__ = [
+    "AxisDriveConfig",
+    "ChatterFault",
+    "ClockStats",
+    "FaultConfig",
+    "FaultEvent",
+    "FaultInjector",
+    "HoleFault",
+    "MachineClock",
+    "ModbusMachineServer",
+    "NoiseConfig",
+    "OpcUaMachineServer",
+    "OpcUaServerSecurity",
+    "ToolBreakageFault",
+    "VirtualMachine",
+    "VirtualMachineConfig",
+    "WearFault",
+    "blank_with_holes",
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

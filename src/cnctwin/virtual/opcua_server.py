@@ -1,0 +1,420 @@
+"""OPC UA server of the virtual machine (asyncua): publishes its signals, applies commands.
+
+The address space follows the OPC UA for Machine Tools companion specification (OPC 40501)
+where it has a place for a signal — ``Objects/Machines/Machine`` with ``Identification``,
+``Monitoring`` (``MachineTool``, ``Channel1``, ``Spindle1``), ``Production/ActiveProgram``
+and ``Equipment/Tools`` — and takes the axis nodes (``ActPos``, ``ActLoad``) from OPC 40502
+CNC Systems. The variables are plain BaseDataVariables with string NodeIds in the namespace
+:data:`~cnctwin.thread.opcua.NAMESPACE_URI`; the map is :data:`~cnctwin.thread.opcua.NODE_MAP`
+and docs/opcua.md.
+
+Writes from clients to a command node go through ``source.command(name, value)`` and the node
+then holds the machine's read-back; a write that is not a finite number in the command's
+range (or that the machine refuses) is answered with ``BadOutOfRange`` or
+``BadTypeMismatch`` per node, and writes to any other node of the machine with
+``BadNotWritable``. The server never raises out of a client's write.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hmac
+import logging
+import math
+import socket
+from collections.abc import Mapping
+from dataclasses import dataclass
+from datetime import UTC
+from pathlib import Path
+from typing import Any, Literal, Protocol
+
+from asyncua import Server, ua
+from asyncua.crypto.permission_rules import User, UserRole
+from asyncua.server.address_space import AttributeService, AttributeValue
+from asyncua.server.user_managers import UserManager
+
+from cnctwin import __version__
+from cnctwin.errors import CnctwinError, ConfigError
+from cnctwin.thread.opcua import NAMESPACE_URI, NODE_MAP, variant_type
+from cnctwin.thread.signals import COMMANDS, SIGNALS
+
+__all__ = [
+    "SERVER_APPLICATION_URI",
+    "MachineSource",
+    "OpcUaMachineServer",
+    "OpcUaServerSecurity",
+    "free_port",
+]
+
+logger = logging.getLogger(__name__)
+
+#: Application URI of the virtual machine's server (the URI its certificate must carry).
+SERVER_APPLICATION_URI = "urn:cnctwin:virtual-machine:server"
+
+_IDENTIFICATION = {
+    "Manufacturer": "cnctwin",
+    "Model": "virtual 3-axis milling machine",
+    "SerialNumber": "VM-0001",
+    "SoftwareRevision": __version__,
+}
+
+
+class MachineSource(Protocol):
+    """What a machine server serves: the virtual machine, or a test's fake."""
+
+    def snapshot(self) -> Mapping[str, float]:
+        """Current value of every read signal, by canonical name."""
+        ...
+
+    def command(self, name: str, value: float) -> None:
+        """Apply a command; raise :class:`~cnctwin.errors.CnctwinError` if invalid."""
+        ...
+
+
+@dataclass(frozen=True)
+class OpcUaServerSecurity:
+    """Security of the server's endpoint.
+
+    Attributes
+    ----------
+    mode
+        ``"None"`` (loopback demos), ``"Sign"`` or ``"SignAndEncrypt"`` (both with policy
+        Basic256Sha256).
+    certificate, private_key
+        The server's certificate (DER or PEM) and private key (PEM); required unless mode is
+        ``"None"``.
+    """
+
+    mode: Literal["None", "Sign", "SignAndEncrypt"] = "None"
+    certificate: Path | None = None
+    private_key: Path | None = None
+
+
+class _PasswordUsers(UserManager):
+    """asyncua user manager: a fixed table of user names and passwords."""
+
+    def __init__(self, users: Mapping[str, str]) -> None:
+        self._users = dict(users)
+
+    def get_user(
+        self,
+        iserver: Any,
+        username: str | None = None,
+        password: str | None = None,
+        certificate: Any = None,
+    ) -> User | None:
+        expected = self._users.get(username or "")
+        if expected is None or password is None:
+            return None
+        if not hmac.compare_digest(expected.encode(), password.encode()):
+            logger.warning("OPC UA login of user %r refused: wrong password", username)
+            return None
+        return User(role=UserRole.User)
+
+
+_ADMIN = User(role=UserRole.Admin)
+
+
+class _MachineAttributeService(AttributeService):
+    """Write service that routes the machine's command nodes through the source."""
+
+    def __init__(self, server: OpcUaMachineServer, base: AttributeService) -> None:
+        super().__init__(base._aspace)
+        self._machine = server
+
+    async def write(self, params: ua.WriteParameters, user: User = _ADMIN) -> list[ua.StatusCode]:
+        results: list[ua.StatusCode] = []
+        for item in params.NodesToWrite:
+            name = self._machine.name_of(item.NodeId)
+            if name is None:
+                sub = ua.WriteParameters()
+                sub.NodesToWrite = [item]
+                results.extend(await super().write(sub, user))
+            elif item.AttributeId != ua.AttributeIds.Value or name not in COMMANDS:
+                results.append(_status(ua.StatusCodes.BadNotWritable))
+            else:
+                results.append(await self._machine.apply_command(name, item.Value))
+        return results
+
+
+class OpcUaMachineServer:
+    """OPC UA server for a machine source. Use as ``async with``.
+
+    Parameters
+    ----------
+    source
+        Has ``snapshot()`` and ``command(name, value)``
+        (:class:`~cnctwin.virtual.machine.VirtualMachine`, or a fake).
+    host
+        Interface to listen on.
+    port
+        TCP port; 0 picks a free one (see :attr:`endpoint`).
+    security
+        Endpoint security; default: policy None.
+    users
+        User name -> password; when given, anonymous sessions are refused (use with Sign or
+        SignAndEncrypt: the password travels encrypted with the server's certificate).
+
+    Notes
+    -----
+    Call :meth:`publish` after each step of the machine (the machine clock's listener); it
+    writes every changed value into the address space in one pass, without network traffic,
+    and subscriptions see the change.
+    """
+
+    def __init__(
+        self,
+        source: MachineSource,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        security: OpcUaServerSecurity | None = None,
+        users: Mapping[str, str] | None = None,
+    ) -> None:
+        self.source = source
+        self.users = dict(users or {})
+        self.host = host
+        self.port = port or free_port(host)
+        self.security = security or OpcUaServerSecurity()
+        self.endpoint = f"opc.tcp://{host}:{self.port}/cnctwin"
+        self.namespace_index = 0
+        self._server: Server | None = None
+        self._names: dict[ua.NodeId, str] = {}
+        self._published: dict[str, Any] = {}
+        self._slots: dict[str, AttributeValue] = {}
+        self._tasks: set[asyncio.Task[None]] = set()
+
+    # Lifecycle ------------------------------------------------------------------------
+    async def __aenter__(self) -> OpcUaMachineServer:
+        await self.start()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.stop()
+
+    async def start(self) -> None:
+        """Build the address space and listen; ConfigError on incomplete security."""
+        security = self.security
+        server = Server(user_manager=_PasswordUsers(self.users) if self.users else None)
+        await server.init()
+        server.set_endpoint(self.endpoint)
+        server.set_server_name("cnctwin virtual machine")
+        await server.set_application_uri(SERVER_APPLICATION_URI)
+        server.set_security_policy([_policy(security.mode)])
+        if self.users:
+            server.set_identity_tokens([ua.UserNameIdentityToken])
+        if security.mode != "None":
+            if security.certificate is None or security.private_key is None:
+                raise ConfigError(
+                    f"OPC UA security mode {security.mode!r} needs a server certificate and "
+                    f"private key (got {security.certificate}, {security.private_key})"
+                )
+            await server.load_certificate(str(security.certificate))
+            await server.load_private_key(str(security.private_key))
+        self.namespace_index = await server.register_namespace(NAMESPACE_URI)
+        await self._build(server)
+        iserver = server.iserver
+        iserver.attribute_service = _MachineAttributeService(self, iserver.attribute_service)
+        await server.start()
+        self._server = server
+        self.publish()
+        logger.info("OPC UA machine server listening at %s (%s)", self.endpoint, security.mode)
+
+    async def stop(self) -> None:
+        """Stop listening and drop every session."""
+        server, self._server = self._server, None
+        if server is not None:
+            # asyncua's clock task sleeps 1 s between updates of ServerStatus/CurrentTime and
+            # stop() waits for it; cancel it so a stop (and a restart) takes milliseconds.
+            clock = server.iserver.time_task
+            if clock is not None:
+                clock.cancel()
+                server.iserver.time_task = None
+            await server.stop()
+            self._published.clear()
+
+    # Publishing -----------------------------------------------------------------------
+    def publish(self, snapshot: Mapping[str, float] | None = None) -> None:
+        """Write the changed values of ``snapshot`` into the address space.
+
+        Parameters
+        ----------
+        snapshot
+            Canonical name -> value in the signal's unit; default ``source.snapshot()``. A
+            non-finite value of an integer or boolean signal is published with status
+            ``BadOutOfRange`` (a Double carries NaN as is, for the client to reject).
+
+        Notes
+        -----
+        Synchronous, no network traffic: it replaces the stored DataValues and schedules the
+        data-change callbacks of any subscription (asyncua's own write path does the same,
+        one awaited call per node).
+        """
+        if self._server is None:
+            return
+        snap = self.source.snapshot() if snapshot is None else snapshot
+        stamp = ua.DateTime.now(UTC)
+        notify: list[tuple[Any, int, ua.DataValue]] = []
+        for name, value in snap.items():
+            slot = self._slots.get(name)
+            if slot is None or self._published.get(name, _UNSET) == value:
+                continue
+            self._published[name] = value
+            data = _data_value(name, value, stamp)
+            slot.value = data
+            notify.extend(
+                (callback, handle, data) for handle, callback in slot.datachange_callbacks.items()
+            )
+        if notify:  # one task per publish runs every subscription's callbacks
+            task = asyncio.get_running_loop().create_task(_notify(notify))
+            self._tasks.add(task)
+            task.add_done_callback(self._tasks.discard)
+
+    # Commands -------------------------------------------------------------------------
+    def name_of(self, node_id: ua.NodeId) -> str | None:
+        """Canonical name of a mapped node of this machine, else ``None``."""
+        return self._names.get(node_id)
+
+    async def apply_command(self, name: str, data: ua.DataValue) -> ua.StatusCode:
+        """Validate a client's write of command ``name``, apply it, publish the read-back.
+
+        Returns
+        -------
+        ua.StatusCode
+            Good, or BadTypeMismatch / BadOutOfRange / BadInternalError; never raises.
+        """
+        spec = COMMANDS[name]
+        raw = data.Value.Value if data.Value is not None else None
+        boolean = spec.kind == "bool"
+        if not isinstance(raw, bool | int | float) or (isinstance(raw, bool) and not boolean):
+            logger.warning("OPC UA write of %s rejected: %r is not a %s", name, raw, spec.kind)
+            return _status(ua.StatusCodes.BadTypeMismatch)
+        value = float(raw)
+        low = -math.inf if spec.low is None else spec.low
+        high = math.inf if spec.high is None else spec.high
+        if not (math.isfinite(value) and low <= value <= high) or (
+            boolean and value not in (0.0, 1.0)
+        ):
+            logger.warning("OPC UA write of %s=%r rejected: outside %s..%s", name, raw, low, high)
+            return _status(ua.StatusCodes.BadOutOfRange)
+        try:
+            self.source.command(name, value)
+        except CnctwinError as err:
+            logger.warning("OPC UA write of %s=%r refused by the machine: %s", name, raw, err)
+            return _status(ua.StatusCodes.BadOutOfRange)
+        except Exception:
+            logger.exception("OPC UA write of %s=%r failed in the machine", name, raw)
+            return _status(ua.StatusCodes.BadInternalError)
+        readback = self.source.snapshot().get(name, value)
+        self.publish({name: readback})
+        return _status(ua.StatusCodes.Good)
+
+    # Address space --------------------------------------------------------------------
+    async def _build(self, server: Server) -> None:
+        ns = self.namespace_index
+        machines = await server.nodes.objects.add_folder(
+            _node_id("Machines", ns), ua.QualifiedName("Machines", ns)
+        )
+        folders: dict[str, Any] = {}
+
+        async def parent(path: tuple[str, ...]) -> Any:
+            if not path:
+                return machines
+            key = ".".join(path)
+            if key not in folders:
+                above = await parent(path[:-1])
+                folders[key] = await above.add_object(
+                    _node_id(key, ns), ua.QualifiedName(path[-1], ns)
+                )
+            return folders[key]
+
+        for label, text in _IDENTIFICATION.items():
+            node = await parent(("Machine", "Identification"))
+            await node.add_variable(
+                _node_id(f"Machine.Identification.{label}", ns),
+                ua.QualifiedName(label, ns),
+                ua.Variant(text, ua.VariantType.String),
+            )
+        snapshot = self.source.snapshot()
+        for name, identifier in NODE_MAP.items():
+            parts = tuple(identifier.split("."))
+            node = await parent(parts[:-1])
+            vtype = variant_type(name)
+            initial = _coerce(name, snapshot.get(name, 0.0))
+            variable = await node.add_variable(
+                _node_id(identifier, ns),
+                ua.QualifiedName(parts[-1], ns),
+                ua.Variant(initial, vtype),
+                datatype=_DATATYPES[vtype],
+            )
+            spec = SIGNALS[name]
+            await variable.write_attribute(
+                ua.AttributeIds.Description,
+                ua.DataValue(ua.Variant(ua.LocalizedText(f"{spec.description} [{spec.unit}]"))),
+            )
+            if spec.writable:
+                await variable.set_writable(True)
+            self._names[variable.nodeid] = name
+            self._slots[name] = server.iserver.aspace[variable.nodeid].attributes[
+                ua.AttributeIds.Value
+            ]
+
+
+_UNSET = object()
+_DATATYPES = {
+    ua.VariantType.Double: ua.NodeId(ua.Int32(ua.ObjectIds.Double)),
+    ua.VariantType.Int32: ua.NodeId(ua.Int32(ua.ObjectIds.Int32)),
+    ua.VariantType.Boolean: ua.NodeId(ua.Int32(ua.ObjectIds.Boolean)),
+}
+
+
+def _policy(mode: str) -> ua.SecurityPolicyType:
+    policies = {
+        "None": ua.SecurityPolicyType.NoSecurity,
+        "Sign": ua.SecurityPolicyType.Basic256Sha256_Sign,
+        "SignAndEncrypt": ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt,
+    }
+    if mode not in policies:
+        raise ConfigError(f"OPC UA security mode {mode!r}; valid: {', '.join(policies)}")
+    return policies[mode]
+
+
+def _coerce(name: str, value: float) -> float | int | bool:
+    """``value`` as the Python type of the signal's variant (ValueError if not finite)."""
+    kind = SIGNALS[name].kind
+    if kind == "float":
+        return float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name}={value!r} is not finite")
+    return bool(value) if kind == "bool" else int(round(value))
+
+
+def _data_value(name: str, value: float, stamp: ua.DateTime) -> ua.DataValue:
+    try:
+        variant = ua.Variant(_coerce(name, value), variant_type(name))
+    except (TypeError, ValueError):
+        return ua.DataValue(StatusCode=_status(ua.StatusCodes.BadOutOfRange), SourceTimestamp=stamp)
+    return ua.DataValue(variant, SourceTimestamp=stamp)
+
+
+def free_port(host: str = "127.0.0.1") -> int:
+    """A TCP port on ``host`` that nothing listens on now (the OS picks it)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.bind((host, 0))
+        return int(probe.getsockname()[1])
+
+
+async def _notify(calls: list[tuple[Any, int, ua.DataValue]]) -> None:
+    """Run asyncua's data-change callbacks (subscriptions) for published values."""
+    for callback, handle, data in calls:
+        try:
+            await callback(handle, data)
+        except Exception:
+            logger.exception("OPC UA data-change callback failed")
+
+
+def _status(code: int) -> ua.StatusCode:
+    return ua.StatusCode(ua.UInt32(code))
+
+
+def _node_id(identifier: str, ns: int) -> ua.NodeId:
+    return ua.NodeId(ua.String(identifier), ua.Int16(ns))

@@ -1,0 +1,100 @@
+"""``cnctwin demo``: the twin against the packaged virtual machine over OPC UA (and Modbus).
+
+The JSON summary is checked against the historian the run wrote (another reader of the
+same facts) and against the demo's design: the form-error rule lowers the feed override in
+the heavy pass, the hole in the blank stops the machine.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from cnctwin.cli import run
+
+REPO = Path(__file__).resolve().parents[2]
+KEYS = (
+    "cycles",
+    "cycle_p50_ms",
+    "cycle_p99_ms",
+    "overruns",
+    "stop_reaction_ms",
+    "feed_override_min",
+    "events",
+    "samples_recorded",
+    "database",
+)
+
+
+def _demo(tmp_path: Path, *extra: str) -> tuple[dict, str, Path]:
+    db = tmp_path / "demo.sqlite"
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "cnctwin",
+            "demo",
+            "--json",
+            "--db",
+            str(db),
+            "--speed",
+            "4",
+            *extra,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=REPO,
+    )
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.strip().splitlines()
+    assert len(lines) == 1  # one JSON object, nothing else on stdout
+    return json.loads(lines[0]), result.stderr, db
+
+
+def test_demo_adapts_the_feed_then_stops_on_the_hole(tmp_path: Path) -> None:
+    report, err, db = _demo(tmp_path)
+    assert list(report)[: len(KEYS)] == list(KEYS)
+    assert f"history: {db}" in err  # the history path is printed at the start
+    assert report["ended"] == "stopped"
+    assert report["stop_reaction_ms"] is not None and report["stop_reaction_ms"] > 0
+    assert report["feed_override_min"] < 90.0
+    assert report["database"] == str(db)
+    with sqlite3.connect(db) as conn:
+        (frames,) = conn.execute("SELECT COUNT(*) FROM hist_frames WHERE kind = 0").fetchone()
+        decisions = conn.execute(
+            "SELECT rule, action, accepted FROM hist_decisions ORDER BY seq"
+        ).fetchall()
+        status, summary = conn.execute("SELECT status, summary FROM hist_runs").fetchone()
+    assert frames == report["samples_recorded"] == report["cycles"]
+    assert ("force_out_of_band", "stop", 1) == decisions[-1]
+    assert any(r == "form_error" and a == "feed_override_pct" and ok for r, a, ok in decisions)
+    assert status == "stopped"
+    assert json.loads(summary)["stop_reaction_ms"] == report["stop_reaction_ms"]
+
+
+def test_demo_over_modbus(tmp_path: Path) -> None:
+    report, _, _ = _demo(tmp_path, "--transport", "modbus")
+    assert report["transport"] == "modbus"
+    assert report["ended"] == "stopped"
+    assert report["feed_override_min"] < 90.0
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--speed", "-1"], "--speed -1"),
+        (["--duration", "0"], "--duration 0"),
+        (["--transport", "ads"], "--transport 'ads'"),
+    ],
+)
+def test_demo_bad_input_is_one_line_and_exit_2(capsys, argv: list[str], message: str) -> None:
+    code = run(["demo", *argv])
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert err.count("\n") == 1 and message in err
