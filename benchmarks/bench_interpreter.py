@@ -90,8 +90,10 @@ def main() -> None:
         return
     large = args.lines or (20_000 if args.quick else 1_000_000)
     small = max(large // 10, 1000)
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"Python {platform.python_version()}")
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"Python {platform.python_version()}"
+    )
     print("| program | lines | segments | lines/s | peak RSS (MiB) |")
     print("|---|---:|---:|---:|---:|")
     with tempfile.TemporaryDirectory() as tmp:
@@ -99,8 +101,10 @@ def main() -> None:
             path = Path(tmp) / f"generated_{n}.ngc"
             write_program(path, n)
             lines, segments, seconds, peak = measure(path)
-            print(f"| generated CAM-style | {lines} | {segments} | {lines / seconds:,.0f} | "
-                  f"{peak:.1f} |")
+            print(
+                f"| generated CAM-style | {lines} | {segments} | {lines / seconds:,.0f} | "
+                f"{peak:.1f} |"
+            )
     data = Path(os.environ.get("CNCTWIN_DATA") or REPO.parent / "shared" / "data")
     chips = data / "gcode" / "linuxcnc" / "3D_Chips.ngc"
     if chips.exists():

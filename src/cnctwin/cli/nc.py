@@ -145,7 +145,7 @@ def inspect(
         warn.print(f"warning: {warning}", style="yellow", markup=False, highlight=False)
 
 
-class Frame(str, Enum):
+class Frame(str, Enum):  # noqa: UP042 (str() of a StrEnum differs; kept as typer sees it)
     """Coordinates of a trace."""
 
     program = "program"

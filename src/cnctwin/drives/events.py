@@ -27,7 +27,9 @@ __all__ = [
 ]
 
 CONTACT_VOLUME_THRESHOLD_M3 = 1e-18
-"""Collision volume above which tool and workpiece are in contact: 1 um^3 (Christiand 2024, Eq. 18)."""
+"""Collision volume above which tool and workpiece are in contact: 1 um^3.
+
+Christiand 2024, Eq. 18."""
 
 Interval = tuple[float, float]
 

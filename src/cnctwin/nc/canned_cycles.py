@@ -109,9 +109,7 @@ def expand_cycle(
         moves.append(CycleMove(kind, (target[0], target[1], target[2]), 0.0, direction))
 
     def dwell(seconds: float, direction: int | None = None) -> None:
-        moves.append(
-            CycleMove(MotionKind.DWELL, (here[0], here[1], here[2]), seconds, direction)
-        )
+        moves.append(CycleMove(MotionKind.DWELL, (here[0], here[1], here[2]), seconds, direction))
 
     # Position over the hole at the current level, then down to R.
     over = list(hole_mm)

@@ -215,9 +215,7 @@ class CutterCompensator:
                 f"cutter radius compensation side must be LEFT (G41) or RIGHT (G42); got {side!r}"
             )
         if not math.isfinite(radius_mm):
-            raise NCError(
-                f"cutter radius compensation radius must be finite; got {radius_mm!r} mm"
-            )
+            raise NCError(f"cutter radius compensation radius must be finite; got {radius_mm!r} mm")
         if orientation not in LATHE_TIP_SHIFT:
             raise NCError(f"lathe tool orientation must be 0 to 9; got {orientation!r}")
         sign = 1 if side == CutterComp.LEFT else -1
@@ -273,9 +271,7 @@ class CutterCompensator:
             )
         planar = (
             seg.kind == MotionKind.ARC
-            or math.hypot(
-                seg.end_mm[i0] - seg.start_mm[i0], seg.end_mm[i1] - seg.start_mm[i1]
-            )
+            or math.hypot(seg.end_mm[i0] - seg.start_mm[i0], seg.end_mm[i1] - seg.start_mm[i1])
             > _NO_MOTION_MM
         )
         if not planar:
@@ -365,15 +361,11 @@ class CutterCompensator:
         u_start, u_end = _sub(start, c), _sub(end, c)
         r_start, r_end = _norm(u_start), _norm(u_end)
         if r_start == 0.0 or r_end == 0.0:
-            raise self._error(
-                seg, "arc of zero radius under cutter radius compensation"
-            )
+            raise self._error(seg, "arc of zero radius under cutter radius compensation")
         rho_start = self._offset_radius(seg, r_start, sense, "start")
         rho_end = self._offset_radius(seg, r_end, sense, "end")
         u_start, u_end = _scale(u_start, 1.0 / r_start), _scale(u_end, 1.0 / r_end)
-        sweep = arc_sweep_rad(
-            seg.start_mm, seg.end_mm, seg.center_mm, seg.turns, self._plane
-        )[2]
+        sweep = arc_sweep_rad(seg.start_mm, seg.end_mm, seg.center_mm, seg.turns, self._plane)[2]
         return _Path(
             start,
             end,
@@ -396,9 +388,7 @@ class CutterCompensator:
         its end; an arc entry is offset like the programmed arc (its centre is replaced
         when it is emitted, see :meth:`_entry_centre`).
         """
-        here = self._p2(
-            self._to_tip(self._pos)
-        )  # the actual point, in program geometry
+        here = self._p2(self._to_tip(self._pos))  # the actual point, in program geometry
         if seg.kind == MotionKind.ARC:
             path = self._path(seg, self._p2(seg.start_mm))
         elif _norm(_sub(self._p2(seg.end_mm), here)) <= _NO_MOTION_MM:
@@ -496,9 +486,7 @@ class CutterCompensator:
         else:
             if _dot(_sub(held.end, self._p2(start)), _direction(path)) < 0.0:
                 raise self._gouge(seg)
-            emitted = replace(
-                seg, start_mm=self._to_tip(start), end_mm=self._to_tip(end)
-            )
+            emitted = replace(seg, start_mm=self._to_tip(start), end_mm=self._to_tip(end))
         out = [emitted]
         self._pos = end
         out.extend(self._emit_through(wait) for wait in self._waiting)
@@ -514,9 +502,7 @@ class CutterCompensator:
         self._pos = end
         return replace(seg, start_mm=self._to_tip(start), end_mm=self._to_tip(end))
 
-    def _corner_arc(
-        self, following: Segment, corner: _Vec2, start: _Vec2, end: _Vec2
-    ) -> Segment:
+    def _corner_arc(self, following: Segment, corner: _Vec2, start: _Vec2, end: _Vec2) -> Segment:
         """The arc of radius r about a convex corner, with the following move's attributes."""
         h = self._pos[self._axes[2]]
         return replace(
@@ -559,12 +545,9 @@ class CutterCompensator:
         """Raise if trimming an arc at concave corners used it up (gouging)."""
         path = held.path
         lost_start = _wrap(
-            _angle(_sub(self._p2(held.start), centre))
-            - _angle(_sub(path.start, centre))
+            _angle(_sub(self._p2(held.start), centre)) - _angle(_sub(path.start, centre))
         )
-        lost_end = _wrap(
-            _angle(_sub(path.end, centre)) - _angle(_sub(held.end, centre))
-        )
+        lost_end = _wrap(_angle(_sub(path.end, centre)) - _angle(_sub(held.end, centre)))
         if path.sense * (lost_start + lost_end) >= abs(path.sweep):
             raise self._gouge(held.seg)
 

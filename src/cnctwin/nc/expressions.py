@@ -80,18 +80,56 @@ _POW, _MUL, _DIV, _MOD, _ADD, _SUB = range(6)
 _EQ, _NE, _GT, _GE, _LT, _LE, _AND, _OR, _XOR = range(6, 15)
 _CLOSE = 15
 _PRECEDENCE = (5, 4, 4, 4, 3, 3, 2, 2, 2, 2, 2, 2, 1, 1, 1, 0)
-_SPELLING = ("**", "*", "/", "mod", "+", "-", "eq", "ne", "gt", "ge", "lt", "le",
-             "and", "or", "xor", "]")
+_SPELLING = (
+    "**",
+    "*",
+    "/",
+    "mod",
+    "+",
+    "-",
+    "eq",
+    "ne",
+    "gt",
+    "ge",
+    "lt",
+    "le",
+    "and",
+    "or",
+    "xor",
+    "]",
+)
 _SYMBOL_OPERATORS = {"*": _MUL, "/": _DIV, "+": _ADD, "-": _SUB}
 _WORD_OPERATORS = {
-    "eq": _EQ, "ne": _NE, "gt": _GT, "ge": _GE, "lt": _LT, "le": _LE, "or": _OR,
-    "mod": _MOD, "and": _AND, "xor": _XOR,
+    "eq": _EQ,
+    "ne": _NE,
+    "gt": _GT,
+    "ge": _GE,
+    "lt": _LT,
+    "le": _LE,
+    "or": _OR,
+    "mod": _MOD,
+    "and": _AND,
+    "xor": _XOR,
 }
 _OPERATOR_LIST = "**, *, /, mod, +, -, eq, ne, gt, ge, lt, le, and, or, xor"
 
 _FUNCTIONS = frozenset(
-    ("abs", "acos", "asin", "atan", "cos", "exp", "exists", "fix", "fup", "ln",
-     "round", "sin", "sqrt", "tan")
+    (
+        "abs",
+        "acos",
+        "asin",
+        "atan",
+        "cos",
+        "exp",
+        "exists",
+        "fix",
+        "fup",
+        "ln",
+        "round",
+        "sin",
+        "sqrt",
+        "tan",
+    )
 )
 _FUNCTION_LIST = ", ".join(sorted(_FUNCTIONS))
 _SIGNS = "+-"
@@ -123,9 +161,7 @@ def _index(value: float, column: int | None) -> int:
             column=column,
         )
     if not 1 <= index <= MAX_PARAMETER:
-        raise NCError(
-            f"parameter number #{index} is out of range; {_range_text()}", column=column
-        )
+        raise NCError(f"parameter number #{index} is out of range; {_range_text()}", column=column)
     return index
 
 
@@ -312,9 +348,7 @@ def read_value(text: str, pos: int, params: Parameters) -> tuple[float, int]:
     return _value(text, pos, n, params, 0)
 
 
-def read_assignment(
-    text: str, pos: int, params: Parameters
-) -> tuple[int | str, float, int]:
+def read_assignment(text: str, pos: int, params: Parameters) -> tuple[int | str, float, int]:
     """Read a parameter setting ``#key=value`` starting at ``text[pos]``.
 
     Nothing is stored: RS274NGC applies all settings of a line after the whole line
@@ -389,14 +423,11 @@ def _value(text: str, pos: int, n: int, params: Parameters, depth: int) -> tuple
     """Read a real value at ``pos`` (see :func:`read_value`)."""
     if pos >= n:
         raise NCError(
-            "expected a value (number, #parameter, [expression] or function) "
-            "but the line ends",
+            "expected a value (number, #parameter, [expression] or function) but the line ends",
             column=pos + 1,
         )
     if depth > MAX_NESTING:
-        raise NCError(
-            f"expression nested deeper than {MAX_NESTING} levels", column=pos + 1
-        )
+        raise NCError(f"expression nested deeper than {MAX_NESTING} levels", column=pos + 1)
     c = text[pos]
     if c == "[":
         return _expression(text, pos, n, params, depth)
@@ -429,9 +460,7 @@ def _value(text: str, pos: int, n: int, params: Parameters, depth: int) -> tuple
 def _operator(text: str, pos: int, n: int, open_pos: int) -> tuple[int, int]:
     """Read the binary operator or ']' at ``pos``; return its code and its end."""
     if pos >= n:
-        raise NCError(
-            f"missing ']' to close the '[' at column {open_pos + 1}", column=pos + 1
-        )
+        raise NCError(f"missing ']' to close the '[' at column {open_pos + 1}", column=pos + 1)
     c = text[pos]
     if c == "]":
         return _CLOSE, pos + 1
@@ -453,9 +482,7 @@ def _operator(text: str, pos: int, n: int, open_pos: int) -> tuple[int, int]:
     )
 
 
-def _expression(
-    text: str, pos: int, n: int, params: Parameters, depth: int
-) -> tuple[float, int]:
+def _expression(text: str, pos: int, n: int, params: Parameters, depth: int) -> tuple[float, int]:
     """Evaluate the bracketed expression whose '[' is at ``pos``.
 
     Operator precedence is resolved with an operand stack and an operator stack, so
@@ -508,8 +535,7 @@ def _apply(op: int, a: float, b: float, pos: int) -> float:
     elif op == _POW:
         if a < 0.0 and b != math.floor(b):
             raise NCError(
-                f"{_fmt(a)} ** {_fmt(b)}: a negative number can only be raised to an "
-                "integer power",
+                f"{_fmt(a)} ** {_fmt(b)}: a negative number can only be raised to an integer power",
                 column=pos + 1,
             )
         if a == 0.0 and b < 0.0:
@@ -541,16 +567,13 @@ def _apply(op: int, a: float, b: float, pos: int) -> float:
         return 1.0 if (a != 0.0) != (b != 0.0) else 0.0
     if not _isfinite(result):
         raise NCError(
-            f"{_fmt(a)} {_SPELLING[op]} {_fmt(b)} overflows: the result is not a finite "
-            "number",
+            f"{_fmt(a)} {_SPELLING[op]} {_fmt(b)} overflows: the result is not a finite number",
             column=pos + 1,
         )
     return result
 
 
-def _function(
-    text: str, pos: int, n: int, params: Parameters, depth: int
-) -> tuple[float, int]:
+def _function(text: str, pos: int, n: int, params: Parameters, depth: int) -> tuple[float, int]:
     """Evaluate the function call whose name starts at ``pos``."""
     bracket = pos
     while bracket < n and "a" <= text[bracket] <= "z":
@@ -605,9 +628,7 @@ def _function(
         return (math.asin(x) if name == "asin" else math.acos(x)) * _RAD, end
     if name == "ln":
         if x <= 0.0:
-            raise NCError(
-                f"ln[{_fmt(x)}]: the argument of ln must be positive", column=column
-            )
+            raise NCError(f"ln[{_fmt(x)}]: the argument of ln must be positive", column=column)
         return math.log(x), end
     if name == "exp":
         try:
@@ -626,15 +647,11 @@ def _function(
     return float(magnitude if x >= 0.0 else -magnitude), end
 
 
-def _exists(
-    text: str, bracket: int, n: int, params: Parameters, depth: int
-) -> tuple[float, int]:
+def _exists(text: str, bracket: int, n: int, params: Parameters, depth: int) -> tuple[float, int]:
     """Evaluate ``exists[#<name>]`` or ``exists[#n]`` whose '[' is at ``bracket``."""
     hash_pos = bracket + 1
     if hash_pos >= n or text[hash_pos] != "#":
-        raise NCError(
-            "exists takes a parameter, e.g. exists[#<depth>]", column=hash_pos + 1
-        )
+        raise NCError("exists takes a parameter, e.g. exists[#<depth>]", column=hash_pos + 1)
     if hash_pos + 1 < n and text[hash_pos + 1] == "<":
         name, end = _name(text, hash_pos, n)
         found = name in (params._globals if name[0] == "_" else params._locals)

@@ -456,9 +456,7 @@ class Interpreter(OWordControl):
                 feed = state.programmed_feed * f
             else:
                 self._require_feed({"f": state.programmed_feed} if has_f else {})
-                feed = self._feed_mm_min(
-                    math.sqrt((x - x0) ** 2 + (y - y0) ** 2 + (z - z0) ** 2)
-                )
+                feed = self._feed_mm_min(math.sqrt((x - x0) ** 2 + (y - y0) ** 2 + (z - z0) ** 2))
         else:
             kind = MotionKind.RAPID
             feed = 0.0
@@ -931,9 +929,7 @@ class Interpreter(OWordControl):
             if inc not in words:
                 continue
             if axis in words:
-                raise self._error(
-                    f"{axis.upper()} and {inc.upper()} in one block: use one of them"
-                )
+                raise self._error(f"{axis.upper()} and {inc.upper()} in one block: use one of them")
             if self._incremental:
                 out[axis] = words[inc]
             else:
@@ -989,9 +985,7 @@ class Interpreter(OWordControl):
             if state.programmed_feed <= 0.0:
                 raise self._error("G93 inverse time F0 would take forever: F must be > 0")
         elif state.programmed_feed <= 0.0:
-            raise self._error(
-                "feed move with feed rate 0: program F (e.g. F100) before G1/G2/G3"
-            )
+            raise self._error("feed move with feed rate 0: program F (e.g. F100) before G1/G2/G3")
         elif mode == FeedMode.UNITS_PER_REV and (
             state.spindle_direction == 0 or state.programmed_speed <= 0.0
         ):
@@ -1163,7 +1157,11 @@ class Interpreter(OWordControl):
                 raise self._error("arc of zero radius: the centre equals the start point")
         center_t = (center[0], center[1], center[2])
         radius, _, sweep = arc_sweep_rad(
-            (start[0], start[1], start[2]), (target[0], target[1], target[2]), center_t, turns, plane
+            (start[0], start[1], start[2]),
+            (target[0], target[1], target[2]),
+            center_t,
+            turns,
+            plane,
         )
         length = math.hypot(radius * sweep, target[normal] - start[normal])
         seg = self._make(MotionKind.ARC, start, target, length, center_t, turns, abc_end=abc)
@@ -1243,8 +1241,18 @@ class Interpreter(OWordControl):
             reverse = replace(state, spindle_direction=-state.spindle_direction)
             for a, b, st in ((start, target, state), (target, start, reverse)):
                 self._emit(
-                    Segment(MotionKind.LINEAR, self._line, a, b, feed, rpm, st,
-                            start_abc_deg=abc, end_abc_deg=abc, file=self._file)
+                    Segment(
+                        MotionKind.LINEAR,
+                        self._line,
+                        a,
+                        b,
+                        feed,
+                        rpm,
+                        st,
+                        start_abc_deg=abc,
+                        end_abc_deg=abc,
+                        file=self._file,
+                    )
                 )
 
     def _dwell(self, words: dict[str, float]) -> None:
@@ -1258,8 +1266,21 @@ class Interpreter(OWordControl):
         state = self._state
         rpm = self._spindle_rpm() if state.spindle_direction else 0.0
         self._emit(
-            Segment(MotionKind.DWELL, self._line, pos, pos, 0.0, rpm, state, None, 0,
-                    seconds, abc, abc, self._file)
+            Segment(
+                MotionKind.DWELL,
+                self._line,
+                pos,
+                pos,
+                0.0,
+                rpm,
+                state,
+                None,
+                0,
+                seconds,
+                abc,
+                abc,
+                self._file,
+            )
         )
 
     def _go_home(self, code: int, words: dict[str, float]) -> None:
@@ -1446,9 +1467,7 @@ class Interpreter(OWordControl):
                 f"canned cycle G{code} cannot run in G93 inverse time mode: use G94 or G95"
             )
         if self._state.programmed_feed <= 0.0:
-            raise self._error(
-                f"canned cycle G{code} with feed rate 0: program F (e.g. F100) first"
-            )
+            raise self._error(f"canned cycle G{code} with feed rate 0: program F (e.g. F100) first")
         i0, i1, n = PLANE_AXES[plane]
         letter_n = _AXES[n]
         f = self._factor
@@ -1473,9 +1492,7 @@ class Interpreter(OWordControl):
         elif self._cycle_bottom is not None:
             bottom_word = self._cycle_bottom
         else:
-            raise self._error(
-                f"canned cycle G{code} needs a {letter_n.upper()} word (hole bottom)"
-            )
+            raise self._error(f"canned cycle G{code} needs a {letter_n.upper()} word (hole bottom)")
         self._cycle_r = r_word
         self._cycle_bottom = bottom_word
         if code in (73, 83):
@@ -1523,9 +1540,21 @@ class Interpreter(OWordControl):
                     pos = (self._pos[0], self._pos[1], self._pos[2])
                     abc = (self._abc[0], self._abc[1], self._abc[2])
                     self._out.append(
-                        Segment(MotionKind.DWELL, self._line, pos, pos, 0.0,
-                                self._state.programmed_speed, self._state, None, 0,
-                                move.dwell_s, abc, abc, self._file)
+                        Segment(
+                            MotionKind.DWELL,
+                            self._line,
+                            pos,
+                            pos,
+                            0.0,
+                            self._state.programmed_speed,
+                            self._state,
+                            None,
+                            0,
+                            move.dwell_s,
+                            abc,
+                            abc,
+                            self._file,
+                        )
                     )
                 else:
                     self._straight(move.kind, list(move.position_mm))
@@ -1543,6 +1572,8 @@ def interpret_file(path: str | Path, setup: NCSetup | None = None) -> Iterator[S
     return Interpreter(setup).run_file(path)
 
 
-def interpret_text(text: str, setup: NCSetup | None = None, name: str = "<string>") -> Iterator[Segment]:
+def interpret_text(
+    text: str, setup: NCSetup | None = None, name: str = "<string>"
+) -> Iterator[Segment]:
     """Interpret NC program text lazily; see :class:`Interpreter`."""
     return Interpreter(setup).run_text(text, name)

@@ -42,7 +42,9 @@ O_KEYWORDS = (
     "continue",
     "return",
 )
-_O_WORD = re.compile(r"^o(\d+|<[^>]*>)(" + "|".join(sorted(O_KEYWORDS, key=len, reverse=True)) + ")")
+_O_WORD = re.compile(
+    r"^o(\d+|<[^>]*>)(" + "|".join(sorted(O_KEYWORDS, key=len, reverse=True)) + ")"
+)
 
 
 @dataclass(slots=True)
@@ -142,9 +144,7 @@ def strip_comments(raw: str, messages: list[tuple[str, str]] | None = None) -> s
             )
         body = raw[open_at + 1 : close]
         if "(" in body:
-            raise NCError(
-                "nested comment: '(' inside a comment is not allowed", column=open_at + 1
-            )
+            raise NCError("nested comment: '(' inside a comment is not allowed", column=open_at + 1)
         if messages is not None:
             found = _MESSAGE.match(body)
             if found:
@@ -218,9 +218,7 @@ def _sort_words(block: Block, pairs: list[tuple[str, float]]) -> None:
             words[letter] = value
 
 
-def _lex_general(
-    text: str, params: Parameters, messages: list[tuple[str, str]]
-) -> Block:
+def _lex_general(text: str, params: Parameters, messages: list[tuple[str, str]]) -> Block:
     """Slow path: parameters, expressions, O-words."""
     block = Block(messages=messages)
     if text[0] == "o":
@@ -263,7 +261,9 @@ def _gcode_key(value: float) -> int:
         return 0
     key = round(value * 10.0)
     if abs(key - value * 10.0) > 1e-6 or key < 0:
-        raise NCError(f"G{_fmt(value)} is not a G-code: G numbers are 0-999 with at most one decimal")
+        raise NCError(
+            f"G{_fmt(value)} is not a G-code: G numbers are 0-999 with at most one decimal"
+        )
     return key
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+
 from cnctwin.nc.segments import Vec3
 
 __all__ = ["NCSetup", "ToolEntry"]
