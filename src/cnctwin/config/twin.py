@@ -10,7 +10,7 @@ from typing import Literal
 from pydantic import Field, ValidationInfo, field_validator
 from pydantic_core import PydanticCustomError
 
-from cnctwin.config.base import Section
+from cnctwin.config.base import Section, resolve_file
 from cnctwin.config.machine import MachineConfig
 from cnctwin.config.material import MaterialConfig
 from cnctwin.config.simulation import SimulationConfig
@@ -71,17 +71,7 @@ class TwinConfig(Section):
     @field_validator("tool_table")
     @classmethod
     def _resolve_table(cls, value: Path | None, info: ValidationInfo) -> Path | None:
-        if value is None:
-            return None
-        base = (info.context or {}).get("base_dir", Path.cwd())
-        path = (Path(base) / value).resolve()
-        if not path.is_file():
-            raise PydanticCustomError(
-                "missing_file",
-                "no such file {path} (a relative path is relative to the configuration file)",
-                {"path": str(path)},
-            )
-        return path
+        return resolve_file(value, info)
 
     def nc_setup(self) -> NCSetup:
         """The interpreter's set-up: tools, lathe flag, work offsets, reference points, spindle.

@@ -6,9 +6,8 @@ from pathlib import Path
 from typing import Literal
 
 from pydantic import Field, ValidationInfo, field_validator
-from pydantic_core import PydanticCustomError
 
-from cnctwin.config.base import Section
+from cnctwin.config.base import Section, resolve_file
 
 __all__ = [
     "FilterConfig",
@@ -178,14 +177,4 @@ class TwinSection(Section):
     @field_validator("program")
     @classmethod
     def _relative_to_file(cls, value: Path | None, info: ValidationInfo) -> Path | None:
-        if value is None:
-            return None
-        base = (info.context or {}).get("base_dir", Path.cwd())
-        path = (Path(base) / value).resolve()
-        if not path.is_file():
-            raise PydanticCustomError(
-                "missing_file",
-                "no such file {path} (a relative path is relative to the configuration file)",
-                {"path": str(path)},
-            )
-        return path
+        return resolve_file(value, info)

@@ -13,7 +13,7 @@ from typing import Annotated, Literal
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from cnctwin.config.base import Section, Vec3Mm
+from cnctwin.config.base import Section, Vec3Mm, resolve_file
 
 __all__ = [
     "AxisDriveConfig",
@@ -25,21 +25,6 @@ __all__ = [
     "VirtualMachineConfig",
     "WearFault",
 ]
-
-
-def _resolve(value: Path | None, info: ValidationInfo) -> Path | None:
-    """A path relative to the configuration file (``base_dir`` of the validation context)."""
-    if value is None:
-        return None
-    base = (info.context or {}).get("base_dir", Path.cwd())
-    path = (Path(base) / value).resolve()
-    if not path.is_file():
-        raise PydanticCustomError(
-            "missing_file",
-            "no such file {path} (a relative path is relative to the configuration file)",
-            {"path": str(path)},
-        )
-    return path
 
 
 class NoiseConfig(Section):
@@ -262,7 +247,7 @@ class VirtualMachineConfig(Section):
     @field_validator("program", "physics_config")
     @classmethod
     def _relative_to_file(cls, value: Path | None, info: ValidationInfo) -> Path | None:
-        return _resolve(value, info)
+        return resolve_file(value, info)
 
     @property
     def tick_s(self) -> float:
