@@ -15,11 +15,11 @@ import asyncio
 import json
 import math
 import sys
-import tempfile
 from importlib.resources import as_file, files
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Literal
 
+import platformdirs
 import typer
 from rich.console import Console
 
@@ -91,7 +91,9 @@ def demo(
         config = load_run_config(folder / DEMO_CONFIG)
         with Historian.open(db) as historian:
             note(f"history: {historian.location}")
-            log = Path(tempfile.gettempdir()) / "cnctwin-demo-machine.log"
+            # the machine's log, per user (a shared /tmp file could belong to another user)
+            log = Path(platformdirs.user_log_dir("cnctwin")) / "demo-machine.log"
+            log.parent.mkdir(parents=True, exist_ok=True)
             log.write_text("")
             machine = MachineProcess(config, protocol, speed, log=log)
             try:
