@@ -137,6 +137,9 @@ def test_attached_mid_program_the_twin_monitors_nothing_until_the_program_restar
     reset = next(i for i, s in enumerate(seen) if "blank_reset" in s[2])
     before, after = seen[:reset], seen[reset:]
     assert not any(p.get("force_band_armed") for _, p, _ in before)
+    # nor a form error from material the machine already removed (no feed cut for it)
+    assert not any(p.get("form_error_um") for _, p, _ in before)
     assert sum(1 for _, p, _ in after if p.get("force_band_armed")) > 300
+    assert any(p.get("form_error_um", 0.0) > 0.0 for _, p, _ in after)
     assert not any(p.get("force_out_of_band") for _, p, _ in seen)
     assert summary.ended == "finished"

@@ -33,6 +33,7 @@ from cnctwin.cli import (
     stability,
     study,
     vibration,
+    virtual,
     wear,
     wear_ekf,
     wear_registry,
@@ -72,6 +73,7 @@ app.add_typer(chatter.app, name="chatter")
 app.add_typer(vibration.app, name="vibration")
 app.add_typer(modal.app, name="modal")
 app.add_typer(runs.app, name="runs")
+app.add_typer(virtual.app, name="virtual")
 app.command("demo")(demo.demo)
 app.command("run")(run_cli.run)
 app.command("forces")(forces.forces)

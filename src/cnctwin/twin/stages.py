@@ -547,6 +547,8 @@ class FormErrorStage:
 
     The predicted force normal to the feed direction in the XY plane (the wall's normal in
     side milling) over the tool's bending stiffness at the tip gives the wall's deviation.
+    Like the force band, it is off (0) while the twin's blank is not synchronized with the
+    machine's: the predicted force would come from material the machine already removed.
 
     Parameters
     ----------
@@ -562,6 +564,7 @@ class FormErrorStage:
         from cnctwin.quality.form_error import end_mill_stiffness
 
         self.tolerance_um = config.tolerance_um
+        self.twin = process
         self.stiffness_n_m: dict[int, float] = {}
         for number, cutter in process.cutters.items():
             if config.stiffness_n_um is not None:
@@ -582,7 +585,7 @@ class FormErrorStage:
 
         p = state.predicted
         k = self.stiffness_n_m.get(state.tool)
-        if k is None or not state.connected:
+        if k is None or not state.connected or not self.twin.synchronized:
             p.update(deflection_um=0.0, form_error_um=0.0, form_error_out=0.0)
         else:
             normal = abs(p.get("predicted_force_normal_n", 0.0))
