@@ -10,7 +10,6 @@ from __future__ import annotations
 import asyncio
 import datetime as dt
 import math
-import threading
 from collections.abc import Awaitable, Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -21,6 +20,7 @@ from cryptography import x509
 from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import rsa
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
+from opcua_fixtures import TIMEOUT_S, FakeMachine, Shared
 
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.thread.config import ConnectionConfig, OpcUaSecurityConfig
@@ -43,33 +43,6 @@ from cnctwin.virtual.opcua_server import (
     OpcUaServerSecurity,
 )
 
-TIMEOUT_S = 20.0
-
-
-class FakeMachine:
-    """A machine source with a distinct, in-range value for every signal."""
-
-    def __init__(self) -> None:
-        self.reset()
-
-    def reset(self) -> None:
-        self.values: dict[str, float] = {}
-        for i, (name, spec) in enumerate(SIGNALS.items()):
-            if spec.kind == "bool":
-                self.values[name] = 0.0
-            elif spec.high is not None:
-                self.values[name] = float(spec.high if spec.low is None else spec.low + 1.0)
-            else:
-                self.values[name] = 10.0 * i + (0.25 if spec.kind == "float" else 0.0)
-        self.commands: list[tuple[str, float]] = []
-
-    def snapshot(self) -> dict[str, float]:
-        return dict(self.values)
-
-    def command(self, name: str, value: float) -> None:
-        self.commands.append((name, value))
-        self.values[name] = value
-
 
 def run(coro: Callable[[], Awaitable[None]]) -> None:
     async def main() -> None:
@@ -78,56 +51,9 @@ def run(coro: Callable[[], Awaitable[None]]) -> None:
     asyncio.run(main())
 
 
-class Shared:
-    """One server for the tests that need no server of their own, on its own event loop in a
-    thread (asyncua's server takes about a second to start); reset before each test."""
-
-    def __init__(self) -> None:
-        self.machine = FakeMachine()
-        self.loop = asyncio.new_event_loop()
-        self.server = OpcUaMachineServer(self.machine)
-        self.endpoint = self.server.endpoint
-        self._stop = asyncio.Event()
-        started = threading.Event()
-
-        async def serve() -> None:
-            async with self.server:
-                started.set()
-                await self._stop.wait()
-
-        self.thread = threading.Thread(
-            target=self.loop.run_until_complete, args=(serve(),), daemon=True
-        )
-        self.thread.start()
-        assert started.wait(TIMEOUT_S)
-
-    def publish(self) -> None:
-        """Publish the machine's snapshot from the server's own loop and wait for it."""
-
-        async def publish() -> None:
-            self.server.publish()
-
-        asyncio.run_coroutine_threadsafe(publish(), self.loop).result(TIMEOUT_S)
-
-    def run(self, body: Callable[[Shared, FakeMachine], Awaitable[None]]) -> None:
-        """Reset the machine, then run ``body`` in this thread's own loop, with a timeout."""
-        self.machine.reset()
-        self.publish()
-
-        async def main() -> None:
-            await asyncio.wait_for(body(self, self.machine), TIMEOUT_S)
-
-        asyncio.run(main())
-
-    def close(self) -> None:
-        self.loop.call_soon_threadsafe(self._stop.set)
-        self.thread.join(TIMEOUT_S)
-        self.loop.close()
-
-
 @pytest.fixture(scope="module")
 def shared() -> Iterator[Shared]:
-    server = Shared()
+    server = Shared(FakeMachine())
     yield server
     server.close()
 

@@ -1,0 +1,104 @@
+"""A fake machine and one shared OPC UA server for the OPC UA tests of both sides.
+
+asyncua's server takes about a second to build its standard address space, so a test module
+shares one, on its own event loop in a thread; each test starts from a fresh FakeMachine state,
+published before it runs.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from collections.abc import Awaitable, Callable
+
+from cnctwin.errors import ConfigError
+from cnctwin.thread.signals import SIGNALS
+from cnctwin.virtual.opcua_server import OpcUaMachineServer
+
+TIMEOUT_S = 20.0
+
+
+class FakeMachine:
+    """Stands in for the VirtualMachine: a distinct, in-range value for every signal.
+
+    Parameters
+    ----------
+    quantised
+        Act like a control: round an override to whole percent (a read-back equal to the
+        rounded value, not the written one, proves a node shows the machine's state) and keep
+        a stop latched.
+    """
+
+    def __init__(self, quantised: bool = False) -> None:
+        self.quantised = quantised
+        self.reset()
+
+    def reset(self) -> None:
+        self.values: dict[str, float] = {}
+        for i, (name, spec) in enumerate(SIGNALS.items()):
+            if spec.kind == "bool":
+                self.values[name] = 0.0
+            elif spec.high is not None:
+                self.values[name] = float(spec.high if spec.low is None else spec.low + 1.0)
+            else:
+                self.values[name] = 10.0 * i + (0.25 if spec.kind == "float" else 0.0)
+        self.commands: list[tuple[str, float]] = []
+
+    def snapshot(self) -> dict[str, float]:
+        return dict(self.values)
+
+    def command(self, name: str, value: float) -> None:
+        if not self.quantised:
+            self.commands.append((name, value))
+            self.values[name] = value
+            return
+        if name == "stop" and value == 0.0 and self.values["stop"] == 1.0:
+            raise ConfigError("stop is latched; valid: reset the program")
+        self.commands.append((name, value))
+        self.values[name] = float(round(value)) if name.endswith("_pct") else value
+
+
+class Shared:
+    """One server for a module, on its own event loop in a thread; reset before each test."""
+
+    def __init__(self, machine: FakeMachine) -> None:
+        self.machine = machine
+        self.loop = asyncio.new_event_loop()
+        self.server = OpcUaMachineServer(self.machine)
+        self.endpoint = self.server.endpoint
+        self._stop = asyncio.Event()
+        started = threading.Event()
+
+        async def serve() -> None:
+            async with self.server:
+                started.set()
+                await self._stop.wait()
+
+        self.thread = threading.Thread(
+            target=self.loop.run_until_complete, args=(serve(),), daemon=True
+        )
+        self.thread.start()
+        assert started.wait(TIMEOUT_S)
+
+    def publish(self) -> None:
+        """Publish the machine's snapshot from the server's own loop and wait for it."""
+
+        async def publish() -> None:
+            self.server.publish()
+
+        asyncio.run_coroutine_threadsafe(publish(), self.loop).result(TIMEOUT_S)
+
+    def run(self, body: Callable[[Shared, FakeMachine], Awaitable[None]]) -> None:
+        """Reset the machine, then run ``body`` in this thread's own loop, with a timeout."""
+        self.machine.reset()
+        self.publish()
+
+        async def main() -> None:
+            await asyncio.wait_for(body(self, self.machine), TIMEOUT_S)
+
+        asyncio.run(main())
+
+    def close(self) -> None:
+        self.loop.call_soon_threadsafe(self._stop.set)
+        self.thread.join(TIMEOUT_S)
+        self.loop.close()
