@@ -20,6 +20,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from cnctwin.cli.simulate import resolution
 from cnctwin.config import TwinConfig, load_config
 from cnctwin.errors import ConfigError, NCError
 
@@ -250,17 +251,12 @@ def signals(
     [machine.spindle] drive preset; material from the materials library.
     """
     settings = load_config(config)
-    rho = density if density is not None else settings.simulation.density_per_mm
-    cycle = cycle_ms if cycle_ms is not None else settings.simulation.cycle_ms
-    if not (0 < rho <= 100):
-        raise ConfigError(f"--density {rho}: give 0 < density <= 100 dexels per mm")
-    if not (0 < cycle <= 1000):
-        raise ConfigError(f"--cycle-ms {cycle}: give 0 < cycle <= 1000 ms")
+    rho, cycle_s = resolution(settings, density, cycle_ms)
     report = signals_report(
         program,
         settings,
         density_per_mm=rho,
-        cycle_s=cycle / 1e3,
+        cycle_s=cycle_s,
         out=out,
         plot=plot,
         progress=not as_json and sys.stderr.isatty(),

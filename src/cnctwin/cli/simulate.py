@@ -19,7 +19,21 @@ from rich.table import Table
 from cnctwin.config import TwinConfig, load_config
 from cnctwin.errors import ConfigError, NCError
 
-__all__ = ["simulate", "simulate_report"]
+__all__ = ["resolution", "simulate", "simulate_report"]
+
+
+def resolution(
+    settings: TwinConfig, density: float | None, cycle_ms: float | None
+) -> tuple[float, float]:
+    """Dexel density (per mm) and cycle time (s): the options where given, else the config's
+    ``[simulation]``; a one-line :class:`ConfigError` for values out of range."""
+    rho = density if density is not None else settings.simulation.density_per_mm
+    cycle = cycle_ms if cycle_ms is not None else settings.simulation.cycle_ms
+    if not (0 < rho <= 100):
+        raise ConfigError(f"--density {rho}: give 0 < density <= 100 dexels per mm")
+    if not (0 < cycle <= 1000):
+        raise ConfigError(f"--cycle-ms {cycle}: give 0 < cycle <= 1000 ms")
+    return rho, cycle / 1e3
 
 
 def simulate_report(
@@ -178,17 +192,12 @@ def simulate(
 ) -> None:
     """Cut the stock along a program: engagement per step, removed volume, final stock."""
     settings = load_config(config)
-    rho = density if density is not None else settings.simulation.density_per_mm
-    cycle = cycle_ms if cycle_ms is not None else settings.simulation.cycle_ms
-    if not (0 < rho <= 100):
-        raise ConfigError(f"--density {rho}: give 0 < density <= 100 dexels per mm")
-    if not (0 < cycle <= 1000):
-        raise ConfigError(f"--cycle-ms {cycle}: give 0 < cycle <= 1000 ms")
+    rho, cycle_s = resolution(settings, density, cycle_ms)
     report = simulate_report(
         program,
         settings,
         density_per_mm=rho,
-        cycle_s=cycle / 1e3,
+        cycle_s=cycle_s,
         out=out,
         progress=not as_json and sys.stderr.isatty(),
     )
