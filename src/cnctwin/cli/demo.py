@@ -11,7 +11,6 @@ machine (use case 1). See docs/demo.md.
 
 from __future__ import annotations
 
-import asyncio
 import json
 import math
 import sys
@@ -24,17 +23,16 @@ import typer
 from rich.console import Console
 
 from cnctwin.cli.run import (
-    LiveView,
     note,
     quiet_protocol_logs,
-    run_until_interrupted,
+    run_with_view,
     summary_report,
     summary_table,
 )
 from cnctwin.errors import ConfigError
 
 if TYPE_CHECKING:
-    from cnctwin.twin.pipeline import Twin
+    pass
 
 __all__ = ["DEMO_CONFIG", "demo"]
 
@@ -77,7 +75,6 @@ def demo(
     from cnctwin.twin.config import load_run_config
     from cnctwin.twin.host import MachineProcess
     from cnctwin.twin.process import TwinProcess
-    from cnctwin.twin.session import run_session
 
     if not (math.isfinite(duration) and duration > 0):
         raise ConfigError(f"--duration {duration}: give a number of seconds > 0")
@@ -113,28 +110,15 @@ def demo(
                         )
                     }
                 )
-                view = LiveView(enabled=not as_json and sys.stdout.isatty())
-
-                def start(twin: Twin) -> None:
-                    view.attach(twin)
-                    machine.go()
-
-                with view.running():
-                    summary = asyncio.run(
-                        run_until_interrupted(
-                            lambda stop: run_session(
-                                settings,
-                                historian=historian,
-                                duration_s=duration,
-                                stop_event=stop,
-                                on_cycle=view.observe,
-                                on_start=start,
-                                meta={"command": "cnctwin demo", "virtual_machine": endpoint},
-                                base_dir=folder,
-                            ),
-                            view,
-                        )
-                    )
+                summary = run_with_view(
+                    settings,
+                    historian,
+                    live=not as_json,
+                    on_start=lambda _twin: machine.go(),
+                    duration_s=duration,
+                    meta={"command": "cnctwin demo", "virtual_machine": endpoint},
+                    base_dir=folder,
+                )
                 machine_state = machine.state() or {}
             finally:
                 machine.stop()

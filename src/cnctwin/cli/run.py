@@ -29,6 +29,8 @@ from cnctwin.errors import ConfigError
 from cnctwin.thread.signals import RunState
 
 if TYPE_CHECKING:
+    from cnctwin.store.historian import Historian
+    from cnctwin.twin.config import RunConfig
     from cnctwin.twin.pipeline import Twin
     from cnctwin.twin.runtime import RunSummary, TwinRuntime
     from cnctwin.twin.state import CycleState
@@ -39,6 +41,7 @@ __all__ = [
     "quiet_protocol_logs",
     "run",
     "run_until_interrupted",
+    "run_with_view",
     "summary_report",
     "summary_table",
 ]
@@ -96,7 +99,6 @@ def run(
     """
     from cnctwin.store.historian import Historian
     from cnctwin.twin.config import load_run_config
-    from cnctwin.twin.session import run_session
 
     if duration is not None and not (math.isfinite(duration) and duration > 0):
         raise ConfigError(f"--duration {duration}: give a number of seconds > 0")
@@ -120,24 +122,15 @@ def run(
     historian = Historian.open(db) if db is not None else Historian.from_config(settings.historian)
     with historian:
         note(f"history: {historian.location}")
-        view = LiveView(enabled=not as_json and sys.stdout.isatty())
-        with view.running():
-            summary = asyncio.run(
-                run_until_interrupted(
-                    lambda stop: run_session(
-                        settings,
-                        historian=historian,
-                        duration_s=duration,
-                        stop_event=stop,
-                        on_cycle=view.observe,
-                        on_start=view.attach,
-                        meta={"config": str(config.resolve()), "command": "cnctwin run"},
-                        base_dir=config.resolve().parent,
-                        connect_timeout_s=connect_timeout,
-                    ),
-                    view,
-                )
-            )
+        summary = run_with_view(
+            settings,
+            historian,
+            live=not as_json,
+            duration_s=duration,
+            meta={"config": str(config.resolve()), "command": "cnctwin run"},
+            base_dir=config.resolve().parent,
+            connect_timeout_s=connect_timeout,
+        )
     report = summary_report(summary)
     if as_json:
         sys.stdout.write(json.dumps(report) + "\n")
@@ -339,6 +332,42 @@ class LiveView:
         if self.events:
             parts.append(Text("events: " + " | ".join(self.events[-2:])))
         return Group(*parts)
+
+
+def run_with_view(
+    settings: RunConfig,
+    historian: Historian,
+    *,
+    live: bool,
+    on_start: Callable[[Twin], None] | None = None,
+    **session: Any,
+) -> RunSummary:
+    """Run one twin session under the live view (on a terminal, when ``live``) until it ends
+    or Ctrl-C; ``on_start`` runs once the twin is built (after the view is attached);
+    ``session`` goes to :func:`cnctwin.twin.session.run_session`."""
+    from cnctwin.twin.session import run_session
+
+    view = LiveView(enabled=live and sys.stdout.isatty())
+
+    def start(twin: Twin) -> None:
+        view.attach(twin)
+        if on_start is not None:
+            on_start(twin)
+
+    with view.running():
+        return asyncio.run(
+            run_until_interrupted(
+                lambda stop: run_session(
+                    settings,
+                    historian=historian,
+                    stop_event=stop,
+                    on_cycle=view.observe,
+                    on_start=start,
+                    **session,
+                ),
+                view,
+            )
+        )
 
 
 def quiet_protocol_logs() -> None:
