@@ -8,7 +8,6 @@ where the overview is silent (comparison tolerance, MOD sign, ROUND halves).
 from __future__ import annotations
 
 import math
-import os
 import re
 from pathlib import Path
 
@@ -23,8 +22,6 @@ from cnctwin.nc.expressions import (
     read_assignment,
     read_value,
 )
-
-GCODE_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "gcode"
 
 
 def value_of(text: str, params: Parameters | None = None) -> float:
@@ -572,23 +569,14 @@ def test_fuzz_read_assignment_raises_only_ncerror(text: str) -> None:
 # ------------------------------------------------------------------ real NC programs
 
 
-def _program(name: str) -> Path:
-    path = GCODE_DIR / name
-    if not path.exists():
-        if os.environ.get("CI"):
-            pytest.fail(f"{path} is missing; CI must provide ../shared/data")
-        pytest.skip(f"{path} not found (validation data in ../shared/data is absent)")
-    return path
-
-
 @pytest.mark.validation
-def test_3d_chips_expressions() -> None:
+def test_3d_chips_expressions(shared_data: Path) -> None:
     """Every scaled coordinate of LinuxCNC's 3D_Chips.ngc evaluates to scale * literal.
 
     The program writes each coordinate as ``X[#<xscale>*53.]``; with the scales set to
     distinct values each expression must give that scale times the literal.
     """
-    lines = _program("linuxcnc/3D_Chips.ngc").read_text().splitlines()
+    lines = (shared_data / "gcode/linuxcnc/3D_Chips.ngc").read_text().splitlines()
     params = Parameters()
     scales = {"x": 2.0, "y": -0.5, "z": 4.0, "f": 10.0}
     for axis, scale in scales.items():
@@ -606,9 +594,9 @@ def test_3d_chips_expressions() -> None:
 
 
 @pytest.mark.validation
-def test_mmount_subroutine_expressions() -> None:
+def test_mmount_subroutine_expressions(shared_data: Path) -> None:
     """The o100 subroutine of LinuxCNC's mmount.ngc, first call's arguments."""
-    _program("linuxcnc/mmount.ngc")
+    assert (shared_data / "gcode/linuxcnc/mmount.ngc").is_file()
     params = Parameters()
     # o100 call [1.1880] [-0.9380] [0.25] [0.55] [0.4375] [0.25]
     params.push_call([1.1880, -0.9380, 0.25, 0.55, 0.4375, 0.25])
