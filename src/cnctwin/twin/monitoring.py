@@ -110,7 +110,12 @@ class ForceBand:
             self._in_contact = 0
         armed = self._in_contact > cfg.settle_cycles
         out = armed and not (low <= measured_n <= high)
-        if armed and not out:
+        # only a steady cycle teaches the scatter: where the prediction jumped (entry into or
+        # exit from the stock) the band spans both predictions and a residual as large as the
+        # jump would be learnt, widening the band for the next hundreds of cycles; the
+        # coarser the cycle (an overloaded twin), the larger those jumps
+        steady = abs(predicted_n - previous) <= half and abs(residual) <= half
+        if armed and not out and steady:
             self._learn(residual)
         return BandResult(low, high, residual, scatter, armed, out)
 
