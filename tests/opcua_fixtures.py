@@ -14,6 +14,7 @@ from collections.abc import Awaitable, Callable
 from cnctwin.errors import ConfigError
 from cnctwin.thread.signals import SIGNALS
 from cnctwin.virtual.opcua_server import OpcUaMachineServer
+from cnctwin.virtual.users import UserTable
 
 TIMEOUT_S = 20.0
 
@@ -64,7 +65,8 @@ class Shared:
     def __init__(self, machine: FakeMachine) -> None:
         self.machine = machine
         self.loop = asyncio.new_event_loop()
-        self.server = OpcUaMachineServer(self.machine)
+        # the tests write commands anonymously (docs/security.md: anonymous operator)
+        self.server = OpcUaMachineServer(self.machine, users=UserTable(anonymous="operator"))
         self.endpoint = self.server.endpoint
         self._stop = asyncio.Event()
         started = threading.Event()

@@ -15,6 +15,7 @@ from cnctwin.cli import run
 from cnctwin.thread.signals import SIGNALS
 from cnctwin.virtual.modbus_server import ModbusMachineServer
 from cnctwin.virtual.opcua_server import OpcUaMachineServer
+from cnctwin.virtual.users import UserTable
 
 STATS = {"mean", "std", "min", "median", "p99", "max"}
 
@@ -46,7 +47,10 @@ def serving(kind: str) -> Iterator[tuple[str, Machine]]:
 
     async def serve() -> None:
         server: OpcUaMachineServer | ModbusMachineServer
-        server = OpcUaMachineServer(machine) if kind == "opcua" else ModbusMachineServer(machine)
+        if kind == "opcua":  # the latency bench writes commands anonymously
+            server = OpcUaMachineServer(machine, users=UserTable(anonymous="operator"))
+        else:
+            server = ModbusMachineServer(machine)
         async with server:
             endpoint.append(server.endpoint)
             started.set()

@@ -19,6 +19,7 @@ from cnctwin.thread.latency import JitterProxy, LatencyStats, measure_latency
 from cnctwin.thread.opcua import OpcUaConnection
 from cnctwin.thread.signals import SIGNALS
 from cnctwin.virtual.opcua_server import OpcUaMachineServer
+from cnctwin.virtual.users import UserTable
 
 TIMEOUT_S = 30.0
 
@@ -70,7 +71,7 @@ def test_stats_match_closed_forms() -> None:
 def test_round_trips_against_a_real_server_restore_the_override() -> None:
     async def body() -> None:
         machine = Machine()
-        async with OpcUaMachineServer(machine) as server:
+        async with OpcUaMachineServer(machine, users=UserTable(anonymous="operator")) as server:
             cfg = ConnectionConfig(endpoint=server.endpoint)
             async with OpcUaConnection(cfg) as conn:
                 done: list[int] = []
@@ -92,7 +93,7 @@ def test_round_trips_against_a_real_server_restore_the_override() -> None:
 def test_poll_waits_for_the_feedback_to_change() -> None:
     async def body() -> None:
         machine = Machine(lagging=True)
-        async with OpcUaMachineServer(machine) as server:
+        async with OpcUaMachineServer(machine, users=UserTable(anonymous="operator")) as server:
 
             async def clock() -> None:  # the machine applies commands every 20 ms
                 while True:
@@ -119,7 +120,7 @@ def test_poll_waits_for_the_feedback_to_change() -> None:
 def test_feedback_that_never_changes_times_out() -> None:
     async def body() -> None:
         machine = Machine(lagging=True)  # nothing ticks: the write is never applied
-        async with OpcUaMachineServer(machine) as server:
+        async with OpcUaMachineServer(machine, users=UserTable(anonymous="operator")) as server:
             async with OpcUaConnection(ConnectionConfig(endpoint=server.endpoint)) as conn:
                 with pytest.raises(DataError, match="stayed 100"):
                     await measure_latency(conn, n=3, interval_s=0.0, timeout_s=0.1)

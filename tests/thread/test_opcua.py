@@ -42,6 +42,7 @@ from cnctwin.virtual.opcua_server import (
     OpcUaMachineServer,
     OpcUaServerSecurity,
 )
+from cnctwin.virtual.users import Account, UserTable, hash_password
 
 
 def run(coro: Callable[[], Awaitable[None]]) -> None:
@@ -327,11 +328,16 @@ def certificates(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.mark.parametrize("mode", ["Sign", "SignAndEncrypt"])
 def test_secure_session_with_certificates_and_password(certificates: Path, mode: str) -> None:
+    trusted = certificates / "trusted"  # the clients the server accepts: the twin
+    trusted.mkdir(exist_ok=True)
+    (trusted / "twin.der").write_bytes((certificates / "twin.der").read_bytes())
     server_security = OpcUaServerSecurity(
         mode=mode,  # type: ignore[arg-type]
         certificate=certificates / "server.der",
         private_key=certificates / "server.pem",
+        trust_folder=trusted,
     )
+    users = UserTable({"operator": Account("operator", hash_password("s3cret"))}, anonymous=None)
 
     def client(
         server: OpcUaMachineServer, password: str | None, username: str | None = "operator"
@@ -349,9 +355,7 @@ def test_secure_session_with_certificates_and_password(certificates: Path, mode:
 
     async def body() -> None:
         machine = FakeMachine()
-        async with OpcUaMachineServer(
-            machine, security=server_security, users={"operator": "s3cret"}
-        ) as server:
+        async with OpcUaMachineServer(machine, security=server_security, users=users) as server:
             conn = OpcUaConnection(client(server, "s3cret"), base_dir=certificates)
             async with conn:
                 reading = await conn.read()

@@ -71,12 +71,16 @@ async def _serve(transport: str, pipe: Connection) -> None:
     from cnctwin.virtual import MachineClock, ModbusMachineServer, VirtualMachine
     from cnctwin.virtual.config import VirtualMachineConfig
     from cnctwin.virtual.opcua_server import OpcUaMachineServer
+    from cnctwin.virtual.users import UserTable
 
     logging.getLogger("asyncua").setLevel(logging.ERROR)  # policy-None notices
     vm = VirtualMachine(VirtualMachineConfig())
     vm.step(vm.tick_s)  # the first step loads the compiled kernels (~0.5 s): not on the clock
     server: OpcUaMachineServer | ModbusMachineServer
-    server = OpcUaMachineServer(vm) if transport == "opcua" else ModbusMachineServer(vm)
+    if transport == "opcua":  # on loopback; the bench writes the feed override anonymously
+        server = OpcUaMachineServer(vm, users=UserTable(anonymous="operator"))
+    else:
+        server = ModbusMachineServer(vm)
     async with server:
         clock = MachineClock(vm, vm.tick_s)
         clock.add_listener(server.publish)

@@ -22,13 +22,17 @@ import logging
 import select
 import subprocess
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, Protocol
+from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 from cnctwin.errors import CnctwinError, ConfigError
 from cnctwin.twin.config import RunConfig
 from cnctwin.virtual import MachineClock, VirtualMachine
+from cnctwin.virtual.users import UserTable
+
+if TYPE_CHECKING:
+    from cnctwin.virtual.opcua_server import OpcUaServerSecurity
 
 __all__ = ["MachineProcess", "MachineServer", "Transport", "serve"]
 
@@ -63,6 +67,10 @@ class MachineServer:
         Machine seconds per wall second; ``None`` takes ``[virtual].speed``.
     host, port
         Where to listen; port 0 picks a free one.
+    security, users, insecure
+        OPC UA endpoint security, users and roles, and leave to serve without security on a
+        non-loopback host (docs/security.md). Default: policy None, and an anonymous session
+        may command the machine (the twin of ``cnctwin demo``, on loopback).
     """
 
     config: RunConfig
@@ -70,6 +78,9 @@ class MachineServer:
     speed: float | None = None
     host: str = "127.0.0.1"
     port: int = 0
+    security: OpcUaServerSecurity | None = None
+    users: UserTable = field(default_factory=lambda: UserTable(anonymous="operator"))
+    insecure: bool = False
 
     def __post_init__(self) -> None:
         if self.config.virtual is None:
@@ -87,11 +98,13 @@ class MachineServer:
         if self.transport == "opcua":
             from cnctwin.virtual.opcua_server import OpcUaMachineServer
 
-            return OpcUaMachineServer(self.vm, self.host, port)
+            return OpcUaMachineServer(
+                self.vm, self.host, port, self.security, self.users, self.insecure
+            )
         if self.transport == "modbus":
             from cnctwin.virtual.modbus_server import ModbusMachineServer
 
-            return ModbusMachineServer(self.vm, self.host, port)
+            return ModbusMachineServer(self.vm, self.host, port, insecure=self.insecure)
         raise ConfigError(f"transport {self.transport!r}; valid: 'opcua', 'modbus'")
 
     async def _publish(self, snapshot: dict[str, float]) -> None:

@@ -34,6 +34,7 @@ from cnctwin.thread.modbus_map import (
     RegisterAddress,
 )
 from cnctwin.thread.signals import COMMANDS
+from cnctwin.virtual.exposure import check_exposure
 
 __all__ = ["MachineSource", "ModbusMachineServer"]
 
@@ -71,11 +72,14 @@ class ModbusMachineServer:
     source
         The machine: ``snapshot()`` and ``command(name, value)``.
     host
-        Interface to listen on.
+        Interface to listen on; a non-loopback one needs ``insecure`` (Modbus TCP has no
+        authentication: anyone who reaches the port can write the commands).
     port
         TCP port; 0 picks a free one (see :attr:`port` once started).
     unit_id
         Modbus unit (slave) id the device answers to.
+    insecure
+        Allow a non-loopback ``host`` (:func:`~cnctwin.virtual.exposure.check_exposure`).
 
     Attributes
     ----------
@@ -90,7 +94,9 @@ class ModbusMachineServer:
         host: str = "127.0.0.1",
         port: int = 0,
         unit_id: int = 1,
+        insecure: bool = False,
     ) -> None:
+        check_exposure(host, "modbus", secured=False, insecure=insecure)
         self.source = source
         self.host = host
         self.unit_id = unit_id

@@ -13,12 +13,18 @@ then holds the machine's read-back; a write that is not a finite number in the c
 range (or that the machine refuses) is answered with ``BadOutOfRange`` or
 ``BadTypeMismatch`` per node, and writes to any other node of the machine with
 ``BadNotWritable``. The server never raises out of a client's write.
+
+Access (docs/security.md): the user manager is cnctwin's own (:mod:`cnctwin.virtual.users`);
+there is no administrator. Only an ``"operator"`` session may write, and only the command
+nodes (``BadUserAccessDenied`` otherwise); the node management services (AddNodes,
+DeleteNodes, AddReferences, DeleteReferences), server registration and method calls are
+refused to every session with ``BadUserAccessDenied``. With Sign or SignAndEncrypt, client
+certificates are checked against a trust folder (:class:`~cnctwin.thread.trust.TrustList`).
 """
 
 from __future__ import annotations
 
 import asyncio
-import hmac
 import logging
 import math
 import socket
@@ -29,7 +35,7 @@ from pathlib import Path
 from typing import Any, Literal, Protocol
 
 from asyncua import Server, ua
-from asyncua.crypto.permission_rules import User, UserRole
+from asyncua.crypto.permission_rules import USER_TYPES, PermissionRuleset, User, UserRole
 from asyncua.server.address_space import AttributeService, AttributeValue
 from asyncua.server.user_managers import UserManager
 
@@ -37,6 +43,9 @@ from cnctwin import __version__
 from cnctwin.errors import CnctwinError, ConfigError
 from cnctwin.thread.opcua import NAMESPACE_URI, NODE_MAP, variant_type
 from cnctwin.thread.signals import COMMANDS, SIGNALS
+from cnctwin.thread.trust import TrustList
+from cnctwin.virtual.exposure import check_exposure
+from cnctwin.virtual.users import UserTable
 
 __all__ = [
     "SERVER_APPLICATION_URI",
@@ -83,18 +92,30 @@ class OpcUaServerSecurity:
     certificate, private_key
         The server's certificate (DER or PEM) and private key (PEM); required unless mode is
         ``"None"``.
+    trust_folder
+        Folder of the client certificates (or their CAs) to accept (``.der``/``.pem``);
+        required unless mode is ``"None"`` (:class:`~cnctwin.thread.trust.TrustList`).
     """
 
     mode: Literal["None", "Sign", "SignAndEncrypt"] = "None"
     certificate: Path | None = None
     private_key: Path | None = None
+    trust_folder: Path | None = None
 
 
-class _PasswordUsers(UserManager):
-    """asyncua user manager: a fixed table of user names and passwords."""
+@dataclass
+class _Session(User):
+    """An activated client session: its user (``None``: anonymous) and whether it may
+    command the machine."""
 
-    def __init__(self, users: Mapping[str, str]) -> None:
-        self._users = dict(users)
+    operator: bool = False
+
+
+class _TableUsers(UserManager):
+    """asyncua user manager over a :class:`~cnctwin.virtual.users.UserTable`."""
+
+    def __init__(self, table: UserTable) -> None:
+        self._table = table
 
     def get_user(
         self,
@@ -103,37 +124,62 @@ class _PasswordUsers(UserManager):
         password: str | None = None,
         certificate: Any = None,
     ) -> User | None:
-        expected = self._users.get(username or "")
-        if expected is None or password is None:
+        role = self._table.role_of(username, password)
+        if role is None:
+            logger.warning("OPC UA login refused: %s", username or "anonymous session")
             return None
-        if not hmac.compare_digest(expected.encode(), password.encode()):
-            logger.warning("OPC UA login of user %r refused: wrong password", username)
-            return None
-        return User(role=UserRole.User)
+        return _Session(role=UserRole.User, name=username, operator=role == "operator")
 
 
-_ADMIN = User(role=UserRole.Admin)
+#: Services any activated session may use: sessions, browsing, reading, subscriptions and
+#: writes (which the attribute service then restricts); never node management, server
+#: registration or method calls.
+_SESSION_SERVICES = frozenset(
+    ua.NodeId(t)
+    for t in (*USER_TYPES, ua.ObjectIds.BrowseNextRequest_Encoding_DefaultBinary)
+    if t != ua.ObjectIds.CallRequest_Encoding_DefaultBinary
+)
+
+
+class _Ruleset(PermissionRuleset):
+    """Which services a session may call: those of :data:`_SESSION_SERVICES`, and only once
+    activated by :class:`_TableUsers` (asyncua answers the rest with BadUserAccessDenied)."""
+
+    def check_validity(self, user: User, action_type_id: ua.NodeId, body: Any) -> bool:
+        return isinstance(user, _Session) and action_type_id in _SESSION_SERVICES
 
 
 class _MachineAttributeService(AttributeService):
-    """Write service that routes the machine's command nodes through the source."""
+    """Write service: an operator's writes of command nodes go to the source; every other
+    client write is refused. The server's own internal writes (its clock) pass."""
 
-    def __init__(self, server: OpcUaMachineServer, base: AttributeService) -> None:
+    def __init__(self, server: OpcUaMachineServer, base: AttributeService, internal: User) -> None:
         super().__init__(base._aspace)
         self._machine = server
+        self._internal = internal
 
-    async def write(self, params: ua.WriteParameters, user: User = _ADMIN) -> list[ua.StatusCode]:
+    async def write(
+        self, params: ua.WriteParameters, user: User | None = None
+    ) -> list[ua.StatusCode]:
+        if user is not None and user is self._internal:
+            return await super().write(params, user)
         results: list[ua.StatusCode] = []
         for item in params.NodesToWrite:
             name = self._machine.name_of(item.NodeId)
-            if name is None:
-                sub = ua.WriteParameters()
-                sub.NodesToWrite = [item]
-                results.extend(await super().write(sub, user))
+            if not (isinstance(user, _Session) and user.operator):
+                results.append(_status(ua.StatusCodes.BadUserAccessDenied))
+            elif name is None:
+                results.append(_status(ua.StatusCodes.BadUserAccessDenied))
             elif item.AttributeId != ua.AttributeIds.Value or name not in COMMANDS:
                 results.append(_status(ua.StatusCodes.BadNotWritable))
             else:
                 results.append(await self._machine.apply_command(name, item.Value))
+        if any(not r.is_good() for r in results):
+            logger.warning(
+                "OPC UA write by %s refused: %s",
+                getattr(user, "name", None) or "anonymous session",
+                ", ".join(sorted({r.name for r in results if not r.is_good()})),
+            )
         return results
 
 
@@ -152,8 +198,11 @@ class OpcUaMachineServer:
     security
         Endpoint security; default: policy None.
     users
-        User name -> password; when given, anonymous sessions are refused (use with Sign or
-        SignAndEncrypt: the password travels encrypted with the server's certificate).
+        Users, roles and what an anonymous session may do; default: no users, anonymous
+        read-only. Passwords travel encrypted only with Sign or SignAndEncrypt.
+    insecure
+        Allow policy None on a non-loopback ``host`` (refused otherwise,
+        :func:`~cnctwin.virtual.exposure.check_exposure`).
 
     Notes
     -----
@@ -168,13 +217,15 @@ class OpcUaMachineServer:
         host: str = "127.0.0.1",
         port: int = 0,
         security: OpcUaServerSecurity | None = None,
-        users: Mapping[str, str] | None = None,
+        users: UserTable | None = None,
+        insecure: bool = False,
     ) -> None:
         self.source = source
-        self.users = dict(users or {})
+        self.users = users or UserTable()
+        self.security = security or OpcUaServerSecurity()
+        check_exposure(host, "opcua", secured=self.security.mode != "None", insecure=insecure)
         self.host = host
         self.port = port or free_port(host)
-        self.security = security or OpcUaServerSecurity()
         self.endpoint = f"opc.tcp://{host}:{self.port}/cnctwin"
         self.namespace_index = 0
         self._server: Server | None = None
@@ -194,26 +245,44 @@ class OpcUaMachineServer:
     async def start(self) -> None:
         """Build the address space and listen; ConfigError on incomplete security."""
         security = self.security
-        server = Server(user_manager=_PasswordUsers(self.users) if self.users else None)
+        tokens: list[type] = [ua.UserNameIdentityToken] if self.users.accounts else []
+        if self.users.anonymous is not None:
+            tokens.append(ua.AnonymousIdentityToken)
+        if not tokens:
+            raise ConfigError(
+                "the OPC UA server has no users and refuses anonymous sessions: nobody could "
+                "connect; add [users.NAME] tables to the users file or set anonymous"
+            )
+        server = Server(user_manager=_TableUsers(self.users))
+        server.allow_remote_admin(False)
         await server.init()
         server.set_endpoint(self.endpoint)
         server.set_server_name("cnctwin virtual machine")
         await server.set_application_uri(SERVER_APPLICATION_URI)
-        server.set_security_policy([_policy(security.mode)])
-        if self.users:
-            server.set_identity_tokens([ua.UserNameIdentityToken])
+        server.set_security_policy([_policy(security.mode)], permission_ruleset=_Ruleset())
+        server.set_identity_tokens(tokens)
         if security.mode != "None":
             if security.certificate is None or security.private_key is None:
                 raise ConfigError(
                     f"OPC UA security mode {security.mode!r} needs a server certificate and "
                     f"private key (got {security.certificate}, {security.private_key})"
                 )
+            if security.trust_folder is None:
+                raise ConfigError(
+                    f"OPC UA security mode {security.mode!r} needs a trust folder with the "
+                    "certificates of the clients to accept (--trust FOLDER)"
+                )
+            trust = TrustList(security.trust_folder, "client")
+            await trust.load()
+            server.set_certificate_validator(trust)
             await server.load_certificate(str(security.certificate))
             await server.load_private_key(str(security.private_key))
         self.namespace_index = await server.register_namespace(NAMESPACE_URI)
         await self._build(server)
         iserver = server.iserver
-        iserver.attribute_service = _MachineAttributeService(self, iserver.attribute_service)
+        iserver.attribute_service = _MachineAttributeService(
+            self, iserver.attribute_service, iserver.isession.user
+        )
         await server.start()
         self._server = server
         self.publish()
