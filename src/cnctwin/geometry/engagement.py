@@ -56,6 +56,10 @@ from numba import njit
 from cnctwin.errors import ConfigError
 from cnctwin.geometry.cutter import Cutter
 from cnctwin.geometry.dexel import DexelStock
+
+# numba caches the kernels below by this file's content alone, with the removal kernels they
+# call compiled in: a change to those kernels needs a change here too, or a stale cache runs
+# the old code (removal kernels revised: cell indices clamped, 2026-11).
 from cnctwin.geometry.removal import (
     _DONE,
     A_ABOVE,

@@ -184,6 +184,31 @@ def _zmin(d2: float, inner: float, inner2: float, rc: float, slope: float) -> fl
 
 
 @njit(cache=True, inline="always")
+def _cell_floor(x: float, n: int) -> int:
+    """``floor(x)`` as a cell index clamped to [-1, n] (x in cells).
+
+    Safe for any float: converting a float beyond the int64 range (a fluted length or a
+    position of 1e300 mm over a pitch) gives an undefined integer whose differences wrap
+    around, which would index far outside the grid's buffers.
+    """
+    if not x > -1.0:  # also NaN
+        return -1
+    if x >= n:
+        return n
+    return int(math.floor(x))
+
+
+@njit(cache=True, inline="always")
+def _cell_ceil(x: float, n: int) -> int:
+    """``ceil(x)`` as a cell index clamped to [-1, n] (x in cells; as :func:`_cell_floor`)."""
+    if not x > -1.0:
+        return -1
+    if x >= n:
+        return n
+    return int(math.ceil(x))
+
+
+@njit(cache=True, inline="always")
 def _radius(h: float, big: float, rc: float, inner: float, slope: float, length: float) -> float:
     """Envelope radius (mm) at height h (mm) above the tip; -1 outside the envelope (profile as
     for :func:`_zmin`)."""
@@ -254,8 +279,8 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
     plunging = not use_old or tz < otz
     # Inside both flat bottoms at the same height, the new interval equals the old one.
     skip_inner = use_old and otz == tz and inner > 0.0
-    j0 = max(0, int(math.ceil((cy - big) / py - 0.5)))
-    j1 = min(ny - 1, int(math.floor((cy + big) / py - 0.5)))
+    j0 = max(0, _cell_ceil((cy - big) / py - 0.5, ny))
+    j1 = min(ny - 1, _cell_floor((cy + big) / py - 0.5, ny))
     for j in range(j0, j1 + 1):
         y = (j + 0.5) * py
         dy = y - cy
@@ -263,8 +288,8 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
         if dy2 > big2:
             continue
         half = math.sqrt(big2 - dy2)
-        i0 = max(0, int(math.ceil((cx - half) / px - 0.5)))
-        i1 = min(nx - 1, int(math.floor((cx + half) / px - 0.5)))
+        i0 = max(0, _cell_ceil((cx - half) / px - 0.5, nx))
+        i1 = min(nx - 1, _cell_floor((cx + half) / px - 0.5, nx))
         if n_arcs + (i1 - i0 + 1) > arc_slice.shape[0]:
             status = _ARCS_FULL
             break
@@ -277,8 +302,8 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
             lo = max(cx - h1, ocx - h2) + 1e-9
             hi = min(cx + h1, ocx + h2) - 1e-9
             if hi > lo:
-                s0 = max(i0, int(math.ceil(lo / px - 0.5)))
-                s1 = min(i1, int(math.floor(hi / px - 0.5)))
+                s0 = max(i0, _cell_ceil(lo / px - 0.5, nx))
+                s1 = min(i1, _cell_floor(hi / px - 0.5, nx))
         i = i0
         while i <= i1:
             if i == s0 and s1 >= s0:
@@ -338,7 +363,7 @@ def _cut_z(prm, ints, count, start, block, rows, heap_top, arc_slice, arc_lo, ar
                     zmin = min(zmin, clo)
                     zmax = max(zmax, chi)
                     if lo_in and piece == 0 and d2 > inner2 and nslices > 0:
-                        contact_level = int(math.floor(a / pz))
+                        contact_level = _cell_floor(a / pz, ints[I_NZ])
                     if hi_in and (piece == 1 or b1 == top):
                         above = True
             if contact_level >= 0:
@@ -507,7 +532,7 @@ def _cut_rows(
     table_r = -2.0
     table_orad = -2.0
     n_ops = 0
-    k1 = min(nz - 1, int(math.floor((tz + length) / pz - 0.5)))
+    k1 = min(nz - 1, _cell_floor((tz + length) / pz - 0.5, nz))
     for k in range(max(k0, 0), k1 + 1):
         zk = (k + 0.5) * pz
         r = _radius(zk - tz, big, rc, inner, slope, length)
@@ -515,8 +540,8 @@ def _cut_rows(
             continue
         orad = _radius(zk - otz, big, rc, inner, slope, length) if use_old else -1.0
         s = k - k0
-        j0 = max(0, int(math.ceil((c_row - r) / p_row - 0.5)))
-        j1 = min(n_rows - 1, int(math.floor((c_row + r) / p_row - 0.5)))
+        j0 = max(0, _cell_ceil((c_row - r) / p_row - 0.5, n_rows))
+        j1 = min(n_rows - 1, _cell_floor((c_row + r) / p_row - 0.5, n_rows))
         if n_arcs + 2 * (j1 - j0 + 2) > arc_slice.shape[0]:
             status = _ARCS_FULL
             break
@@ -928,8 +953,8 @@ def place(prm, ints, tx, ty, tz, ox, oy, oz, use_old, fx, fy):
     step2 = (tx - ox) * (tx - ox) + (ty - oy) * (ty - oy) if use_old else 0.0
     prm[P_THIN] = THIN_CUSPS * step2 / 8.0
     big, length, pz = prm[P_R], prm[P_L], prm[P_PZ]
-    k0 = max(0, int(math.ceil(tz / pz - 0.5)))
-    k1 = min(ints[I_NZ] - 1, int(math.floor((tz + length) / pz - 0.5)))
+    k0 = max(0, _cell_ceil(tz / pz - 0.5, ints[I_NZ]))
+    k1 = min(ints[I_NZ] - 1, _cell_floor((tz + length) / pz - 0.5, ints[I_NZ]))
     ints[I_K0] = k0
     ints[I_NSLICES] = max(0, k1 - k0 + 1)
     return -big < tx < prm[P_SX] + big and -big < ty < prm[P_SY] + big and -length < tz < prm[P_SZ]
