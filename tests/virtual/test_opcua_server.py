@@ -210,10 +210,5 @@ def test_non_finite_integer_signal_is_published_with_bad_status(shared: Shared) 
 def test_security_mode_without_certificate_is_a_config_error() -> None:
     from cnctwin.virtual.opcua_server import OpcUaServerSecurity
 
-    async def main() -> None:
-        server = OpcUaMachineServer(FakeMachine(), security=OpcUaServerSecurity(mode="Sign"))
-        with pytest.raises(ConfigError, match="certificate"):
-            await server.start()
-        await server.stop()
-
-    asyncio.run(main())
+    with pytest.raises(ConfigError, match="certificate"):
+        OpcUaMachineServer(FakeMachine(), security=OpcUaServerSecurity(mode="Sign"))

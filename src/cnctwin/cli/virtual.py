@@ -3,7 +3,9 @@
 Serves the ``[virtual]`` machine of a twin configuration (default: the packaged demo's) until
 its program ends or Ctrl-C, so that ``cnctwin run`` (or any OPC UA / Modbus client) can be
 tried without a real machine. ``--once`` ends with the program; otherwise the machine idles
-after it, still answering.
+after it, still answering. Security (docs/security.md): ``--security-mode``, ``--certificate``,
+``--private-key``, ``--trust``, ``--users``, ``--anonymous``; a non-loopback ``--host`` without
+security needs ``--insecure``. ``cnctwin virtual hash-password`` makes a users file's entry.
 """
 
 from __future__ import annotations
@@ -12,19 +14,23 @@ import asyncio
 import contextlib
 import math
 import signal
+import sys
 from importlib.resources import as_file, files
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal, cast
 
 import typer
 
 from cnctwin.cli.run import note, quiet_protocol_logs
 from cnctwin.errors import ConfigError
+from cnctwin.virtual.exposure import check_exposure
+from cnctwin.virtual.users import ROLES, Role, UserTable, hash_password, load_users
 
 if TYPE_CHECKING:
     from cnctwin.twin.config import RunConfig
+    from cnctwin.virtual.opcua_server import OpcUaServerSecurity
 
-__all__ = ["app", "serve"]
+__all__ = ["app", "hash_password_command", "serve"]
 
 app = typer.Typer(
     help="The virtual machine: serve it over OPC UA or Modbus TCP.", no_args_is_help=True
@@ -59,6 +65,41 @@ def serve(
     once: Annotated[
         bool, typer.Option("--once", help="End when the program ends (default: keep serving).")
     ] = False,
+    security_mode: Annotated[
+        str,
+        typer.Option(
+            "--security-mode",
+            help="OPC UA: None (loopback), Sign or SignAndEncrypt (policy Basic256Sha256).",
+        ),
+    ] = "None",
+    certificate: Annotated[
+        Path | None, typer.Option("--certificate", help="Server certificate (DER or PEM).")
+    ] = None,
+    private_key: Annotated[
+        Path | None, typer.Option("--private-key", help="Server private key (PEM).")
+    ] = None,
+    trust: Annotated[
+        Path | None,
+        typer.Option("--trust", help="Folder of the client certificates to accept."),
+    ] = None,
+    users: Annotated[
+        Path | None,
+        typer.Option("--users", help="Users file (TOML: roles, password hashes)."),
+    ] = None,
+    anonymous: Annotated[
+        str | None,
+        typer.Option(
+            "--anonymous",
+            help="What an anonymous session may do: none, read-only or operator "
+            "(default: the users file's, else read-only).",
+        ),
+    ] = None,
+    insecure: Annotated[
+        bool,
+        typer.Option(
+            "--insecure", help="Allow a non-loopback --host without security (trusted network)."
+        ),
+    ] = False,
 ) -> None:
     """Serve a virtual machine until Ctrl-C (or, with --once, until its program ends).
 
@@ -69,6 +110,11 @@ def serve(
 
     if transport not in ("opcua", "modbus"):
         raise ConfigError(f"--transport {transport!r}; valid: opcua, modbus")
+    secured = transport == "opcua" and security_mode != "None"
+    check_exposure(host, transport, secured=secured, insecure=insecure)
+    security, table = _access(
+        transport, security_mode, certificate, private_key, trust, users, anonymous
+    )
     if not 0 <= port <= 65535:
         raise ConfigError(f"--port {port}; give 0 (a free port) to 65535")
     if speed is not None and not (math.isfinite(speed) and 0 < speed <= 20):
@@ -82,7 +128,82 @@ def serve(
             settings = load_run_config(folder / DEFAULT_CONFIG)
     else:
         settings = load_run_config(config)
-    asyncio.run(_serve(settings, protocol, speed, host, port, delay, once))
+    asyncio.run(
+        _serve(settings, protocol, speed, host, port, delay, once, security, table, insecure)
+    )
+
+
+@app.command("hash-password")
+def hash_password_command(
+    user: Annotated[
+        str | None,
+        typer.Option("--user", help="Print a [users.NAME] table for a users file."),
+    ] = None,
+    role: Annotated[str, typer.Option(help="Role of --user: read-only or operator.")] = "operator",
+) -> None:
+    """Hash a password for a users file (read from stdin, or asked for twice on a terminal).
+
+    Prints the salted scrypt hash, or with ``--user`` the whole ``[users.NAME]`` table.
+    """
+    if role not in ROLES:
+        raise ConfigError(f"--role {role!r}; valid: {', '.join(ROLES)}")
+    if sys.stdin.isatty():
+        password = typer.prompt("Password", hide_input=True, confirmation_prompt=True)
+    else:
+        password = sys.stdin.readline().rstrip("\r\n")
+    hashed = hash_password(password)
+    if user is None:
+        typer.echo(hashed)
+    else:
+        typer.echo(f'[users.{_toml_key(user)}]\nrole = "{role}"\npassword_hash = "{hashed}"')
+
+
+def _toml_key(name: str) -> str:
+    """``name`` as a TOML key: bare if it can be, else quoted."""
+    if name and all(c.isascii() and (c.isalnum() or c in "-_") for c in name):
+        return name
+    if any(c in name for c in '"\\') or not name.isprintable():
+        raise ConfigError(f"--user {name!r}; valid: printable, without quotes or backslashes")
+    return f'"{name}"'
+
+
+def _access(
+    transport: str,
+    mode: str,
+    certificate: Path | None,
+    private_key: Path | None,
+    trust: Path | None,
+    users: Path | None,
+    anonymous: str | None,
+) -> tuple[OpcUaServerSecurity | None, UserTable]:
+    """The OPC UA server's security and users from the options (ConfigError if invalid)."""
+    given = [
+        name
+        for name, value in (
+            ("--certificate", certificate),
+            ("--private-key", private_key),
+            ("--trust", trust),
+            ("--users", users),
+            ("--anonymous", anonymous),
+        )
+        if value is not None
+    ]
+    if transport == "modbus":
+        if given or mode != "None":
+            options = ", ".join(given or ["--security-mode"])
+            raise ConfigError(f"{options}: OPC UA only; Modbus TCP has no security")
+        return None, UserTable()
+    if mode not in ("None", "Sign", "SignAndEncrypt"):
+        raise ConfigError(f"--security-mode {mode!r}; valid: None, Sign, SignAndEncrypt")
+    if anonymous is not None and anonymous not in (*ROLES, "none"):
+        raise ConfigError(f"--anonymous {anonymous!r}; valid: none, {', '.join(ROLES)}")
+    table = load_users(users) if users is not None else UserTable()
+    if anonymous is not None:
+        table = UserTable(table.accounts, None if anonymous == "none" else cast(Role, anonymous))
+    from cnctwin.virtual.opcua_server import OpcUaServerSecurity, SecurityMode
+
+    security = OpcUaServerSecurity(cast(SecurityMode, mode), certificate, private_key, trust)
+    return security, table
 
 
 async def _serve(
@@ -93,6 +214,9 @@ async def _serve(
     port: int,
     delay_s: float,
     once: bool,
+    security: OpcUaServerSecurity | None,
+    users: UserTable,
+    insecure: bool,
 ) -> None:
     from cnctwin.twin.host import MachineServer
 
@@ -102,7 +226,7 @@ async def _serve(
         with contextlib.suppress(NotImplementedError, RuntimeError):
             loop.add_signal_handler(sig, stop.set)
     try:
-        machine = MachineServer(settings, transport, speed, host, port)
+        machine = MachineServer(settings, transport, speed, host, port, security, users, insecure)
         await machine.start()
     except OSError as err:
         raise ConfigError(f"cannot listen on {host}:{port}: {err.strerror or err}") from err

@@ -23,7 +23,14 @@ class OpcUaSecurityConfig(Section):
     certificate, private_key
         This client's certificate (DER or PEM) and key (PEM), paths relative to the config file.
     server_certificate
-        The server's certificate to trust, or ``None`` to take the one the server presents.
+        The server's certificate, pinned: the twin accepts only this one.
+    trust_folder
+        Folder of the server certificates (or their CAs) to accept (``.der``/``.pem``). With
+        policy Basic256Sha256, ``server_certificate`` or ``trust_folder`` is required: an
+        unknown server certificate is refused (docs/security.md).
+    trust_on_first_use
+        Opt-in: with an empty ``trust_folder``, trust the first server certificate seen and
+        write it into the folder; afterwards only that one is accepted.
     username, password
         User identity; ``None`` for anonymous.
     """
@@ -33,6 +40,8 @@ class OpcUaSecurityConfig(Section):
     certificate: str | None = None
     private_key: str | None = None
     server_certificate: str | None = None
+    trust_folder: str | None = None
+    trust_on_first_use: bool = False
     username: str | None = None
     password: str | None = None
 

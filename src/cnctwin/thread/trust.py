@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Literal
 
 from asyncua import ua
+from asyncua.common.utils import ServiceError
 from asyncua.crypto.truststore import TrustStore
 from asyncua.crypto.validator import CertificateValidator, CertificateValidatorOptions
 from cryptography import x509
@@ -103,7 +104,17 @@ class TrustList:
         status) that refuses the session."""
         if self.first_use and not self.certificates():
             await self._remember(certificate)
-        await self._validator.validate(certificate, application)
+        try:
+            await self._validator.validate(certificate, application)
+        except ServiceError as err:
+            logger.warning(
+                "%s certificate %s refused: %s (trust folder %s)",
+                self.peer,
+                certificate.subject.rfc4514_string(),
+                ua.StatusCode(err.code).name,
+                self.folder,
+            )
+            raise
 
     async def _remember(self, certificate: x509.Certificate) -> None:
         der = certificate.public_bytes(Encoding.DER)

@@ -52,6 +52,7 @@ __all__ = [
     "MachineSource",
     "OpcUaMachineServer",
     "OpcUaServerSecurity",
+    "SecurityMode",
     "free_port",
 ]
 
@@ -80,6 +81,10 @@ class MachineSource(Protocol):
         ...
 
 
+#: Message security of the endpoint (policy Basic256Sha256 unless ``"None"``).
+SecurityMode = Literal["None", "Sign", "SignAndEncrypt"]
+
+
 @dataclass(frozen=True)
 class OpcUaServerSecurity:
     """Security of the server's endpoint.
@@ -97,7 +102,7 @@ class OpcUaServerSecurity:
         required unless mode is ``"None"`` (:class:`~cnctwin.thread.trust.TrustList`).
     """
 
-    mode: Literal["None", "Sign", "SignAndEncrypt"] = "None"
+    mode: SecurityMode = "None"
     certificate: Path | None = None
     private_key: Path | None = None
     trust_folder: Path | None = None
@@ -223,6 +228,7 @@ class OpcUaMachineServer:
         self.source = source
         self.users = users or UserTable()
         self.security = security or OpcUaServerSecurity()
+        _check_complete(self.security)
         check_exposure(host, "opcua", secured=self.security.mode != "None", insecure=insecure)
         self.host = host
         self.port = port or free_port(host)
@@ -262,16 +268,7 @@ class OpcUaMachineServer:
         server.set_security_policy([_policy(security.mode)], permission_ruleset=_Ruleset())
         server.set_identity_tokens(tokens)
         if security.mode != "None":
-            if security.certificate is None or security.private_key is None:
-                raise ConfigError(
-                    f"OPC UA security mode {security.mode!r} needs a server certificate and "
-                    f"private key (got {security.certificate}, {security.private_key})"
-                )
-            if security.trust_folder is None:
-                raise ConfigError(
-                    f"OPC UA security mode {security.mode!r} needs a trust folder with the "
-                    "certificates of the clients to accept (--trust FOLDER)"
-                )
+            assert security.trust_folder and security.certificate and security.private_key
             trust = TrustList(security.trust_folder, "client")
             await trust.load()
             server.set_certificate_validator(trust)
@@ -434,6 +431,24 @@ _DATATYPES = {
     ua.VariantType.Int32: ua.NodeId(ua.Int32(ua.ObjectIds.Int32)),
     ua.VariantType.Boolean: ua.NodeId(ua.Int32(ua.ObjectIds.Boolean)),
 }
+
+
+def _check_complete(security: OpcUaServerSecurity) -> None:
+    """ConfigError if a secured endpoint lacks its certificate, key or trust folder."""
+    _policy(security.mode)
+    if security.mode == "None":
+        return
+    if security.certificate is None or security.private_key is None:
+        raise ConfigError(
+            f"OPC UA security mode {security.mode!r} needs a server certificate and "
+            f"private key (--certificate, --private-key; got {security.certificate}, "
+            f"{security.private_key})"
+        )
+    if security.trust_folder is None:
+        raise ConfigError(
+            f"OPC UA security mode {security.mode!r} needs a trust folder with the "
+            "certificates of the clients to accept (--trust FOLDER)"
+        )
 
 
 def _policy(mode: str) -> ua.SecurityPolicyType:
