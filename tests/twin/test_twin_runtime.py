@@ -21,7 +21,10 @@ class FakeMachine:
     def __init__(self) -> None:
         self.values = dict.fromkeys(SIGNALS, 0.0)
         self.values.update(
-            feed_override_pct=100.0, spindle_override_pct=100.0, run_state=float(RunState.RUNNING)
+            feed_override_pct=100.0,
+            spindle_override_pct=100.0,
+            run_state=float(RunState.RUNNING),
+            work_offset=1.0,
         )
         self.beating = True
         self.commands: list[tuple[str, float]] = []
@@ -132,8 +135,9 @@ def test_stale_heartbeat_is_a_lost_machine_and_its_return_a_gap(demo_config: Run
     kinds = [e.kind for e in events]
     assert kinds[:3] == ["connected", "connection_lost", "connection_restored"]
     assert "heartbeat stale" in events[1].message
-    # frozen from cycle 20 to 60 at 5 ms: lost after 50 ms of staleness, back at cycle 60
-    assert summary.gaps_s[0] == pytest.approx(0.2 - 0.05, abs=0.08)
+    # frozen from cycle 20 to 60 at 5 ms: lost after 50 ms of staleness, back at cycle 60;
+    # the gap runs from the last moving heartbeat (cycle 20), not from the detection
+    assert summary.gaps_s[0] == pytest.approx(0.2, abs=0.08)
     assert summary.reconnects == 1
 
 

@@ -374,7 +374,7 @@ def quiet_protocol_logs() -> None:
     """Keep the protocol libraries' notes (asyncua, pymodbus) off the terminal unless they
     are errors; ``--debug`` shows everything."""
     if not logging.getLogger("cnctwin").isEnabledFor(logging.DEBUG):
-        for name in ("asyncua", "pymodbus"):
+        for name in ("asyncua", "asyncuagds", "pymodbus"):
             logging.getLogger(name).setLevel(logging.ERROR)
 
 

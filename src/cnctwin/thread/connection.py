@@ -64,11 +64,24 @@ class Reading:
         ``time.monotonic()`` when the answer arrived, in s.
     rejected
         Signal name -> one-line reason for values that were dropped.
+    source_time_s
+        The machine's own time stamp of the newest value in the reading (OPC UA
+        SourceTimestamp), POSIX s (UTC); ``None`` when the transport carries none.
+    server_time_s
+        The server's time stamp of the newest value (OPC UA ServerTimestamp), POSIX s (UTC);
+        ``None`` when the transport carries none.
+    sequence
+        A sample counter the machine serves (Modbus: the ``heartbeat`` register, which the
+        machine increments once per sample), or ``None``. With neither time stamps nor a
+        counter a reading's only time is ``received_s``.
     """
 
     values: Mapping[str, float]
     received_s: float
     rejected: Mapping[str, str] = field(default_factory=dict)
+    source_time_s: float | None = None
+    server_time_s: float | None = None
+    sequence: float | None = None
 
 
 @dataclass(frozen=True)
@@ -96,6 +109,15 @@ class MachineConnection(ABC):
         Timeout of one request (connect, read, write), in s.
     backoff
         Delays between reconnection attempts.
+
+    Attributes
+    ----------
+    reconnects
+        Times the connection was restored.
+    last_reconnect
+        How the last restoration went, one line (e.g. ``"new session"``; an OPC UA
+        connection says whether its session was re-activated and its subscription
+        transferred); ``""`` before the first.
     """
 
     def __init__(self, *, timeout_s: float = 2.0, backoff: Backoff | None = None) -> None:
@@ -103,6 +125,7 @@ class MachineConnection(ABC):
         self.backoff = backoff or Backoff()
         self.state = ConnectionState.DISCONNECTED
         self.reconnects = 0
+        self.last_reconnect = ""
         self._reconnect_task: asyncio.Task[None] | None = None
 
     # Transport hooks ------------------------------------------------------------------
@@ -121,6 +144,16 @@ class MachineConnection(ABC):
     @abstractmethod
     async def _write(self, name: str, value: float) -> None:
         """Write one command (a name of :data:`~cnctwin.thread.signals.COMMANDS`)."""
+
+    async def _reopen(self) -> str:
+        """Restore the transport after a loss; return how, one line.
+
+        This default closes what is left and opens anew (a new session); a transport that
+        can resume its session (OPC UA) overrides it. Raises like :meth:`_open`.
+        """
+        await self._close()
+        await asyncio.wait_for(self._open(), self.timeout_s)
+        return "new session"
 
     # Public API -----------------------------------------------------------------------
     async def connect(self) -> None:
@@ -202,19 +235,18 @@ class MachineConnection(ABC):
 
     async def _reconnect(self) -> None:
         attempt = 0
-        await self._close()
         while self.state is ConnectionState.RECONNECTING:
             await asyncio.sleep(self.backoff.delay_s(attempt))
             attempt += 1
             try:
-                await asyncio.wait_for(self._open(), self.timeout_s)
+                how = await self._reopen()
             except (OSError, TimeoutError, ConnectionLost) as err:
                 logger.info("reconnect attempt %d failed: %s", attempt, err)
-                await self._close()
                 continue
             self.reconnects += 1
+            self.last_reconnect = how
             self.state = ConnectionState.CONNECTED
-            logger.info("machine connection restored after %d attempts", attempt)
+            logger.info("machine connection restored after %d attempts: %s", attempt, how)
 
 
 def now_s() -> float:

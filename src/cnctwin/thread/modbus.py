@@ -11,6 +11,11 @@ A read plans the fewest contiguous block reads that cover every mapped address
 Values that decode to garbage (NaN or infinite floats, the type's "invalid" marker, values
 outside a signal's plausible range of :data:`~cnctwin.thread.signals.SIGNALS`) go to
 :attr:`Reading.rejected`, as do the signals of a block the device answered with an exception.
+
+Modbus has no time stamps. A reading's sample counter (:attr:`Reading.sequence`) is the
+``heartbeat`` register when it is mapped (the virtual machine increments it once per tick):
+the twin takes a reading whose counter has not moved as no new sample. Without it, every
+answered read counts as a new sample at its receive time.
 """
 
 from __future__ import annotations
@@ -204,7 +209,14 @@ class ModbusConnection(MachineConnection):
             planned.append(block)
             _decode_block(block, response, values, rejected)
         self.blocks = planned
-        return Reading(values=values, received_s=now_s(), rejected=rejected)
+        # Modbus carries no time stamps: the heartbeat register (incremented by the machine
+        # once per sample) is the reading's sample counter when it is mapped.
+        return Reading(
+            values=values,
+            received_s=now_s(),
+            rejected=rejected,
+            sequence=values.get("heartbeat"),
+        )
 
     async def _read_signal(self, name: str) -> float:
         """One signal in one request of its own registers (a command's read-back)."""

@@ -40,6 +40,7 @@ from cnctwin.thread.connection import (
     now_s,
 )
 from cnctwin.thread.signals import COMMANDS, SIGNALS
+from cnctwin.thread.trust import TrustList
 
 __all__ = [
     "CLIENT_APPLICATION_URI",
@@ -339,6 +340,24 @@ class OpcUaConnection(MachineConnection):
                 f"(got mode={security.mode!r}, certificate={security.certificate!r}, "
                 f"private_key={security.private_key!r})"
             )
+        if security.server_certificate is None and security.trust_folder is None:
+            raise ConfigError(
+                "[connection.security] policy 'Basic256Sha256' needs server_certificate (pin "
+                "the server's) or trust_folder (certificates to accept); an unknown server "
+                "certificate is never accepted (docs/security.md)"
+            )
+        if security.trust_on_first_use and security.trust_folder is None:
+            raise ConfigError(
+                "[connection.security] trust_on_first_use = true needs trust_folder (where "
+                "the first server certificate seen is kept)"
+            )
+        if security.trust_folder is not None:
+            folder = Path(security.trust_folder).expanduser()
+            if not folder.is_absolute() and self.base_dir is not None:
+                folder = self.base_dir / folder
+            trust = TrustList(folder, "server", first_use=security.trust_on_first_use)
+            await trust.load()
+            client.certificate_validator = trust
         mode = getattr(ua.MessageSecurityMode, security.mode)
         server_cert = (
             str(self._path(security.server_certificate)) if security.server_certificate else None

@@ -50,6 +50,7 @@ class RuleStage:
     def forget(self) -> None:
         """Restart hold timers and cooldowns (after a gap: the signals were not seen)."""
         self.engine.reset()
+    per_sample = True  # a repeat of the last sample is no new evidence: rules wait for one
 
     def process(self, state: CycleState) -> CycleState:
         """Add this cycle's decisions (most conservative first) to ``state.commands``."""

@@ -105,7 +105,7 @@ def build_twin(
     safety = SafetyFilter(config.control)
     actions = ActionStage(connection, safety, recorder)
     stages: list[Stage] = [
-        ReadStage(connection),
+        ReadStage.from_config(connection, config),
         KinematicsStage(
             ProgramMap(config, program, text=program_text), twin_cfg.position_deadband_mm
         ),

@@ -4,6 +4,11 @@ The :class:`~cnctwin.store.historian.Historian` only queues in ``record_*`` (mic
 its writer thread commits in batches. The recorder turns a cycle's state into those calls:
 measured signals as *samples*, the twin's filtered values, features and predictions as
 *predictions*, and events and decisions with their reasons.
+
+Only a cycle whose reading is a new sample (:attr:`CycleState.new_sample`) gives a frame: a
+frozen or paused machine leaves a gap in the record, not copies of its last values. A
+signal invalid in that sample (:attr:`CycleState.rejected`) is recorded as NaN; the event
+``signal_invalid`` says why.
 """
 
 from __future__ import annotations
@@ -15,6 +20,7 @@ from typing import Any
 
 from cnctwin.errors import DataError
 from cnctwin.store.historian import Historian
+from cnctwin.thread.signals import SIGNALS
 from cnctwin.twin.state import CycleState, TwinEvent
 
 __all__ = ["Recorder"]
@@ -37,7 +43,7 @@ class Recorder:
     Attributes
     ----------
     samples
-        Sample frames (one per cycle with a reading) queued.
+        Sample frames (one per new sample) queued.
     events
         Events queued.
     decisions
@@ -58,12 +64,14 @@ class Recorder:
         return self.historian.location
 
     def cycle(self, state: CycleState) -> None:
-        """Queue the measured and predicted values of one cycle (nothing without a reading)."""
-        if not state.connected:
+        """Queue the measured and predicted values of one cycle (nothing without a new sample)."""
+        if not (state.connected and state.new_sample):
             return
         t = (state.received_s if math.isfinite(state.received_s) else state.deadline_s) - self.t0_s
+        measured = dict(state.measured)
+        measured.update({name: math.nan for name in state.rejected if name in SIGNALS})
         try:
-            self.historian.record_samples(self.run_id, t, state.measured)
+            self.historian.record_samples(self.run_id, t, measured)
             predicted: dict[str, float] = dict(state.predicted)
             predicted.update({f"filtered_{k}": v for k, v in state.filtered.items()})
             predicted.update(state.features)

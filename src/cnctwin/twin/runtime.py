@@ -7,10 +7,13 @@ its period is an *overrun*; the runtime then skips the deadlines it missed inste
 running cycles back to back. Each stage is timed (``time.perf_counter``), and the summary
 gives per-stage and whole-cycle p50/p99.
 
-A watchdog follows the connection: a failed read, or a ``heartbeat`` signal that has not
-changed for ``watchdog_s``, marks the machine *lost*; the next good reading with a moving
-heartbeat marks it *restored*. Both are recorded as events (the gap with its length), and
-the action stage applies the lost-connection policy (see docs/twin.md).
+A watchdog follows the connection: a failed read, a ``heartbeat`` signal that has not
+changed for ``watchdog_s``, or a stale reading (older than ``[twin] max_sample_age_s``,
+:mod:`cnctwin.twin.freshness`) marks the machine *lost*; the next new sample with a moving
+heartbeat marks it *restored*. Both are recorded as events; the gap runs from the last
+fresh sample to the first fresh one after it, and the action stage applies the
+lost-connection policy (see docs/twin.md). A cycle whose reading is no new sample runs only
+the stages that are not ``per_sample`` (the actions' time-based work) and records no frame.
 
 The run ends when the machine reports its program finished, when it has stopped (after the
 twin's stop is confirmed), after ``duration_s``, or when ``stop_event`` is set.
@@ -156,6 +159,7 @@ class TwinRuntime:
         self._last_beat: float | None = None
         self._beat_s = math.nan
         self._lost_s: float | None = None
+        self._beat_received_s = math.inf
         self._gaps: list[float] = []
         self._reconnects = 0
         self._ever_connected = False
@@ -210,6 +214,8 @@ class TwinRuntime:
                 started = time.perf_counter()
                 for stage in self.stages:
                     t_stage = time.perf_counter()
+                    if getattr(stage, "per_sample", False) and not state.new_sample:
+                        continue  # nothing new to compute: no duplicate sample downstream
                     result = stage.process(state)
                     if inspect.isawaitable(result):
                         result = await result
@@ -257,26 +263,42 @@ class TwinRuntime:
             self._last_beat = beat
             self._beat_s = now
         stale = now - self._beat_s > self.watchdog_s
-        alive = state.connected and not stale
+            self._beat_received_s = state.received_s
+        alive = state.connected and not stale and not state.stale
         if self.connected and not alive:
-            why = (
-                "read failed"
-                if not state.connected
-                else f"heartbeat stale for {now - self._beat_s:.3f} s"
-            )
+            if not state.connected:
+                why = "read failed"
+            elif state.stale:
+                why = f"sample {state.sample_age_s:.3f} s old, beyond [twin] max_sample_age_s"
+            else:
+                why = f"heartbeat stale for {now - self._beat_s:.3f} s"
             self.connected = False
-            self._lost_s = now
-            self._emit(state, TwinEvent("connection_lost", f"machine lost: {why}", now))
+            # the gap starts at the last fresh sample (with a moving heartbeat), not at its
+            # detection
+            start = min(state.last_sample_s, self._beat_received_s)
+            if not math.isfinite(start):
+                start = now
+            self._lost_s = start
+            self._emit(
+                state,
+                TwinEvent(
+                    "connection_lost",
+                    f"machine lost: {why}",
+                    start,
+                    {"detected_after_s": now - start},
+                ),
+            )
             if self.actions is not None:
                 self.actions.connection_lost()
             for stage in self.stages:
                 forget = getattr(stage, "forget", None)
                 if callable(forget):
                     forget()
-        elif not self.connected and alive and beat is not None:
+        elif not self.connected and alive and beat is not None and state.new_sample:
             self.connected = True
             if self._ever_connected:
-                gap = now - (self._lost_s if self._lost_s is not None else now)
+                back = state.received_s if math.isfinite(state.received_s) else now
+                gap = back - (self._lost_s if self._lost_s is not None else back)
                 self._gaps.append(gap)
                 self._reconnects += 1
                 self._emit(

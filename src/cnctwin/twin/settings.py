@@ -13,6 +13,7 @@ __all__ = [
     "FilterConfig",
     "ForceBandConfig",
     "FormErrorConfig",
+    "PlausibilityConfig",
     "TwinSection",
     "WindowConfig",
 ]
@@ -128,6 +129,31 @@ class FormErrorConfig(Section):
     youngs_modulus_gpa: float = Field(default=600.0, gt=0.0)
 
 
+class PlausibilityConfig(Section):
+    """What counts as a machine state (``[twin.plausibility]``; see
+    :mod:`cnctwin.twin.plausibility`).
+
+    Attributes
+    ----------
+    jump_margin
+        An axis may move this many times the distance its ``[machine.axes]`` velocity and
+        acceleration allow between two samples before the move counts as a jump (1 = the
+        limits exactly; the default 2 leaves room for time-stamp jitter).
+    jump_floor_mm
+        Move always plausible between two samples, mm (sensor noise, quantisation).
+    feed_override_max_pct
+        Highest feed override the machine's dial allows, %: a reading above it is invalid.
+    spindle_override_min_pct, spindle_override_max_pct
+        Range of the machine's spindle override, %: a reading outside it is invalid.
+    """
+
+    jump_margin: float = Field(default=2.0, ge=1.0, le=100.0)
+    jump_floor_mm: float = Field(default=0.5, ge=0.0, le=1000.0)
+    feed_override_max_pct: float = Field(default=150.0, gt=0.0, le=150.0)
+    spindle_override_min_pct: float = Field(default=50.0, ge=0.0, le=120.0)
+    spindle_override_max_pct: float = Field(default=120.0, gt=0.0, le=120.0)
+
+
 class TwinSection(Section):
     """The twin's runtime (``[twin]``).
 
@@ -153,6 +179,13 @@ class TwinSection(Section):
         as sensor noise and the held position kept, mm. Without it a standing axis (a plunge,
         the wall side of a pass) jitters across dexel ends and the twin's discrete cut takes
         slivers thinner than a micrometre as full contact.
+    max_sample_age_s
+        A reading older than this is stale: no current sample, and the machine counts as
+        lost, s (age: the twin's clock minus the machine's time stamp, or the time since the
+        last new sample where the transport carries no time stamps; see
+        :mod:`cnctwin.twin.freshness`).
+    plausibility
+        Axis-jump and override-range checks of every sample.
     filters
         Filters by measured signal name.
     windows
@@ -169,6 +202,8 @@ class TwinSection(Section):
     density_per_mm: float | None = Field(default=None, gt=0.0, le=100.0)
     attach_s: float = Field(default=1.0, ge=0.0)
     position_deadband_mm: float = Field(default=0.005, ge=0.0)
+    max_sample_age_s: float = Field(default=2.0, gt=0.0, le=3600.0)
+    plausibility: PlausibilityConfig = Field(default_factory=PlausibilityConfig)
     filters: dict[str, FilterConfig] = Field(default_factory=dict)
     windows: list[WindowConfig] = Field(default_factory=list)
     force_band: ForceBandConfig = Field(default_factory=ForceBandConfig)

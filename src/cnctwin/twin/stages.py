@@ -3,7 +3,11 @@
 Each stage is a small object with one method, :meth:`~Stage.process`, that takes the
 cycle's :class:`~cnctwin.twin.state.CycleState` and returns it enriched; the runtime times
 every stage. Stages know nothing of protocols: reading and writing go through a
-:class:`~cnctwin.thread.MachineConnection`.
+:class:`~cnctwin.thread.MachineConnection`. A stage whose class sets ``per_sample = True``
+computes from a sample: the runtime runs it only in cycles whose reading is a new sample
+(:attr:`CycleState.new_sample`).
+
+Names the read stage adds to :attr:`CycleState.predicted`: ``sample_age_s`` (s).
 
 Names a stage adds to :attr:`CycleState.predicted` (units in the names):
 
@@ -22,7 +26,7 @@ import math
 import time
 from collections.abc import Awaitable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -35,11 +39,16 @@ from cnctwin.signals.filters import (
 from cnctwin.signals.windows import SlidingWindow
 from cnctwin.thread.connection import ConnectionLost, MachineConnection
 from cnctwin.thread.signals import SIGNALS, RunState
+from cnctwin.twin.freshness import Freshness
 from cnctwin.twin.monitoring import ForceBand
+from cnctwin.twin.plausibility import Plausibility
 from cnctwin.twin.process import TwinProcess
 from cnctwin.twin.program import ProgramMap
 from cnctwin.twin.settings import FilterConfig, FormErrorConfig, WindowConfig
 from cnctwin.twin.state import CycleState, TwinEvent
+
+if TYPE_CHECKING:
+    from cnctwin.twin.config import RunConfig
 
 __all__ = [
     "FEATURES",
@@ -64,6 +73,7 @@ FEATURES = ("mean", "rms", "peak_to_peak", "slope")
 
 #: Every prediction name the stages add, for rule checking (units in the names).
 PREDICTIONS = (
+    "sample_age_s",
     "contact",
     "ae_mm",
     "ap_mm",
@@ -139,31 +149,68 @@ class ReadStage:
     """Step 1: one batched read of the machine (Heide 2025, Fig. 5, "read machine state").
 
     Values the connection delivered but that cannot be a machine state (out of the signal's
-    range or beyond :data:`PLAUSIBLE_LIMITS`) join the connection's rejects (NaN, wrong
-    types): a garbage value never reaches the stages, which hold the signal's last value.
+    range or beyond :data:`PLAUSIBLE_LIMITS`, beyond the machine's axis dynamics or override
+    range: :class:`~cnctwin.twin.plausibility.Plausibility`) join the connection's rejects
+    (NaN, wrong types): an invalid value never reaches the stages, which hold the signal's
+    last valid value, and an event says when a signal turns invalid.
+
+    Each reading is judged new sample or repeat (:class:`~cnctwin.twin.freshness.
+    Freshness`). A repeat shows the last sample's state (its values, predictions and
+    position) and computes nothing new; a stale reading counts as no sample at all.
 
     Parameters
     ----------
     connection
         The machine.
+    freshness
+        New-sample and age judgement; ``None`` takes every reading as a new, current sample.
+    plausibility
+        Axis-jump and override checks; ``None`` checks only the catalogue ranges.
 
     Attributes
     ----------
     failures
         Reads that failed.
     garbage
-        Values rejected so far.
+        Values rejected so far (in new samples).
     """
 
     name = "read"
 
-    def __init__(self, connection: MachineConnection) -> None:
+    def __init__(
+        self,
+        connection: MachineConnection,
+        freshness: Freshness | None = None,
+        plausibility: Plausibility | None = None,
+    ) -> None:
         self.connection = connection
+        self.freshness = freshness
+        self.plausibility = plausibility
         self.failures = 0
         self.garbage = 0
+        self._reconnects = connection.reconnects
+        self._invalid: set[str] = set()
+        self._sample: CycleState | None = None
+
+    @classmethod
+    def from_config(cls, connection: MachineConnection, config: RunConfig) -> ReadStage:
+        """The read stage of a configuration: ``[twin] max_sample_age_s`` for freshness,
+        ``[machine]`` and ``[twin.plausibility]`` for plausibility."""
+        return cls(
+            connection,
+            Freshness(config.twin.max_sample_age_s),
+            Plausibility(config.machine, config.twin.plausibility),
+        )
+
+    def forget(self) -> None:
+        """Drop the reference position and the last sample (after a gap)."""
+        if self.plausibility is not None:
+            self.plausibility.forget()
+        self._sample = None
 
     async def process(self, state: CycleState) -> CycleState:
-        """Fill ``measured``, ``rejected``, ``received_s`` and ``connected``."""
+        """Fill ``measured``, ``rejected``, ``received_s``, ``connected`` and the sample's
+        freshness (``new_sample``, ``stale``, ``sample_age_s``, ``last_sample_s``)."""
         try:
             reading = await self.connection.read()
         except ConnectionLost:
@@ -172,6 +219,24 @@ class ReadStage:
             return state
         state.connected = True
         state.received_s = reading.received_s
+        if self.connection.reconnects != self._reconnects:
+            self._reconnects = self.connection.reconnects
+            how = self.connection.last_reconnect
+            state.events.append(
+                TwinEvent("reconnected", f"connection restored: {how}", reading.received_s,
+                          {"how": how})
+            )
+        if self.freshness is not None:
+            check = self.freshness.check(reading)
+            state.new_sample, state.stale, state.sample_age_s = check.new, check.stale, check.age_s
+            last = self.freshness.last_fresh_s
+            state.last_sample_s = math.nan if last is None else last
+        else:
+            state.new_sample, state.sample_age_s = True, 0.0
+            state.last_sample_s = reading.received_s
+        if not state.new_sample:
+            self._repeat(state)
+            return state
         measured: dict[str, float] = {}
         rejected = dict(reading.rejected)
         for name, value in reading.values.items():
@@ -183,10 +248,49 @@ class ReadStage:
                 measured[name] = float(value)
             else:
                 rejected[name] = problem
+        if self.plausibility is not None:
+            verdict = self.plausibility.check(measured, reading.received_s)
+            for name, reason in verdict.invalid.items():
+                rejected[name] = reason
+                del measured[name]
+            state.path_break = verdict.path_break
         self.garbage += len(rejected)
+        self._announce(state, reading.values, rejected)
         state.measured = measured
         state.rejected = rejected
+        state.predicted["sample_age_s"] = state.sample_age_s
+        self._sample = state
         return state
+
+    def _repeat(self, state: CycleState) -> None:
+        """A reading with nothing new: show the last sample's state."""
+        last = self._sample
+        if last is None:
+            return
+        state.measured = dict(last.measured)
+        state.rejected = dict(last.rejected)
+        state.position_mm, state.tool, state.line = last.position_mm, last.tool, last.line
+        state.filtered = dict(last.filtered)
+        state.features = dict(last.features)
+        state.predicted = dict(last.predicted)
+        state.predicted["sample_age_s"] = state.sample_age_s
+
+    def _announce(
+        self, state: CycleState, raw: Mapping[str, float], rejected: Mapping[str, str]
+    ) -> None:
+        """An event for every signal that turns invalid with this sample."""
+        for name in rejected.keys() - self._invalid:
+            value = raw.get(name)
+            shown = value if isinstance(value, float | int) and math.isfinite(value) else repr(value)
+            state.events.append(
+                TwinEvent(
+                    "signal_invalid",
+                    f"{name} invalid: {rejected[name]}",
+                    state.received_s,
+                    {"signal": name, "value": shown, "reason": rejected[name]},
+                )
+            )
+        self._invalid = set(rejected)
 
 
 class KinematicsStage:
@@ -208,6 +312,7 @@ class KinematicsStage:
         held one (:attr:`~cnctwin.twin.settings.TwinSection.position_deadband_mm`).
     """
 
+    per_sample = True
     name = "kinematics"
 
     def __init__(self, program: ProgramMap, deadband_mm: float = 0.0) -> None:
@@ -270,6 +375,7 @@ class CutStage:
         Machine time after which a running program counts as already under way, s.
     """
 
+    per_sample = True
     name = "cut"
 
     def __init__(self, process: TwinProcess, attach_s: float = 1.0) -> None:
@@ -289,6 +395,8 @@ class CutStage:
             self._synchronize(state, t)
         if state.position_mm is None:
             return state
+        if state.path_break:
+            self.twin.forget_position()
         engagement, fz = self.twin.cut(
             state.position_mm,
             state.tool,
@@ -331,6 +439,7 @@ class CutStage:
 class EngagementStage:
     """Step 4: engagement figures of the cut (Heide 2025, Fig. 5, "engagement")."""
 
+    per_sample = True
     name = "engagement"
 
     def process(self, state: CycleState) -> CycleState:
@@ -353,6 +462,7 @@ class ProcessStage:
         The twin's tools and material (the mechanistic force model's inputs).
     """
 
+    per_sample = True
     name = "process"
 
     def __init__(self, process: TwinProcess) -> None:
@@ -418,6 +528,7 @@ class FilterStage:
         Sample period, s.
     """
 
+    per_sample = True
     name = "filters"
 
     def __init__(self, filters: Mapping[str, FilterConfig], cycle_s: float) -> None:
@@ -455,6 +566,7 @@ class FeatureStage:
         For a feature that is not one of :data:`FEATURES`.
     """
 
+    per_sample = True
     name = "features"
 
     def __init__(self, windows: Sequence[WindowConfig], cycle_s: float) -> None:
@@ -502,6 +614,7 @@ class ForceBandStage:
         The twin's blank: while it is not synchronized with the machine's, the band is off.
     """
 
+    per_sample = True
     name = "force_band"
 
     def __init__(self, band: ForceBand, process: TwinProcess | None = None) -> None:
@@ -558,6 +671,7 @@ class FormErrorStage:
         The twin's tools (diameter and fluted length for the stiffness).
     """
 
+    per_sample = True
     name = "form_error"
 
     def __init__(self, config: FormErrorConfig, process: TwinProcess) -> None:

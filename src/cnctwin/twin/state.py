@@ -51,10 +51,25 @@ class CycleState:
         Whether the read of this cycle reached the machine.
     received_s
         When the reading arrived, monotonic s (NaN without a reading).
+    new_sample
+        The reading is a new, current sample (:mod:`cnctwin.twin.freshness`). Without one
+        the cycle computes nothing from it and records no frame.
+    stale
+        The reading is older than ``[twin] max_sample_age_s``: the machine counts as lost.
+    sample_age_s
+        Age of the reading's newest value, s (NaN without a reading).
+    last_sample_s
+        Receive time of the last new, current sample, monotonic s (NaN before the first):
+        where a gap in the machine's data starts.
+    path_break
+        The position moved where it could not have moved continuously and the twin takes
+        it: the cut starts a new path there (no material removed along the jump).
     measured
-        Signals read from the machine, canonical names (:data:`cnctwin.thread.SIGNALS`).
+        Signals read from the machine, canonical names (:data:`cnctwin.thread.SIGNALS`);
+        invalid values are left out.
     rejected
-        Signals dropped from the reading (garbage), name -> reason.
+        Signals of the reading that are invalid for this sample (garbage, out of the
+        machine's range, an implausible jump), name -> reason.
     position_mm
         The twin's tool tip, machine frame, mm (None before the first reading).
     tool
@@ -84,6 +99,11 @@ class CycleState:
     time_s: float = 0.0
     connected: bool = False
     received_s: float = float("nan")
+    new_sample: bool = False
+    stale: bool = False
+    sample_age_s: float = float("nan")
+    last_sample_s: float = float("nan")
+    path_break: bool = False
     measured: dict[str, float] = field(default_factory=dict)
     rejected: dict[str, str] = field(default_factory=dict)
     position_mm: NDArray[np.float64] | None = None
