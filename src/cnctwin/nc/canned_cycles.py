@@ -9,11 +9,14 @@ Positions are machine coordinates in mm; the drilling axis is the plane's normal
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+from cnctwin.errors import NCError
+from cnctwin.nc.limits import MAX_PECKS
 from cnctwin.nc.segments import MotionKind
 
-__all__ = ["CycleMove", "CycleSpec", "expand_cycle", "PECK_CLEARANCE_MM"]
+__all__ = ["CycleMove", "CycleSpec", "expand_cycle", "peck_count", "PECK_CLEARANCE_MM"]
 
 #: Retract of G73 chip breaking and the stop short of the previous depth in G83, in mm
 #: (LinuxCNC uses 0.010 inch, i.e. 0.254 mm).
@@ -76,6 +79,26 @@ class CycleSpec:
     spindle_direction: int = 1
 
 
+def peck_count(spec: CycleSpec) -> int:
+    """Pecks of one hole: 1 for cycles without pecks, ceil(depth / Q) for G73 and G83.
+
+    Raises
+    ------
+    NCError
+        For more than :data:`~cnctwin.nc.limits.MAX_PECKS` pecks, naming their number.
+    """
+    if spec.code not in (73, 83):
+        return 1
+    depth_mm = spec.r_mm - spec.bottom_mm
+    pecks = max(1, math.ceil(depth_mm / spec.peck_mm)) if spec.peck_mm > 0.0 else math.inf
+    if pecks > MAX_PECKS:
+        raise NCError(
+            f"G{spec.code} with peck Q{spec.peck_mm:.6g} mm over a {depth_mm:.6g} mm deep hole "
+            f"needs {pecks} pecks; at most {MAX_PECKS} are allowed: use a larger Q"
+        )
+    return int(pecks)
+
+
 def expand_cycle(
     spec: CycleSpec, hole_mm: tuple[float, float, float], current_mm: tuple[float, float, float]
 ) -> list[CycleMove]:
@@ -94,7 +117,13 @@ def expand_cycle(
     -------
     list of CycleMove
         Rapid to the hole at the current level, rapid to R, the cycle motion, retract.
+
+    Raises
+    ------
+    NCError
+        For a G73/G83 hole of more than :data:`~cnctwin.nc.limits.MAX_PECKS` pecks.
     """
+    peck_count(spec)
     n = spec.normal_axis
     moves: list[CycleMove] = []
     here = list(current_mm)

@@ -47,6 +47,7 @@ import re
 from collections.abc import Sequence
 
 from cnctwin.errors import NCError
+from cnctwin.nc.limits import check_number_text
 
 __all__ = [
     "EQUAL_TOLERANCE",
@@ -451,10 +452,9 @@ def _value(text: str, pos: int, n: int, params: Parameters, depth: int) -> tuple
             f"expected a value (number, #parameter, [expression] or function), found '{c}'",
             column=pos + 1,
         )
-    value = float(found.group())
-    if not _isfinite(value):
-        raise NCError(f"number {found.group()[:20]}... is too large", column=pos + 1)
-    return value, found.end()
+    literal = found.group()
+    check_number_text(literal, pos + 1)  # so that float() is finite
+    return float(literal), found.end()
 
 
 def _operator(text: str, pos: int, n: int, open_pos: int) -> tuple[int, int]:

@@ -20,10 +20,17 @@ from pathlib import Path
 from typing import NoReturn
 
 from cnctwin.errors import NCError
-from cnctwin.nc.canned_cycles import CycleSpec, expand_cycle
+from cnctwin.nc.canned_cycles import CycleSpec, expand_cycle, peck_count
 from cnctwin.nc.cutter_comp import CutterCompensator
 from cnctwin.nc.expressions import Parameters, read_value
 from cnctwin.nc.lexer import Block, lex_block
+from cnctwin.nc.limits import (
+    MAX_CYCLE_REPEATS,
+    MAX_NUMBER_CHARS,
+    MAX_POSITION_MM,
+    MAX_SEGMENTS_PER_BLOCK,
+    check_position,
+)
 from cnctwin.nc.owords import OWordControl
 from cnctwin.nc.segments import (
     PLANE_AXES,
@@ -37,7 +44,7 @@ from cnctwin.nc.segments import (
     arc_sweep_rad,
 )
 from cnctwin.nc.setup import NCSetup, ToolEntry
-from cnctwin.nc.source import LineSource
+from cnctwin.nc.source import LineSource, RepeatBudget
 
 __all__ = ["Interpreter", "interpret_file", "interpret_text"]
 
@@ -206,6 +213,8 @@ class Interpreter(OWordControl):
         self._sources: list[LineSource] = []
         self._out: list[Segment] = []
         self._line_start = 0
+        self._budget = RepeatBudget(self.setup.max_repeated_lines)
+        self._segments_left = self.setup.max_segments
 
     # ------------------------------------------------------------------ entry points
     def run_file(self, path: str | Path) -> Iterator[Segment]:
@@ -228,12 +237,13 @@ class Interpreter(OWordControl):
         OSError
             If the file cannot be opened.
         """
-        source = LineSource.from_path(path)
+        setup = self.setup
+        source = LineSource.from_path(path, setup.max_program_bytes, self._budget)
         return self._run(source)
 
     def run_text(self, text: str, name: str = "<string>") -> Iterator[Segment]:
         """Interpret program text held in memory; see :meth:`run_file`."""
-        return self._run(LineSource.from_text(text, name))
+        return self._run(LineSource.from_text(text, name, self._budget))
 
     # ------------------------------------------------------------------ main loop
     def _run(self, source: LineSource) -> Iterator[Segment]:
@@ -252,7 +262,9 @@ class Interpreter(OWordControl):
                     motion = self._motion
                     if (motion == 10 or motion == 0) and self._comp is None:
                         # Fastest path: a line of only (N) X Y Z words, in that order.
-                        plain = _XYZ_LINE.fullmatch(raw)
+                        plain = (
+                            _XYZ_LINE.fullmatch(raw) if len(raw) <= MAX_NUMBER_CHARS else None
+                        )
                         if plain is not None:
                             gx, gy, gz = plain.groups()
                             if gx is None and gy is None and gz is None:
@@ -268,6 +280,9 @@ class Interpreter(OWordControl):
                                 )
                             except NCError as err:
                                 raise self._locate(err) from None
+                            self._segments_left -= 1
+                            if self._segments_left < 0:
+                                raise self._too_many_segments()
                             yield self._out.pop()
                             continue
                     try:
@@ -291,6 +306,9 @@ class Interpreter(OWordControl):
                         raise self._locate(err) from None
                     out = self._out
                     if out:
+                        self._segments_left -= len(out)
+                        if self._segments_left < 0:
+                            raise self._too_many_segments()
                         if len(out) == 1:
                             yield out.pop()
                         else:
@@ -308,6 +326,9 @@ class Interpreter(OWordControl):
                     self._sources.pop()
             self._finish_comp()
             if self._out:
+                self._segments_left -= len(self._out)
+                if self._segments_left < 0:
+                    raise self._too_many_segments()
                 yield from self._out
                 self._out.clear()
         finally:
@@ -386,6 +407,14 @@ class Interpreter(OWordControl):
     def _error(self, message: str) -> NCError:
         return NCError(message, self._file, self._line)
 
+    def _too_many_segments(self) -> NCError:
+        limit = self.setup.max_segments
+        return self._error(
+            f"the program produces more than {limit} motion segments: stopped as runaway "
+            f"work (max_segments = {limit}; raise it, e.g. nc inspect --max-segments, for "
+            "a program meant to be this long)"
+        )
+
     def _warn(self, message: str) -> None:
         self.warnings.append(f"{self._file}:{self._line}: {message}")
 
@@ -450,6 +479,12 @@ class Interpreter(OWordControl):
             y = y0 + vy * f if inc else vy * f + off[1]
         if vz is not None:
             z = z0 + vz * f if inc else vz * f + off[2]
+        if not (
+            -MAX_POSITION_MM <= x <= MAX_POSITION_MM
+            and -MAX_POSITION_MM <= y <= MAX_POSITION_MM
+            and -MAX_POSITION_MM <= z <= MAX_POSITION_MM
+        ):
+            _check_target((x, y, z))
         if motion == 10:
             kind = MotionKind.LINEAR
             if state.feed_mode == FeedMode.UNITS_PER_MINUTE and state.programmed_feed > 0.0:
@@ -1082,6 +1117,7 @@ class Interpreter(OWordControl):
     def _straight(
         self, kind: MotionKind, target: list[float], abc: list[float] | None = None
     ) -> None:
+        _check_target(target)
         pos = self._pos
         length = math.sqrt(
             (target[0] - pos[0]) ** 2 + (target[1] - pos[1]) ** 2 + (target[2] - pos[2]) ** 2
@@ -1155,6 +1191,8 @@ class Interpreter(OWordControl):
                 )
             if r0 <= 0.0:
                 raise self._error("arc of zero radius: the centre equals the start point")
+        _check_target(target)
+        _check_target(center)
         center_t = (center[0], center[1], center[2])
         radius, _, sweep = arc_sweep_rad(
             (start[0], start[1], start[2]),
@@ -1472,8 +1510,11 @@ class Interpreter(OWordControl):
         letter_n = _AXES[n]
         f = self._factor
         repeats = words.get("l", 1.0)
-        if repeats < 1 or repeats != int(repeats):
-            raise self._error(f"canned cycle repeat L{repeats:g} must be a whole number >= 1")
+        if not 1 <= repeats <= MAX_CYCLE_REPEATS or repeats != int(repeats):
+            raise self._error(
+                f"canned cycle repeat L{repeats:g} must be a whole number from 1 to "
+                f"{MAX_CYCLE_REPEATS}"
+            )
         direction = self._state.spindle_direction
         if code == 84 and direction != 1:
             raise self._error(
@@ -1530,6 +1571,13 @@ class Interpreter(OWordControl):
             self._cycle_p if code in (82, 84, 86, 89) else 0.0,
             state_before.spindle_direction or 1,
         )
+        moves = int(repeats) * (3 * peck_count(spec) + 6)
+        if moves > MAX_SEGMENTS_PER_BLOCK:
+            raise self._error(
+                f"canned cycle G{code} L{repeats:g} would make about {moves} moves in one "
+                f"block; at most {MAX_SEGMENTS_PER_BLOCK} are allowed (fewer repeats or "
+                "larger Q pecks)"
+            )
         hole_words = {k: v for k, v in words.items() if k in (_AXES[i0], _AXES[i1], "@", "^")}
         for _ in range(int(repeats)):
             hole = self._target(hole_words)
@@ -1559,6 +1607,12 @@ class Interpreter(OWordControl):
                 else:
                     self._straight(move.kind, list(move.position_mm))
             self._state = state_before
+
+
+def _check_target(point: list[float] | tuple[float, float, float]) -> None:
+    """Refuse a machine position (mm) beyond the bounds of :mod:`cnctwin.nc.limits`."""
+    for axis, value in zip("XYZ", point[:3], strict=True):
+        check_position(axis, value)
 
 
 def _g(code: int) -> str:

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 from cnctwin.errors import NCError
 from cnctwin.nc.expressions import Parameters, read_assignment, read_value
+from cnctwin.nc.limits import MAX_NUMBER_CHARS, check_number_text, check_word
 
 __all__ = ["Block", "OWord", "lex_block", "strip_comments", "O_KEYWORDS"]
 
@@ -192,17 +193,23 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
         if text[0] in "o:" and _PROGRAM_NUMBER.match(text):
             return None
         block = Block(messages=messages, assignments=_NO_ASSIGNMENTS)
-        _sort_words(block, [(letter, float(number)) for letter, number in _WORD.findall(text)])
+        found = _WORD.findall(text)
+        if len(text) > MAX_NUMBER_CHARS:
+            for _, number in found:
+                check_number_text(number)
+        _sort_words(block, [(letter, float(number)) for letter, number in found])
         return block
     return _lex_general(text, params, messages)
 
 
 def _sort_words(block: Block, pairs: list[tuple[str, float]]) -> None:
-    """File (letter, value) pairs into the block's G-codes, M-codes and other words."""
+    """File (letter, value) pairs into the block's G-codes, M-codes and other words, each
+    checked against :data:`cnctwin.nc.limits.WORD_LIMITS`."""
     gcodes = block.gcodes
     mcodes = block.mcodes
     words = block.words
     for letter, value in pairs:
+        check_word(letter, value)
         if letter == "g":
             gcodes.append(_gcode_key(value))
         elif letter == "m":

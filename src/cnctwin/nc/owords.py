@@ -19,8 +19,9 @@ from cnctwin.nc.source import LineSource
 
 __all__ = ["OWordControl", "MAX_CALL_DEPTH", "MAX_LOOP_ITERATIONS"]
 
-#: Upper bound on the iterations of one O-word loop, against runaway programs.
-MAX_LOOP_ITERATIONS = 1_000_000
+#: Upper bound on the iterations of one O-word loop (and on a repeat count), against
+#: runaway programs; a loop of a few lines reaches it in about a second.
+MAX_LOOP_ITERATIONS = 100_000
 #: Upper bound on nested subroutine calls.
 MAX_CALL_DEPTH = 100
 
@@ -103,8 +104,11 @@ class OWordControl:
             return False
         if kw == "repeat":
             count = self._argument(ow)
-            if count != int(count) or count < 0:
-                raise self._error(f"o{label} repeat count {count:g} must be a whole number >= 0")
+            if count != int(count) or not 0 <= count <= MAX_LOOP_ITERATIONS:
+                raise self._error(
+                    f"o{label} repeat count {count:g} must be a whole number from 0 to "
+                    f"{MAX_LOOP_ITERATIONS}"
+                )
             if count == 0:
                 self._skip_to(src, label, ("endrepeat",))
             else:
@@ -257,7 +261,7 @@ class OWordControl:
             folder = Path(self._file).parent
             for candidate in (folder / f"{name}.ngc", folder / f"{name.upper()}.ngc"):
                 if candidate.is_file():
-                    sub_src = LineSource.from_path(candidate)
+                    sub_src = LineSource.from_path(candidate, src.max_bytes, src.budget)
                     for _lineno, _start, raw in sub_src:
                         text = "".join(strip_comments(raw).split()).lower()
                         if text.startswith(f"o{label}sub"):

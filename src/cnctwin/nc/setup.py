@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from cnctwin.nc.limits import MAX_PROGRAM_BYTES, MAX_REPEATED_LINES, MAX_SEGMENTS
 from cnctwin.nc.segments import Vec3
 
 __all__ = ["NCSetup", "ToolEntry"]
@@ -62,6 +63,12 @@ class NCSetup:
         Highest spindle speed of the machine in rpm; limits constant surface speed (G96).
     tool_change_on_t
         A T word loads the tool at once, without M6 (grbl, CAMotics).
+    max_segments
+        Most motion segments one program may produce (work guard; see ``docs/nc.md``).
+    max_program_bytes
+        Largest program file read, bytes.
+    max_repeated_lines
+        Most lines O-word loops and subroutine calls may execute again.
     """
 
     tools: dict[int, ToolEntry] = field(default_factory=dict)
@@ -72,3 +79,6 @@ class NCSetup:
     initial_position_mm: Vec3 = (0.0, 0.0, 0.0)
     max_spindle_rpm: float = math.inf
     tool_change_on_t: bool = False
+    max_segments: int = MAX_SEGMENTS
+    max_program_bytes: int = MAX_PROGRAM_BYTES
+    max_repeated_lines: int = MAX_REPEATED_LINES

@@ -1,17 +1,70 @@
-"""Lines of an NC file, read lazily, with the byte offsets that O-word jumps need.
+"""Lines of an NC file, read lazily in bounded chunks, with the byte offsets that O-word
+jumps need.
 
-The file is never held in memory as a whole: lines are read one at a time, and only the
-positions of O-word statements that may be jumped back to are remembered.
+The file is never held in memory as a whole: it is read in chunks of
+:data:`CHUNK_BYTES`, and only the positions of O-word statements that may be jumped back
+to are remembered. CR, LF and CR LF (mixed freely) all end a line. Reading is bounded:
+only regular files are opened (never a FIFO or a device such as ``/dev/zero``), a file
+larger than its byte limit, a line longer than :data:`~cnctwin.nc.limits.MAX_LINE_BYTES`
+and a NUL byte (a binary file) are refused, and the lines read again after jumps back
+are counted against a :class:`RepeatBudget`.
 """
 
 from __future__ import annotations
 
 import io
+import os
+import re
+import stat
 from collections.abc import Iterator
 from pathlib import Path
 from typing import BinaryIO
 
-__all__ = ["LineSource"]
+from cnctwin.errors import NCError
+from cnctwin.nc.limits import MAX_LINE_BYTES, MAX_PROGRAM_BYTES, MAX_REPEATED_LINES
+
+__all__ = ["CHUNK_BYTES", "LineSource", "RepeatBudget"]
+
+#: Bytes read from the file at a time.
+CHUNK_BYTES = 65_536
+_EOL = re.compile(rb"\r\n|\r|\n")
+_CR = 13
+
+
+class RepeatBudget:
+    """How many more lines O-word loops and subroutine calls may read again.
+
+    One budget is shared by the program and the subroutine files it opens.
+
+    Parameters
+    ----------
+    limit
+        Lines that may be read a second (or later) time, >= 0.
+    """
+
+    __slots__ = ("limit", "remaining")
+
+    def __init__(self, limit: int = MAX_REPEATED_LINES) -> None:
+        self.limit = limit
+        self.remaining = limit
+
+    def charge(self, name: str, lineno: int) -> None:
+        """Count one line read again.
+
+        Raises
+        ------
+        NCError
+            When more than ``limit`` lines have been read again.
+        """
+        self.remaining -= 1
+        if self.remaining < 0:
+            raise NCError(
+                f"more than {self.limit} lines were executed again by O-word loops and "
+                "subroutine calls: stopped as a runaway program (raise max_repeated_lines "
+                "if the program is meant to do this much work)",
+                name,
+                lineno,
+            )
 
 
 class LineSource:
@@ -23,24 +76,76 @@ class LineSource:
         A binary, seekable stream positioned at the start of the program.
     name
         The name used in error messages (usually the file path).
+    max_bytes
+        Largest program accepted, bytes.
+    budget
+        The budget of lines read again, shared with other sources of the same program;
+        a fresh one of :data:`~cnctwin.nc.limits.MAX_REPEATED_LINES` if omitted.
     """
 
-    def __init__(self, stream: BinaryIO, name: str) -> None:
+    def __init__(
+        self,
+        stream: BinaryIO,
+        name: str,
+        max_bytes: int = MAX_PROGRAM_BYTES,
+        budget: RepeatBudget | None = None,
+    ) -> None:
         self.name = name
+        self.max_bytes = max_bytes
+        self.budget = budget if budget is not None else RepeatBudget()
         self._stream = stream
         self._pending: tuple[int, int] | None = None
+        self._seen_to = 0
         self.offset = 0
         self.lineno = 0
 
     @classmethod
-    def from_path(cls, path: str | Path) -> LineSource:
-        """Open a file (read lazily, binary, decoded as UTF-8 with replacement)."""
-        return cls(open(path, "rb"), str(path))  # noqa: SIM115 - closed by close()
+    def from_path(
+        cls,
+        path: str | Path,
+        max_bytes: int = MAX_PROGRAM_BYTES,
+        budget: RepeatBudget | None = None,
+    ) -> LineSource:
+        """Open a regular file (read lazily, binary, decoded as UTF-8 with replacement).
+
+        Raises
+        ------
+        NCError
+            If ``path`` is not a regular file (a FIFO, device or directory) or is larger
+            than ``max_bytes``.
+        OSError
+            If it cannot be opened.
+        """
+        name = str(path)
+        # Non-blocking, so that opening a FIFO without a writer does not wait forever.
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+        try:
+            info = os.fstat(fd)
+            if not stat.S_ISREG(info.st_mode):
+                raise NCError(
+                    "not a regular file (a FIFO, device or directory): NC programs are read "
+                    "from files",
+                    name,
+                )
+            if info.st_size > max_bytes:
+                raise NCError(
+                    f"the file has {info.st_size} bytes; at most {max_bytes} are read "
+                    "(raise max_program_bytes for larger programs)",
+                    name,
+                )
+            stream = os.fdopen(fd, "rb")
+        except BaseException:
+            os.close(fd)
+            raise
+        return cls(stream, name, max_bytes, budget)
 
     @classmethod
-    def from_text(cls, text: str, name: str = "<string>") -> LineSource:
-        """Wrap program text held in memory."""
-        return cls(io.BytesIO(text.encode("utf-8")), name)
+    def from_text(
+        cls, text: str, name: str = "<string>", budget: RepeatBudget | None = None
+    ) -> LineSource:
+        """Wrap program text held in memory (no byte limit: the caller holds it already)."""
+        data = text.encode("utf-8", "replace")
+        return cls(io.BytesIO(data), name, max(len(data), MAX_PROGRAM_BYTES), budget)
 
     def close(self) -> None:
         """Close the underlying stream."""
@@ -50,24 +155,81 @@ class LineSource:
         """Continue at byte ``offset``, which starts line ``lineno + 1``."""
         self._pending = (offset, lineno)
 
+    def _read(self, at: int) -> bytes:
+        """The next chunk, which starts at byte ``at``; checked for size and NUL bytes."""
+        chunk = self._stream.read(CHUNK_BYTES)
+        if at + len(chunk) > self.max_bytes:
+            raise NCError(
+                f"the program is longer than {self.max_bytes} bytes (raise "
+                "max_program_bytes for larger programs)",
+                self.name,
+            )
+        nul = chunk.find(b"\0")
+        if nul >= 0:
+            raise NCError(
+                f"NUL byte at byte offset {at + nul}: this is a binary file, not an NC "
+                "program (NC programs are text)",
+                self.name,
+            )
+        return chunk
+
+    def _too_long(self) -> NCError:
+        return NCError(
+            f"line longer than {MAX_LINE_BYTES} bytes: not an NC program line",
+            self.name,
+            self.lineno + 1,
+        )
+
     def __iter__(self) -> Iterator[tuple[int, int, str]]:
         """Yield ``(line_number, start_offset, text)`` for each line, honouring seeks.
 
-        ``self.offset`` is the offset just past the yielded line and ``self.lineno`` its
-        1-based number while the caller handles it.
+        ``text`` is without its line terminator. ``self.offset`` is the offset just past
+        the yielded line and ``self.lineno`` its 1-based number while the caller handles
+        it. Several iterators may take turns on one source: each goes on from where the
+        last one left ``self.offset``.
         """
-        stream = self._stream
         while True:
             if self._pending is not None:
                 self.offset, self.lineno = self._pending
                 self._pending = None
-                stream.seek(self.offset)
-            for raw in stream:
-                start = self.offset
-                self.offset = start + len(raw)
+            self._stream.seek(self.offset)
+            base = self.offset  # file offset of buf[0]
+            buf = b""
+            p = 0
+            eof = False
+            while True:
+                found = _EOL.search(buf, p)
+                if found is not None and (
+                    eof or found.end() < len(buf) or buf[found.start()] != _CR
+                ):
+                    stop, end = found.start(), found.end()
+                elif eof:
+                    if p >= len(buf):
+                        return
+                    stop = end = len(buf)
+                else:
+                    if len(buf) - p > MAX_LINE_BYTES:
+                        raise self._too_long()
+                    chunk = self._read(base + len(buf))
+                    if not chunk:
+                        eof = True
+                    buf = buf[p:] + chunk
+                    base += p
+                    p = 0
+                    continue
+                if stop - p > MAX_LINE_BYTES:
+                    raise self._too_long()
+                start = base + p
+                raw = buf[p:stop]
+                p = end
+                self.offset = base + end
                 self.lineno += 1
-                yield self.lineno, start, raw.decode("utf-8", "replace").rstrip("\r\n")
-                if self._pending is not None:
+                if start < self._seen_to:
+                    self.budget.charge(self.name, self.lineno)
+                else:
+                    self._seen_to = self.offset
+                yield self.lineno, start, raw.decode("utf-8", "replace")
+                if self._pending is not None or self.offset != base + p:
+                    # A seek, or another reader of this source (a forward scan for an
+                    # O-word) moved on: continue from where it left the source.
                     break
-            else:
-                return
