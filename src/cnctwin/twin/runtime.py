@@ -213,9 +213,9 @@ class TwinRuntime:
                 state = CycleState(self.cycles, deadline, clock)
                 started = time.perf_counter()
                 for stage in self.stages:
-                    t_stage = time.perf_counter()
                     if getattr(stage, "per_sample", False) and not state.new_sample:
                         continue  # nothing new to compute: no duplicate sample downstream
+                    t_stage = time.perf_counter()
                     result = stage.process(state)
                     if inspect.isawaitable(result):
                         result = await result
@@ -262,8 +262,8 @@ class TwinRuntime:
         if beat is not None and beat != self._last_beat:
             self._last_beat = beat
             self._beat_s = now
-        stale = now - self._beat_s > self.watchdog_s
             self._beat_received_s = state.received_s
+        stale = now - self._beat_s > self.watchdog_s
         alive = state.connected and not stale and not state.stale
         if self.connected and not alive:
             if not state.connected:
