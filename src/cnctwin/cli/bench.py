@@ -9,7 +9,6 @@ loopback; ``--jitter-ms`` puts a :class:`~cnctwin.thread.latency.JitterProxy` in
 from __future__ import annotations
 
 import asyncio
-import json
 import logging
 import multiprocessing
 from collections.abc import AsyncIterator
@@ -22,6 +21,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.errors import CnctwinError, ConfigError
 from cnctwin.thread.config import ConnectionConfig
 from cnctwin.thread.connection import MachineConnection
@@ -230,7 +230,7 @@ def latency(
     )
     report = {"transport": transport, "endpoint": url, **result.to_dict()}
     if as_json:
-        typer.echo(json.dumps(report))
+        typer.echo(finite_json.dumps(report))
         return
     table = Table(
         title=f"{transport} write-to-read-back latency, {result.n} round trips "

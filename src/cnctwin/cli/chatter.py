@@ -23,6 +23,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.cli.chatter_detect import detect
 from cnctwin.errors import ConfigError, DataError
 
@@ -376,7 +377,7 @@ def simulate(
     if signals is not None:
         _write_signals(signals, result)
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     Console().print(_simulation_table(report))
 
@@ -564,7 +565,7 @@ def calibrate_damping(
     if plot is not None:
         _plot_calibration(plot, report, cuts.stem)
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     console = Console()
     console.print(_cuts_table(report))

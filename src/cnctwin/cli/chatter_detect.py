@@ -9,7 +9,6 @@ docs/chatter.md.
 from __future__ import annotations
 
 import csv
-import json
 import math
 import sys
 from pathlib import Path
@@ -20,6 +19,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.dynamics.chatter_detection import (
     DEFAULT_THRESHOLD,
     ChatterDetection,
@@ -213,7 +213,7 @@ def detect(
     found = detect_chatter(samples, settings)
     report = detection_report(found, str(signal), name)
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     Console().print(_table(report))
 

@@ -11,7 +11,6 @@ machine (use case 1). See docs/demo.md.
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from importlib.resources import as_file, files
@@ -22,6 +21,7 @@ import platformdirs
 import typer
 from rich.console import Console
 
+from cnctwin import finite_json
 from cnctwin.cli.run import (
     note,
     quiet_protocol_logs,
@@ -129,6 +129,6 @@ def demo(
         machine_time_s=machine_state.get("t_s"),
     )
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     Console().print(summary_table(report, title="cnctwin demo"))

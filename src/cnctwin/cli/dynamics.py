@@ -15,7 +15,6 @@ sampling interval, s) and an FRF table otherwise (a frequency step, Hz); ``--kin
 
 from __future__ import annotations
 
-import json
 import math
 import re
 import sys
@@ -29,6 +28,7 @@ from numpy.typing import NDArray
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.dynamics.frf import FRF, FRFQuantity, impact_frf
 from cnctwin.errors import ConfigError, DataError
 
@@ -477,7 +477,7 @@ def fit_frf(
     if modes_out is not None:
         modes_out.write_text(modes_file_text(report, direction), encoding="utf-8")
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     low, high = report["band_hz"]
     console = Console()

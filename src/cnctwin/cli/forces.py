@@ -12,7 +12,6 @@ the -y side. Torque and power are positive while cutting.
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from typing import Annotated, Any
@@ -21,6 +20,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.errors import ConfigError
 
 __all__ = ["forces", "forces_report"]
@@ -185,7 +185,7 @@ def forces(
         down_milling=down,
     )
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     Console().print(_table(report))
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from collections.abc import Callable, Iterable, Iterator
 from enum import Enum
@@ -13,6 +12,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.config import TwinConfig, load_config
 from cnctwin.nc.segments import Segment
 from cnctwin.nc.summary import summarize
@@ -135,7 +135,7 @@ def inspect(
     if picture is not None and plot is not None:
         picture.save(plot, title=program.name)
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     Console().print(report_table(report))
     if plot is not None:

@@ -10,7 +10,6 @@ and the speed range (``[lobes] rpm``). :mod:`cnctwin.dynamics.roadmap` does the 
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 import time
@@ -23,6 +22,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.cli.stability import parse_rpm_range
 from cnctwin.errors import CnctwinError, ConfigError, NCError
 
@@ -261,7 +261,7 @@ def roadmap(
     if plot is not None:
         _plot(plot, result, program.name)
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     Console().print(_table(report))
 

@@ -18,6 +18,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.errors import CnctwinError, DataError
 from cnctwin.quality import PowerLawFit, PowerLawModel, fit_power_law
 
@@ -198,7 +199,7 @@ def fit(
     )
     report = fit_report(fitted, str(data))
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     table = Table(title=f"roughness fit: {data}", show_header=False, title_justify="left")
     terms = (f"{name}^b{i}" for i, name in enumerate(fitted.model.features, start=1))
@@ -263,6 +264,6 @@ def predict(
     inputs = {name: given[name] for name in model.features}
     value = float(model.predict(inputs))
     if as_json:
-        sys.stdout.write(json.dumps({model.target: value, "inputs": inputs}) + "\n")
+        sys.stdout.write(finite_json.dumps({model.target: value, "inputs": inputs}) + "\n")
         return
     typer.echo(f"{model.target} = {value:.4g}")

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import json
 import logging
 import math
 import signal
@@ -25,6 +24,7 @@ from rich.live import Live
 from rich.table import Table
 from rich.text import Text
 
+from cnctwin import finite_json
 from cnctwin.errors import ConfigError
 from cnctwin.thread.signals import RunState
 
@@ -133,7 +133,7 @@ def run(
         )
     report = summary_report(summary)
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     Console().print(summary_table(report, title=f"twin run: {config.name}"))
 

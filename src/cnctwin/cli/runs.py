@@ -7,7 +7,6 @@ error, not a new database.
 
 from __future__ import annotations
 
-import json
 import sys
 from datetime import UTC, datetime
 from pathlib import Path
@@ -17,6 +16,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.store import Historian, RunSummary
 
 __all__ = ["app", "export", "list_runs", "show"]
@@ -57,7 +57,7 @@ def list_runs(db: DbOpt = None, as_json: JsonOpt = False) -> None:
         location = h.location
     if as_json:
         report = {"database": location, "runs": [r.to_dict() for r in runs]}
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     table = Table(title=f"runs in {location}", title_justify="left")
     for column in ("id", "status", "started UTC", "duration s", "program", "values"):
@@ -84,7 +84,7 @@ def show(run_id: RunArg, db: DbOpt = None, as_json: JsonOpt = False) -> None:
     with _open(db) as h:
         detail = h.run(run_id)
     if as_json:
-        sys.stdout.write(json.dumps(detail.to_dict()) + "\n")
+        sys.stdout.write(finite_json.dumps(detail.to_dict()) + "\n")
         return
     s = detail.summary
     console = Console()
@@ -141,7 +141,8 @@ def export(
     with _open(db) as h:
         files = h.export(run_id, out)
     if as_json:
-        sys.stdout.write(json.dumps({"run": run_id, "files": [str(f) for f in files]}) + "\n")
+        report = {"run": run_id, "files": [str(f) for f in files]}
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     for f in files:
         typer.echo(str(f))

@@ -9,7 +9,6 @@ with a plot. Units, frames and signs: docs/signals.md.
 from __future__ import annotations
 
 import csv
-import json
 import sys
 import time
 from pathlib import Path
@@ -20,6 +19,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.cli.simulate import resolution
 from cnctwin.config import TwinConfig, load_config
 from cnctwin.errors import ConfigError, NCError
@@ -146,7 +146,7 @@ def signals_report(
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         _write_csv(out / "signals.csv", result)
-        (out / "summary.json").write_text(json.dumps(report, indent=2) + "\n")
+        (out / "summary.json").write_text(finite_json.dumps(report, indent=2) + "\n")
         if plot is None:
             plot = out / "signals.png"
     if plot is not None:
@@ -262,7 +262,7 @@ def signals(
         progress=not as_json and sys.stderr.isatty(),
     )
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     table = Table(title=str(program), show_header=False, title_justify="left")
     rows = (

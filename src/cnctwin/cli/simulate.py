@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import csv
-import json
 import math
 import sys
 import time
@@ -16,6 +15,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.config import TwinConfig, load_config
 from cnctwin.errors import ConfigError, NCError
 
@@ -154,7 +154,7 @@ def simulate_report(
             for row in data:
                 writer.writerow([f"{v:.6g}" for v in row])
         _write_stl(out / "stock.stl", stock_mesh(stock), program.name)
-        (out / "summary.json").write_text(json.dumps(report, indent=2) + "\n")
+        (out / "summary.json").write_text(finite_json.dumps(report, indent=2) + "\n")
     return report
 
 
@@ -202,7 +202,7 @@ def simulate(
         progress=not as_json and sys.stderr.isatty(),
     )
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     table = Table(title=str(program), show_header=False, title_justify="left")
     for key in (

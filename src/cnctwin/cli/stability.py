@@ -10,7 +10,6 @@ spindle speeds: the file's ``[lobes]`` range, ``--rpm LIST`` (comma-separated sp
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import sys
@@ -23,6 +22,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.errors import ConfigError
 
 __all__ = ["app", "lobes", "lobes_report", "parse_rpm_list", "parse_rpm_range"]
@@ -247,7 +247,7 @@ def lobes(
     if plot is not None:
         _plot(plot, report, path.stem)
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     Console().print(_table(report))
 

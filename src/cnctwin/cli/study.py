@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 import time
 from pathlib import Path
@@ -14,6 +13,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.errors import ConfigError
 
 __all__ = ["app", "dexel", "dexel_report"]
@@ -92,7 +92,7 @@ def dexel(
         out, quick=quick, workers=workers, progress=not as_json and sys.stderr.isatty()
     )
     if as_json:
-        sys.stdout.write(json.dumps(summary) + "\n")
+        sys.stdout.write(finite_json.dumps(summary) + "\n")
         return
     paper, best = summary["paper"], summary["optimum"]
     table = Table(title="dexel study: optimum of S (Heide 2025, Eq. 3)", title_justify="left")

@@ -6,7 +6,6 @@ the compensation registry) adds its commands to the same app.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import Annotated, Any
@@ -15,6 +14,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.wear.lathe_simulator import DEFAULT_PARTS, LatheRun, run_test
 
 __all__ = ["app", "simulate_lathe", "simulate_lathe_report"]
@@ -112,7 +112,7 @@ def simulate_lathe(
     if plot is not None:
         _plot(run, report, plot)
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     console = Console()
     console.print(_table(report))

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import csv
-import json
 import math
 import sys
 from pathlib import Path
@@ -14,6 +13,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.errors import DataError
 from cnctwin.wear.ekf import CHRISTIAND2024, EKFPreset
 from cnctwin.wear.stages import StageMonitor
@@ -206,7 +206,7 @@ def ekf(
     if plot is not None:
         _plot(plot, series, run, stages)
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     table = Table(title=f"wear EKF: {source}", show_header=False, title_justify="left")
     table.add_row("samples", str(report["steps"]))

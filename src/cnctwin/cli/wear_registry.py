@@ -3,7 +3,6 @@ measurements (Bolyn 2023), with the twins kept in an SQLite registry between run
 
 from __future__ import annotations
 
-import json
 import sys
 from datetime import UTC, datetime
 from pathlib import Path
@@ -13,6 +12,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cnctwin import finite_json
 from cnctwin.errors import DataError
 from cnctwin.store import TwinRegistry
 from cnctwin.wear.compensation import ManufacturingParameters
@@ -30,7 +30,7 @@ JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object.")]
 
 def _emit(report: dict[str, Any], as_json: bool, title: str) -> None:
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     table = Table(title=title, show_header=False, title_justify="left")
     for key, value in report.items():
@@ -187,7 +187,7 @@ def history(
         "parts": parts,
     }
     if as_json:
-        sys.stdout.write(json.dumps(report) + "\n")
+        sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     table = Table(title=f"{lathe}: {len(rows)} parts", title_justify="left")
     for column in ("tool", "part", "deviation um", "correction um", "trusted", "recorded"):
