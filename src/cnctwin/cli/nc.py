@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable, Iterable, Iterator
+from dataclasses import replace
 from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any
@@ -14,7 +15,9 @@ from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.config import TwinConfig, load_config
+from cnctwin.nc import limits
 from cnctwin.nc.segments import Segment
+from cnctwin.nc.setup import NCSetup
 from cnctwin.nc.summary import summarize
 
 __all__ = ["app", "inspect", "inspect_report", "report_table", "trace"]
@@ -30,9 +33,41 @@ ConfigOpt = Annotated[
 ]
 
 
+MaxSegmentsOpt = Annotated[
+    int,
+    typer.Option(
+        "--max-segments",
+        min=1,
+        help="Stop with an error after this many motion segments (work guard).",
+    ),
+]
+MaxBytesOpt = Annotated[
+    int,
+    typer.Option("--max-bytes", min=1, help="Refuse program files larger than this (bytes)."),
+]
+MaxRepeatedOpt = Annotated[
+    int,
+    typer.Option(
+        "--max-repeated-lines",
+        min=0,
+        help="Stop with an error after O-word loops and calls execute this many lines again.",
+    ),
+]
+
+
 def _load(config: Path | None) -> TwinConfig:
     """The configuration in ``config``, or the defaults when it is ``None``."""
     return load_config(config) if config is not None else TwinConfig()
+
+
+def _bounded(setup: NCSetup, max_segments: int, max_bytes: int, max_repeated: int) -> NCSetup:
+    """``setup`` with the work limits given on the command line."""
+    return replace(
+        setup,
+        max_segments=max_segments,
+        max_program_bytes=max_bytes,
+        max_repeated_lines=max_repeated,
+    )
 
 
 def inspect_report(
@@ -41,6 +76,7 @@ def inspect_report(
     *,
     on_segment: Callable[[Segment], None] | None = None,
     check_travel: bool = True,
+    setup: NCSetup | None = None,
 ) -> dict[str, Any]:
     """Interpret a program and summarize it, streaming.
 
@@ -55,6 +91,8 @@ def inspect_report(
     check_travel
         Warn about moves beyond the configured axis travel (off when the configuration
         is only the defaults, whose travel is a placeholder).
+    setup
+        The interpreter's set-up; ``config.nc_setup()`` if omitted.
 
     Returns
     -------
@@ -72,7 +110,7 @@ def inspect_report(
     """
     from cnctwin.nc.interpreter import Interpreter  # the interpreter is heavy to import
 
-    interpreter = Interpreter(config.nc_setup())
+    interpreter = Interpreter(setup if setup is not None else config.nc_setup())
     segments: Iterable[Segment] = interpreter.run_file(program)
     if on_segment is not None:
         segments = _tap(segments, on_segment)
@@ -118,8 +156,14 @@ def inspect(
     plot: Annotated[
         Path | None, typer.Option("--plot", help="Also draw the tool-tip path to this PNG.")
     ] = None,
+    max_segments: MaxSegmentsOpt = limits.MAX_SEGMENTS,
+    max_bytes: MaxBytesOpt = limits.MAX_PROGRAM_BYTES,
+    max_repeated_lines: MaxRepeatedOpt = limits.MAX_REPEATED_LINES,
 ) -> None:
-    """Summarize a program: lengths, times, bounds of the tool tip, tools, warnings."""
+    """Summarize a program: lengths, times, bounds of the tool tip, tools, warnings.
+
+    With --json, numbers that are not finite are written as null (see docs/cli.md).
+    """
     settings = _load(config)
     picture = None
     if plot is not None:
@@ -131,6 +175,7 @@ def inspect(
         settings,
         on_segment=picture.add if picture else None,
         check_travel=config is not None,
+        setup=_bounded(settings.nc_setup(), max_segments, max_bytes, max_repeated_lines),
     )
     if picture is not None and plot is not None:
         picture.save(plot, title=program.name)
@@ -164,12 +209,16 @@ def trace(
             "machine: machine coordinates in mm.",
         ),
     ] = Frame.program,
+    max_segments: MaxSegmentsOpt = limits.MAX_SEGMENTS,
+    max_bytes: MaxBytesOpt = limits.MAX_PROGRAM_BYTES,
+    max_repeated_lines: MaxRepeatedOpt = limits.MAX_REPEATED_LINES,
 ) -> None:
     """Print the canonical motion trace of a program, one call a line: source line, call."""
     from cnctwin.nc.interpreter import Interpreter
     from cnctwin.nc.trace import format_trace
 
-    interpreter = Interpreter(_load(config).nc_setup())
+    setup = _bounded(_load(config).nc_setup(), max_segments, max_bytes, max_repeated_lines)
+    interpreter = Interpreter(setup)
     out = sys.stdout
     for line in format_trace(interpreter.run_file(program), frame.value):
         out.write(f"{line}\n")

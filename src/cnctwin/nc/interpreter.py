@@ -262,9 +262,7 @@ class Interpreter(OWordControl):
                     motion = self._motion
                     if (motion == 10 or motion == 0) and self._comp is None:
                         # Fastest path: a line of only (N) X Y Z words, in that order.
-                        plain = (
-                            _XYZ_LINE.fullmatch(raw) if len(raw) <= MAX_NUMBER_CHARS else None
-                        )
+                        plain = _XYZ_LINE.fullmatch(raw) if len(raw) <= MAX_NUMBER_CHARS else None
                         if plain is not None:
                             gx, gy, gz = plain.groups()
                             if gx is None and gy is None and gz is None:
@@ -411,8 +409,8 @@ class Interpreter(OWordControl):
         limit = self.setup.max_segments
         return self._error(
             f"the program produces more than {limit} motion segments: stopped as runaway "
-            f"work (max_segments = {limit}; raise it, e.g. nc inspect --max-segments, for "
-            "a program meant to be this long)"
+            "work (raise the limit with --max-segments or NCSetup.max_segments for a "
+            "program meant to be this long)"
         )
 
     def _warn(self, message: str) -> None:

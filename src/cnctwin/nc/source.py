@@ -60,8 +60,8 @@ class RepeatBudget:
         if self.remaining < 0:
             raise NCError(
                 f"more than {self.limit} lines were executed again by O-word loops and "
-                "subroutine calls: stopped as a runaway program (raise max_repeated_lines "
-                "if the program is meant to do this much work)",
+                "subroutine calls: stopped as a runaway program (raise the limit with "
+                "--max-repeated-lines or NCSetup.max_repeated_lines if it is meant to)",
                 name,
                 lineno,
             )
@@ -130,7 +130,7 @@ class LineSource:
             if info.st_size > max_bytes:
                 raise NCError(
                     f"the file has {info.st_size} bytes; at most {max_bytes} are read "
-                    "(raise max_program_bytes for larger programs)",
+                    "(raise the limit with --max-bytes or NCSetup.max_program_bytes)",
                     name,
                 )
             stream = os.fdopen(fd, "rb")
@@ -160,8 +160,8 @@ class LineSource:
         chunk = self._stream.read(CHUNK_BYTES)
         if at + len(chunk) > self.max_bytes:
             raise NCError(
-                f"the program is longer than {self.max_bytes} bytes (raise "
-                "max_program_bytes for larger programs)",
+                f"the program is longer than {self.max_bytes} bytes (raise the limit "
+                "with --max-bytes or NCSetup.max_program_bytes)",
                 self.name,
             )
         nul = chunk.find(b"\0")
