@@ -34,7 +34,8 @@ class FakeMachine:
         self.values.update(
             t_s=3.5, spindle_rpm=9600.0, program_line=120.0, heartbeat=17.0, tool_number=4.0,
             work_offset=2.0, run_state=1.0, feed_override_pct=100.0, spindle_override_pct=100.0,
-            feed_hold=0.0, stop=0.0, tool_length_wear_mm=0.0, tool_radius_wear_mm=0.0,
+            feed_hold=0.0, stop=0.0, emergency_stop=0.0, tool_length_wear_mm=0.0,
+            tool_radius_wear_mm=0.0,
         )  # fmt: skip
 
     def snapshot(self) -> dict[str, float]:

@@ -34,7 +34,8 @@ class FakeMachine:
         self.values.update(
             t_s=12.375, program_line=70000.0, heartbeat=4_000_000_000.0, tool_number=3.0,
             work_offset=1.0, run_state=1.0, feed_override_pct=100.0, spindle_override_pct=100.0,
-            feed_hold=0.0, stop=0.0, tool_length_wear_mm=0.0, tool_radius_wear_mm=0.0,
+            feed_hold=0.0, stop=0.0, emergency_stop=0.0, tool_length_wear_mm=0.0,
+            tool_radius_wear_mm=0.0,
         )  # fmt: skip
         self.commands: list[tuple[str, float]] = []
 

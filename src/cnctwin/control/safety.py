@@ -37,6 +37,7 @@ from cnctwin.control.config import ControlConfig
 from cnctwin.control.rules import Decision
 
 __all__ = [
+    "ESCALATION_RULE",
     "Commanded",
     "LostMachinePolicy",
     "Outcome",
@@ -53,8 +54,12 @@ Outcome = Literal["sent", "clamped", "blocked", "duplicate", "rate_limited", "re
 DISABLED_NOTE = "control disabled ([control] enabled = false)"
 #: Decisions made by the reconnection policy carry this rule name.
 RECONNECT_RULE = "reconnect"
+#: Steps of a stop's escalation carry this rule name.
+ESCALATION_RULE = "stop_escalation"
 
-_LATCHING = ("stop", "feed_hold")
+#: Commands that latch on the machine (the twin never releases a stop or an emergency stop;
+#: it re-asserts any of them after a lost connection, see :class:`LostMachinePolicy`).
+_LATCHING = ("stop", "feed_hold", "emergency_stop")
 _EPS = 1e-9
 
 
@@ -135,7 +140,8 @@ class LostMachinePolicy:
     the machine. On reconnection, from what the twin last sent (:class:`Commanded`) and the
     machine's read-back:
 
-    - **stop** and **feed hold** the twin set stay: the twin never releases them by itself.
+    - **stop**, **feed hold** and **emergency stop** the twin set stay: the twin never
+      releases them by itself.
       If the machine shows them released and the twin had never seen them take effect, they
       are written again (the command may have been lost with the connection); if the twin had
       seen them take effect, an operator released them on purpose and the twin leaves that
@@ -432,6 +438,29 @@ class SafetyFilter:
             step = replace(decision, time_s=now_s)
             verdicts.append(self._count(self._filter(step, now_s, readback or {})))
         return verdicts
+
+    # -- stop escalation ---------------------------------------------------------------
+    def escalate(self, command: str, now_s: float, reason: str) -> Verdict:
+        """The verdict on one step of a stop's escalation (docs/control.md): ``command`` = 1.
+
+        A step continues a stop that already passed this filter, so it is never deduplicated
+        or rate limited; with control disabled it is blocked like every command.
+
+        Parameters
+        ----------
+        command
+            ``"feed_hold"``, ``"stop"`` or ``"emergency_stop"``.
+        now_s
+            Current time, s.
+        reason
+            Why the step is taken, one line.
+        """
+        if command not in _LATCHING:
+            raise ValueError(f"escalation to {command!r}; valid: {', '.join(_LATCHING)}")
+        decision = Decision(now_s, ESCALATION_RULE, command, 1.0, reason)
+        if not self.config.enabled:
+            return self._count(Verdict(decision, "blocked", command, None, DISABLED_NOTE))
+        return self._count(self._sent(decision, command, 1.0, now_s, ""))
 
     # -- lost machine ------------------------------------------------------------------
     def after_reconnect(self, readback: Mapping[str, float], now_s: float) -> list[Verdict]:

@@ -312,11 +312,13 @@ READ_MAP: dict[str, RegisterAddress] = _parse_all(
         ("run_state", "ir:46:uint16"),
         ("feed_hold", "ir:47:uint16"),
         ("stop", "ir:48:uint16"),
+        ("emergency_stop", "ir:49:uint16"),
     ]
 )
 
 #: Where the virtual machine takes commands: scaled integers in holding registers (one
-#: register each, so a write is never split) and the two flags as coils.
+#: register each, so a write is never split) and the three flags (feed hold, stop, emergency
+#: stop) as coils.
 WRITE_MAP: dict[str, RegisterAddress] = _parse_all(
     [
         ("feed_override_pct", "hr:0:uint16:0.01"),
@@ -325,11 +327,12 @@ WRITE_MAP: dict[str, RegisterAddress] = _parse_all(
         ("tool_radius_wear_mm", "hr:3:int16:0.0001"),
         ("feed_hold", "coil:0:bool"),
         ("stop", "coil:1:bool"),
+        ("emergency_stop", "coil:2:bool"),
     ]
 )
 
-#: The virtual machine's discrete inputs: the applied state of the two flags (for PLCs that
-#: read bits).
+#: The virtual machine's discrete inputs: the applied state of the three flags (for PLCs
+#: that read bits).
 STATUS_MAP: dict[str, RegisterAddress] = _parse_all(
-    [("feed_hold", "di:0:bool"), ("stop", "di:1:bool")]
+    [("feed_hold", "di:0:bool"), ("stop", "di:1:bool"), ("emergency_stop", "di:2:bool")]
 )

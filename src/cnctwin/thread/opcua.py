@@ -82,6 +82,7 @@ NODE_MAP: dict[str, str] = {
     "feed_override_pct": "Machine.Monitoring.Channel1.FeedOverride",
     "feed_hold": "Machine.Monitoring.Channel1.FeedHold",
     "stop": "Machine.Monitoring.Channel1.Stop",
+    "emergency_stop": "Machine.Monitoring.Channel1.EmergencyStop",
     "run_state": "Machine.Monitoring.Channel1.ChannelState",
     "work_offset": "Machine.Monitoring.Channel1.ActiveWorkOffset",
     "spindle_rpm": "Machine.Monitoring.Spindle1.ActSpeed",

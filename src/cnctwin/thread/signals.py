@@ -81,6 +81,9 @@ _SPECS = (
     SignalSpec("spindle_override_pct", "%", "float", True, 50.0, 120.0, "spindle override"),
     SignalSpec("feed_hold", "1", "bool", True, 0.0, 1.0, "feed hold (1 holds the axes)"),
     SignalSpec("stop", "1", "bool", True, 0.0, 1.0, "program stop (1 stops; latched)"),
+    SignalSpec(
+        "emergency_stop", "1", "bool", True, 0.0, 1.0, "emergency stop (1 stops; latched, alarm)"
+    ),
     SignalSpec("tool_length_wear_mm", "mm", "float", True, -1.0, 1.0, "tool length wear offset"),
     SignalSpec("tool_radius_wear_mm", "mm", "float", True, -1.0, 1.0, "tool radius wear offset"),
 )

@@ -103,7 +103,9 @@ def build_twin(
     process.warm_up()
     engine = RuleEngine(config.rules, valid_names=signal_names(config))
     safety = SafetyFilter(config.control)
-    actions = ActionStage(connection, safety, recorder)
+    actions = ActionStage(
+        connection, safety, recorder, stop_confirmation=twin_cfg.stop_confirmation
+    )
     stages: list[Stage] = [
         ReadStage.from_config(connection, config),
         KinematicsStage(

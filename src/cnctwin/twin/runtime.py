@@ -16,7 +16,8 @@ lost-connection policy (see docs/twin.md). A cycle whose reading is no new sampl
 the stages that are not ``per_sample`` (the actions' time-based work) and records no frame.
 
 The run ends when the machine reports its program finished, when it has stopped (after the
-twin's stop is confirmed), after ``duration_s``, or when ``stop_event`` is set.
+twin's stop is confirmed by motion, :mod:`cnctwin.twin.stopping`), after ``duration_s``, or
+when ``stop_event`` is set.
 """
 
 from __future__ import annotations
@@ -158,8 +159,8 @@ class TwinRuntime:
         self.last_state: CycleState | None = None
         self._last_beat: float | None = None
         self._beat_s = math.nan
-        self._lost_s: float | None = None
         self._beat_received_s = math.inf
+        self._lost_s: float | None = None
         self._gaps: list[float] = []
         self._reconnects = 0
         self._ever_connected = False
@@ -344,7 +345,13 @@ class TwinRuntime:
         run_state = state.measured.get("run_state")
         if run_state == RunState.FINISHED:
             return "finished"
-        if run_state == RunState.STOPPED:
+        # a stop the twin sent ends the run only once the axes are seen at rest
+        # (docs/control.md, "Stop confirmation"): the flag alone is no stop
+        actions = self.actions
+        if actions is not None and actions.stopping:
+            return None
+        confirmed = actions is not None and actions.stop_outcome == "confirmed"
+        if run_state == RunState.STOPPED or (run_state == RunState.FAULT and confirmed):
             now = time.monotonic()
             if self._stopped_since is None:
                 self._stopped_since = now

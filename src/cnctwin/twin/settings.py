@@ -13,7 +13,9 @@ __all__ = [
     "FilterConfig",
     "ForceBandConfig",
     "FormErrorConfig",
+    "OverloadConfig",
     "PlausibilityConfig",
+    "StopConfirmationConfig",
     "TwinSection",
     "WindowConfig",
 ]
@@ -129,6 +131,74 @@ class FormErrorConfig(Section):
     youngs_modulus_gpa: float = Field(default=600.0, gt=0.0)
 
 
+class StopConfirmationConfig(Section):
+    """When a stop or feed hold the twin sent counts as done (``[twin.stop_confirmation]``).
+
+    A stop is confirmed by motion, never by a flag's read-back: every axis speed (from
+    successive positions over the machine clock ``t_s``) and the path feed ``feed_mm_min``
+    must be at most ``rest_speed_mm_min`` in ``rest_readings`` successive readings. Without
+    that within ``timeout_s`` the twin escalates: feed hold -> stop -> emergency stop (the
+    last only where the connection reads the machine's ``emergency_stop`` back). See
+    docs/control.md.
+
+    Attributes
+    ----------
+    timeout_s
+        Time each step of the escalation has to bring the axes to rest, s (the twin's clock).
+    rest_speed_mm_min
+        Largest axis speed and path feed that count as rest, mm/min (above the sensor noise
+        of positions differenced over one cycle).
+    rest_readings
+        Successive readings at rest needed to confirm.
+    escalate
+        Take the next step when a step is not confirmed in time; ``false``: only the event.
+    """
+
+    timeout_s: float = Field(default=0.5, gt=0.0, le=60.0)
+    rest_speed_mm_min: float = Field(default=6.0, gt=0.0)
+    rest_readings: int = Field(default=2, ge=1, le=1000)
+    escalate: bool = True
+
+
+class OverloadConfig(Section):
+    """What the twin does when its cycle cannot keep the period (``[twin.overload]``).
+
+    The twin is *overloaded* when at least ``enter_fraction`` of the last ``window_cycles``
+    cycles overran their period, and back to normal when at most ``exit_fraction`` did. While
+    overloaded it sheds the optional stages (docs/twin.md gives the order); the reading, the
+    force band, the rules and the actions are never shed.
+
+    Attributes
+    ----------
+    window_cycles
+        Cycles the overrun fraction is taken over.
+    enter_fraction
+        Overrun fraction from which the twin is overloaded (0 < f <= 1).
+    exit_fraction
+        Overrun fraction at or below which it is no longer overloaded (< ``enter_fraction``).
+    shed
+        Shed optional stages while overloaded (``false``: only report the overload).
+    sample_every
+        While overloaded, the historian keeps every ``sample_every``-th cycle's samples.
+    """
+
+    window_cycles: int = Field(default=40, ge=2, le=100_000)
+    enter_fraction: float = Field(default=0.25, gt=0.0, le=1.0)
+    exit_fraction: float = Field(default=0.05, ge=0.0, lt=1.0)
+    shed: bool = True
+    sample_every: int = Field(default=4, ge=1, le=10_000)
+
+    @field_validator("exit_fraction")
+    @classmethod
+    def _below_enter(cls, value: float, info: ValidationInfo) -> float:
+        enter = info.data.get("enter_fraction")
+        if enter is not None and value >= enter:
+            raise ValueError(
+                f"exit_fraction={value:g} must be below enter_fraction={enter:g}"
+            )
+        return value
+
+
 class PlausibilityConfig(Section):
     """What counts as a machine state (``[twin.plausibility]``; see
     :mod:`cnctwin.twin.plausibility`).
@@ -194,6 +264,10 @@ class TwinSection(Section):
         Force monitoring.
     form_error
         Form-error prediction.
+    stop_confirmation
+        When a stop counts as done, and the escalation when it does not.
+    overload
+        Overload detection and shedding.
     """
 
     cycle_s: float = Field(default=0.0125, gt=0.0, le=1.0)
@@ -208,6 +282,8 @@ class TwinSection(Section):
     windows: list[WindowConfig] = Field(default_factory=list)
     force_band: ForceBandConfig = Field(default_factory=ForceBandConfig)
     form_error: FormErrorConfig = Field(default_factory=FormErrorConfig)
+    stop_confirmation: StopConfirmationConfig = Field(default_factory=StopConfirmationConfig)
+    overload: OverloadConfig = Field(default_factory=OverloadConfig)
 
     @field_validator("program")
     @classmethod

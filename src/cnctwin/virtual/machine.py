@@ -202,6 +202,7 @@ class VirtualMachine:
         v = self._values
         v["feed_hold"] = 0.0
         v["stop"] = 0.0
+        v["emergency_stop"] = 0.0
         v["run_state"] = float(RunState.RUNNING)
         self._publish_motion(self._follower.position_mm, 0.0)
 
@@ -281,6 +282,9 @@ class VirtualMachine:
         -----
         ``stop`` = 1 latches: axes decelerate to rest, the spindle stops, ``run_state`` is
         STOPPED until :meth:`restart`; writing 0 does not unlatch it (``stop`` reads back 1).
+        ``emergency_stop`` = 1 latches too: the machine goes to FAULT (alarm "emergency
+        stop"), the axes brake to rest at their acceleration limits, the spindle stops;
+        ``stop`` reads back 1 with it, and only :meth:`restart` clears both.
         ``feed_hold`` = 1 decelerates the axes to rest (dwells pause) until it is set to 0.
         ``tool_length_wear_mm`` shifts the Z axis (and the tool tip) at once;
         ``tool_radius_wear_mm`` is stored and read back but does not move the path.
@@ -318,6 +322,15 @@ class VirtualMachine:
             elif number == 0.0 and self._stop_latched:
                 logger.info("stop=0 ignored: a stop stays latched until the program restarts")
             self._values["stop"] = 1.0 if self._stop_latched else 0.0
+            return
+        if name == "emergency_stop":
+            if number == 1.0 and self._values["emergency_stop"] != 1.0:
+                self._values["emergency_stop"] = 1.0
+                self._stop_latched = True
+                self._values["stop"] = 1.0
+                self._fault("emergency stop")
+            elif number == 0.0 and self._values["emergency_stop"] == 1.0:
+                logger.info("emergency_stop=0 ignored: it stays latched until the program restarts")
             return
         if name == "feed_hold":
             self._hold = number == 1.0
