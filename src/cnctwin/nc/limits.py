@@ -57,8 +57,8 @@ MAX_SEGMENTS = 10_000_000
 #: Most segments a single block may produce (canned-cycle repeats and pecks, splines).
 MAX_SEGMENTS_PER_BLOCK = 1_000_000
 #: Most lines read again after O-word jumps back (loop iterations, subroutine calls),
-#: by default; a few seconds of work.
-MAX_REPEATED_LINES = 2_000_000
+#: by default: seconds of work (a 3-line loop runs about 100 000 times a second).
+MAX_REPEATED_LINES = 1_000_000
 #: Largest canned-cycle repeat count L (holes drilled by one block).
 MAX_CYCLE_REPEATS = 10_000
 #: Most pecks of one G73/G83 hole.
