@@ -181,7 +181,7 @@ def test_garbage_over_opc_ua_is_rejected(demo_config: RunConfig) -> None:
 
             async def publish() -> None:
                 while True:
-                    await server.publish(source.snapshot())
+                    server.publish(source.snapshot())
                     await asyncio.sleep(0.01)
 
             pub = asyncio.get_running_loop().create_task(publish())

@@ -21,12 +21,13 @@ import logging
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 from asyncua import Client, Node, ua
 from asyncua.client.ua_client import UaClientState
-from asyncua.common.subscription import DataChangeNotif
+from asyncua.common.subscription import DataChangeNotif, Subscription
 from asyncua.crypto import security_policies
 
 from cnctwin.errors import ConfigError, DataError
@@ -186,6 +187,10 @@ class OpcUaConnection(MachineConnection):
             raise ConfigError(f"subscription_ms={subscription_ms!r}; valid: a number >= 0 or None")
         self.subscription_ms = subscription_ms
         self._cache: _Cache | None = None
+        self._subscription: Subscription | None = None
+        self._token: ua.NodeId | None = None
+        self._restoring = False
+        self._how: str | None = None
 
     # Transport hooks ------------------------------------------------------------------
     async def _open(self) -> None:
@@ -195,9 +200,14 @@ class OpcUaConnection(MachineConnection):
         client.session_timeout = _SESSION_TIMEOUT_MS
         await self._apply_security(client, self.config.security)
         try:
-            await client.connect()
+            # asyncua's supervisor restores a lost link: ActivateSession of the same session
+            # on a new secure channel, TransferSubscriptions and Republish of the missed
+            # notifications; a new session only when the server refuses (Part 4, 6.7)
+            await client.connect(auto_reconnect=True, reconnect_max_delay=self.backoff.max_s)
         except ua.UaError as err:
             raise ConnectionLost(f"{self.endpoint} refused the session: {err}") from err
+        client.connection_lost_callback = self._link_lost
+        self._token = client.uaclient.session.authentication_token
         self._client = client
         try:
             self._targets = await self._resolve(client)
@@ -205,7 +215,7 @@ class OpcUaConnection(MachineConnection):
             await self._close()
             raise
         params = ua.ReadParameters()
-        params.TimestampsToReturn = ua.TimestampsToReturn.Neither
+        params.TimestampsToReturn = ua.TimestampsToReturn.Both
         params.NodesToRead = [
             ua.ReadValueId(NodeId=t.node_id, AttributeId=ua.AttributeIds.Value)
             for t in self._targets.values()
@@ -226,6 +236,7 @@ class OpcUaConnection(MachineConnection):
 
     async def _close(self) -> None:
         self._cache = None
+        self._subscription = None
         client, self._client = self._client, None
         if client is None:
             return
@@ -238,11 +249,9 @@ class OpcUaConnection(MachineConnection):
         client, params = self._client, self._read_params
         if client is None or params is None:
             raise ConnectionLost("OPC UA client is not open")
+        if client.uaclient.state is not UaClientState.CONNECTED:
+            raise ConnectionLost(f"session with {self.endpoint} is {client.uaclient.state.value}")
         if self._cache is not None:
-            if client.uaclient.state is not UaClientState.CONNECTED:
-                raise ConnectionLost(
-                    f"session with {self.endpoint} is {client.uaclient.state.value}"
-                )
             results = [self._cache.values[name] for name in self._targets]
             received = self._cache.received_s
         else:
@@ -263,7 +272,65 @@ class OpcUaConnection(MachineConnection):
         if beat is not None and beat != self._last_heartbeat:
             self._last_heartbeat = beat
             self.heartbeat_s = received
-        return Reading(values=values, received_s=received, rejected=rejected)
+        good = [r for r in results if r.StatusCode is None or r.StatusCode.is_good()]
+        return Reading(
+            values=values,
+            received_s=received,
+            rejected=rejected,
+            source_time_s=_newest(r.SourceTimestamp for r in good),
+            server_time_s=_newest(r.ServerTimestamp for r in good),
+        )
+
+    async def _reopen(self) -> str:
+        """Wait for asyncua's supervisor to restore the link; say how it went.
+
+        Without a client (closed, or never opened) this opens a new session.
+        """
+        client = self._client
+        if client is None:
+            return await super()._reopen()
+        deadline = now_s() + self.timeout_s
+        while client.uaclient.state is not UaClientState.CONNECTED or self._restoring:
+            if now_s() > deadline:
+                raise ConnectionLost(f"{self.endpoint}: session still being restored")
+            await asyncio.sleep(0.005)
+        how = self._how or self._session_outcome(client)
+        self._how = None
+        return how
+
+    async def _link_lost(self, err: Exception) -> None:
+        """asyncua's supervisor saw the link drop (it reconnects next)."""
+        logger.warning("OPC UA link to %s lost: %s", self.endpoint, err)
+        self._restoring = self._subscription is not None
+
+    def _session_outcome(self, client: Client) -> str:
+        token = client.uaclient.session.authentication_token
+        kept = self._token is not None and token == self._token
+        self._token = token
+        return "session re-activated" if kept else "new session (the server refused the old one)"
+
+    def _watch_restore(self, subscription: Subscription) -> None:
+        """Record how asyncua restores ``subscription`` after a reconnect (transferred with
+        the missed notifications republished, or created anew)."""
+        restore = subscription.restore
+
+        async def watched() -> None:
+            old_id = subscription.subscription_id
+            old_seq = subscription.last_sequence_number or 0
+            try:
+                await restore()
+            finally:
+                client = self._client
+                session = "" if client is None else self._session_outcome(client)
+                if subscription.subscription_id == old_id:
+                    replayed = (subscription.last_sequence_number or 0) - old_seq
+                    sub = f"subscription transferred, {replayed} notification(s) republished"
+                else:
+                    sub = "subscription created anew (missed notifications lost)"
+                self._how = f"{session}; {sub}"
+                self._restoring = False
+
+        subscription.restore = watched  # type: ignore[method-assign]
 
     async def _read_signal(self, name: str) -> float:
         client = self._client
@@ -279,7 +346,7 @@ class OpcUaConnection(MachineConnection):
 
     async def _read_node(self, client: Client, name: str, target: _Target) -> ua.DataValue:
         params = ua.ReadParameters()
-        params.TimestampsToReturn = ua.TimestampsToReturn.Neither
+        params.TimestampsToReturn = ua.TimestampsToReturn.Both
         params.NodesToRead = [
             ua.ReadValueId(NodeId=target.node_id, AttributeId=ua.AttributeIds.Value)
         ]
@@ -386,6 +453,8 @@ class OpcUaConnection(MachineConnection):
             PublishingEnabled=True,
         )
         subscription = await client.create_subscription(params, cache)
+        self._subscription = subscription
+        self._watch_restore(subscription)
         logger.info(
             "subscribed to %d nodes at %s, publishing every %s ms",
             len(self._targets),
@@ -454,12 +523,36 @@ class _Cache:
         self.received_s = now_s()
 
     def datachange_notification(self, node: Node, val: Any, data: DataChangeNotif) -> None:
+        value = data.monitored_item.Value
         for name in self.names.get(node.nodeid, ()):
-            self.values[name] = data.monitored_item.Value
+            held = self.values.get(name)
+            if held is not None and _older(value, held):
+                continue  # a republished notification older than what the cache holds
+            self.values[name] = value
         self.received_s = now_s()
 
     def status_change_notification(self, status: ua.StatusChangeNotification) -> None:
         logger.warning("OPC UA subscription status changed: %s", status.Status)
+
+
+def _posix_s(stamp: datetime | None) -> float | None:
+    """A DataValue time stamp as POSIX s (asyncua's naive datetimes are UTC)."""
+    if stamp is None:
+        return None
+    if stamp.tzinfo is None:
+        stamp = stamp.replace(tzinfo=UTC)
+    return stamp.timestamp()
+
+
+def _newest(stamps: Any) -> float | None:
+    """The latest of some DataValue time stamps, POSIX s; ``None`` when none is set."""
+    times = [t for t in map(_posix_s, stamps) if t is not None]
+    return max(times) if times else None
+
+
+def _older(new: ua.DataValue, held: ua.DataValue) -> bool:
+    a, b = _posix_s(new.SourceTimestamp), _posix_s(held.SourceTimestamp)
+    return a is not None and b is not None and a < b
 
 
 def _is_node_id(address: str) -> bool:

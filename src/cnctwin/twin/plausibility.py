@@ -69,7 +69,10 @@ class Plausibility:
         axes = machine.axes
         self.config = config
         self.v_max_mm_s = np.array(
-            [max(a.max_velocity_mm_min, machine.rapid_mm_min) / 60.0 for a in (axes.x, axes.y, axes.z)]
+            [
+                max(a.max_velocity_mm_min, machine.rapid_mm_min) / 60.0
+                for a in (axes.x, axes.y, axes.z)
+            ]
         )
         self.a_max_mm_s2 = np.array([a.max_accel_mm_s2 for a in (axes.x, axes.y, axes.z)])
         self._ref: np.ndarray | None = None

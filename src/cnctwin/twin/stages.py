@@ -223,8 +223,9 @@ class ReadStage:
             self._reconnects = self.connection.reconnects
             how = self.connection.last_reconnect
             state.events.append(
-                TwinEvent("reconnected", f"connection restored: {how}", reading.received_s,
-                          {"how": how})
+                TwinEvent(
+                    "reconnected", f"connection restored: {how}", reading.received_s, {"how": how}
+                )
             )
         if self.freshness is not None:
             check = self.freshness.check(reading)
@@ -281,7 +282,9 @@ class ReadStage:
         """An event for every signal that turns invalid with this sample."""
         for name in rejected.keys() - self._invalid:
             value = raw.get(name)
-            shown = value if isinstance(value, float | int) and math.isfinite(value) else repr(value)
+            shown = (
+                value if isinstance(value, float | int) and math.isfinite(value) else repr(value)
+            )
             state.events.append(
                 TwinEvent(
                     "signal_invalid",
