@@ -9,6 +9,8 @@
 4. an override is clamped to its bounds;
 5. a command equal to the last one sent to that target is a duplicate when it was sent less
    than ``min_interval_s`` ago or the machine's read-back already shows it;
+5a. an override is never raised (above the last value sent, else 100 %) while the reading
+   passed with the decision lacks a valid value of it (an invalid or unserved signal);
 6. stop and feed hold pass now: a safety action is never delayed;
 7. an override waits ``min_interval_s`` after the last command to its target and needs a
    token of the bucket that allows ``max_commands_per_s`` over all targets; otherwise it is
@@ -351,6 +353,18 @@ class SafetyFilter:
             notes.append(f"{value:g} % clamped to [{limits.min_pct:g}, {limits.max_pct:g}] %")
         if self._duplicate(command, bounded, last, now_s, readback):
             return Verdict(decision, "duplicate", command, None, "already commanded")
+        if readback and _finite(readback.get(command)) is None:
+            # the machine's reading of this override is invalid (or not served) this cycle:
+            # never raise what cannot be seen (above the last value sent, else 100 %)
+            reference = last.value if last is not None else 100.0
+            if bounded > reference + _EPS:
+                return Verdict(
+                    decision,
+                    "blocked",
+                    command,
+                    None,
+                    f"no valid {command} reading: not raised above {reference:g} %",
+                )
         if last is not None and now_s - last.time_s + _EPS < config.min_interval_s:
             return Verdict(
                 decision,
