@@ -187,7 +187,7 @@ def test_unknown_keys_are_named_with_their_path(tmp_path: Path, text: str, expec
             "[machine.axes.x]\nmin_mm = -10.0\nmax_mm = -20.0\n",
             "machine.axes.x.max_mm: must be greater than min_mm (-10.0); got -20.0",
         ),
-        ("[machine]\nrapid_mm_min = 0\n", "machine.rapid_mm_min: must be greater than 0; got 0"),
+        ("[machine]\nrapid_mm_min = 0\n", "machine.rapid_mm_min: must be > 0 and <= 1000000; got 0"),
         ("[machine]\nkind = 'drill'\n", "machine.kind: must be 'mill' or 'lathe'; got 'drill'"),
         (
             "[machine]\nrapid_mm_min = nan\n",
@@ -196,7 +196,7 @@ def test_unknown_keys_are_named_with_their_path(tmp_path: Path, text: str, expec
         ("[machine]\ng28_home_mm = [1, 2]\n", "machine.g28_home_mm[2]: item is missing"),
         (
             "[machine.axes.y]\nmax_accel_mm_s2 = -1\n",
-            "machine.axes.y.max_accel_mm_s2: must be greater than 0; got -1",
+            "machine.axes.y.max_accel_mm_s2: must be > 0 and <= 1000000; got -1",
         ),
         ("[[tools]]\nnumber = 1\n", "tools[0].diameter_mm: required key is missing"),
         (
@@ -215,7 +215,7 @@ def test_unknown_keys_are_named_with_their_path(tmp_path: Path, text: str, expec
         ),
         (
             "[[tools]]\nnumber = 1\ndiameter_mm = 10\nhelix_deg = 90\n",
-            "tools[0].helix_deg: must be less than 90; got 90",
+            "tools[0].helix_deg: must be >= 0 and <= 89; got 90",
         ),
         (
             "[[tools]]\nnumber = 3\ndiameter_mm = 1\n[[tools]]\nnumber = 3\ndiameter_mm = 2\n",
@@ -227,11 +227,11 @@ def test_unknown_keys_are_named_with_their_path(tmp_path: Path, text: str, expec
         ),
         (
             "[[tools]]\nnumber = 1\ndiameter_mm = 1\norientation = 10\n",
-            "tools[0].orientation: must be less than or equal to 9; got 10",
+            "tools[0].orientation: must be >= 0 and <= 9; got 10",
         ),
         (
             "[machine]\nmax_spindle_rpm = 0\n",
-            "machine.max_spindle_rpm: must be greater than 0; got 0",
+            "machine.max_spindle_rpm: must be > 0 and <= 200000; got 0",
         ),
         ("tool_table_units = 'cm'\n", "tool_table_units: must be 'mm' or 'inch'; got 'cm'"),
         (
@@ -266,7 +266,7 @@ def test_unreadable_files(tmp_path: Path) -> None:
 
 
 def test_models_built_in_code_are_validated_too() -> None:
-    with pytest.raises(ValueError, match="greater than 0"):
+    with pytest.raises(ValueError, match="greater than or equal to 0.01"):
         ToolConfig(number=1, diameter_mm=-1.0)
     tool = ToolConfig(number=2, kind="ball", diameter_mm=8.0)
     assert math.isclose(tool.corner_radius_mm or 0.0, 4.0)

@@ -3,14 +3,22 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, ValidationInfo
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo
 from pydantic_core import PydanticCustomError
 
-__all__ = ["Section", "Vec3Mm", "resolve_file"]
+__all__ = ["COORDINATE_LIMIT_MM", "CoordinateMm", "Section", "Vec3Mm", "resolve_file"]
+
+#: Largest magnitude of a coordinate in a configuration, mm: 100 m, beyond the travel of any
+#: machine tool, and far inside the range where float64 positions keep micrometres.
+COORDINATE_LIMIT_MM = 100_000.0
+
+#: A machine coordinate in mm, within +-:data:`COORDINATE_LIMIT_MM`.
+CoordinateMm = Annotated[float, Field(ge=-COORDINATE_LIMIT_MM, le=COORDINATE_LIMIT_MM)]
 
 #: A point or vector (x, y, z) in mm, written in TOML as ``[x, y, z]``.
-Vec3Mm = tuple[float, float, float]
+Vec3Mm = tuple[CoordinateMm, CoordinateMm, CoordinateMm]
 
 
 class Section(BaseModel):

@@ -19,6 +19,10 @@ __all__ = ["load_config"]
 
 _SCALARS = (str, int, float, bool)
 
+#: Pydantic's error types of a numeric bound; their message gives the key's whole valid range.
+_BOUND_ERRORS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
+_BOUND_SYMBOLS = (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<="))
+
 _Model = TypeVar("_Model", bound=TwinConfig)
 
 
@@ -123,7 +127,10 @@ def _problem(detail: ErrorDetails, root: type[BaseModel]) -> str:
             "required key is missing" if isinstance(detail["loc"][-1], str) else "item is missing"
         )
     message = detail["msg"].removeprefix("Value error, ")
-    if message.startswith("Input should be"):
+    bounds = _range_text(root, detail["loc"]) if kind in _BOUND_ERRORS else ""
+    if bounds:
+        message = f"must be {bounds}"
+    elif message.startswith("Input should be"):
         message = "must be" + message.removeprefix("Input should be")
     else:
         message = message[:1].lower() + message[1:]
@@ -131,6 +138,42 @@ def _problem(detail: ErrorDetails, root: type[BaseModel]) -> str:
     if isinstance(value, _SCALARS):
         message += f"; got {value!r}"
     return message
+
+
+def _range_text(root: type[BaseModel], loc: tuple[int | str, ...]) -> str:
+    """The declared range of the number at ``loc`` below ``root``: ``"> 0 and <= 1000"``;
+    empty if it cannot be told."""
+    annotation: Any = root
+    for part in loc[:-1]:
+        annotation = _model_or_item(annotation, part)
+        if annotation is None:
+            return ""
+    metadata: list[Any] = []
+    last = loc[-1] if loc else None
+    model = _model_or_item(annotation, None)
+    if isinstance(last, str) and model is not None:
+        for name, field in model.model_fields.items():
+            if last in (name, field.alias):
+                metadata = list(field.metadata)
+    else:
+        item = _model_or_item(annotation, last)
+        if typing.get_origin(item) is typing.Annotated:
+            for extra in typing.get_args(item)[1:]:
+                metadata += getattr(extra, "metadata", [extra])
+    parts = [
+        f"{symbol} {_number(getattr(bound, attr))}"
+        for attr, symbol in _BOUND_SYMBOLS
+        for bound in metadata
+        if isinstance(getattr(bound, attr, None), int | float)
+    ]
+    return " and ".join(parts)
+
+
+def _number(value: float) -> str:
+    """A bound as written in the documentation: ``1000000``, ``0.01``, ``1e+12``."""
+    if float(value).is_integer() and abs(value) < 1e7:
+        return str(int(value))
+    return f"{value:g}"
 
 
 def _valid_keys(root: type[BaseModel], loc: tuple[int | str, ...]) -> list[str]:
@@ -152,8 +195,15 @@ def _model_or_item(annotation: Any, part: int | str | None) -> Any:
     if origin in (typing.Union, types.UnionType):
         members = [a for a in typing.get_args(annotation) if a is not type(None)]
         return _model_or_item(members[0], part) if len(members) == 1 else None
-    if isinstance(part, int) and origin in (list, tuple):
+    if isinstance(part, int) and origin is tuple:
+        items = typing.get_args(annotation)
+        if not items:
+            return None
+        return items[0] if items[-1] is Ellipsis else items[min(part, len(items) - 1)]
+    if isinstance(part, int) and origin is list:
         return typing.get_args(annotation)[0]
+    if isinstance(part, str) and origin is dict:
+        return typing.get_args(annotation)[1]
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
         if part is None:
             return annotation

@@ -23,28 +23,31 @@ class SpindleMotorConfig(Section):
     Attributes
     ----------
     resistance_ohm
-        Armature resistance, ohm (> 0).
+        Armature resistance, ohm (> 0, <= 1000).
     inductance_h
-        Armature inductance, H (> 0).
+        Armature inductance, H (> 0, <= 10).
     torque_constant_nm_a
-        Torque constant, N m/A (> 0).
+        Torque constant, N m/A (> 0, <= 1000).
     back_emf_constant_v_s_rad
-        Back-EMF constant, V s/rad (> 0).
+        Back-EMF constant, V s/rad (> 0, <= 1000).
     inertia_kg_m2
-        Rotor, spindle and tool inertia, kg m^2 (> 0).
+        Rotor, spindle and tool inertia, kg m^2 (> 0, <= 1000).
     viscous_friction_nm_s_rad
-        Viscous friction coefficient, N m s/rad (>= 0).
+        Viscous friction coefficient, N m s/rad (0 to 1000).
     coulomb_friction_nm
-        Coulomb friction torque, N m (>= 0).
+        Coulomb friction torque, N m (0 to 100,000).
+
+    The upper bounds lie orders of magnitude beyond any spindle drive; they keep the drive's
+    matrices finite.
     """
 
-    resistance_ohm: float = Field(gt=0)
-    inductance_h: float = Field(gt=0)
-    torque_constant_nm_a: float = Field(gt=0)
-    back_emf_constant_v_s_rad: float = Field(gt=0)
-    inertia_kg_m2: float = Field(gt=0)
-    viscous_friction_nm_s_rad: float = Field(ge=0)
-    coulomb_friction_nm: float = Field(default=0.0, ge=0)
+    resistance_ohm: float = Field(gt=0, le=1e3)
+    inductance_h: float = Field(gt=0, le=10)
+    torque_constant_nm_a: float = Field(gt=0, le=1e3)
+    back_emf_constant_v_s_rad: float = Field(gt=0, le=1e3)
+    inertia_kg_m2: float = Field(gt=0, le=1e3)
+    viscous_friction_nm_s_rad: float = Field(ge=0, le=1e3)
+    coulomb_friction_nm: float = Field(default=0.0, ge=0, le=1e5)
 
 
 class SpeedControllerConfig(Section):
@@ -53,19 +56,19 @@ class SpeedControllerConfig(Section):
     Attributes
     ----------
     kp_v_s_rad
-        Proportional gain, V s/rad (>= 0).
+        Proportional gain, V s/rad (0 to 10,000).
     ki_v_rad
-        Integral gain, V/rad (>= 0).
+        Integral gain, V/rad (0 to 1,000,000).
     kd_v_s2_rad
-        Derivative gain on the measured speed, V s^2/rad (>= 0).
+        Derivative gain on the measured speed, V s^2/rad (0 to 100).
     voltage_limit_v
-        Symmetric armature voltage limit, V (> 0); none if not given.
+        Symmetric armature voltage limit, V (> 0, <= 100,000); none if not given.
     """
 
-    kp_v_s_rad: float = Field(ge=0)
-    ki_v_rad: float = Field(ge=0)
-    kd_v_s2_rad: float = Field(default=0.0, ge=0)
-    voltage_limit_v: float | None = Field(default=None, gt=0)
+    kp_v_s_rad: float = Field(ge=0, le=1e4)
+    ki_v_rad: float = Field(ge=0, le=1e6)
+    kd_v_s2_rad: float = Field(default=0.0, ge=0, le=100)
+    voltage_limit_v: float | None = Field(default=None, gt=0, le=1e5)
 
 
 class SpindleConfig(Section):
@@ -82,9 +85,10 @@ class SpindleConfig(Section):
     controller
         Explicit speed-controller parameters replacing the preset's controller.
     rated_power_kw
-        Continuous (S1) power of the spindle, kW, if known.
+        Continuous (S1) power of the spindle, kW, if known (> 0, <= 10,000).
     rated_torque_nm
-        Continuous (S1) torque of the spindle below its base speed, N m, if known. With either
+        Continuous (S1) torque of the spindle below its base speed, N m, if known (> 0,
+        <= 100,000). With either
         rating, a cut that needs more than ``min(rated_torque_nm, rated_power_kw / speed)``
         is reported as an overload.
     """
@@ -92,5 +96,5 @@ class SpindleConfig(Section):
     preset: str = "machining-centre-15kw"
     motor: SpindleMotorConfig | None = None
     controller: SpeedControllerConfig | None = None
-    rated_power_kw: float | None = Field(default=None, gt=0)
-    rated_torque_nm: float | None = Field(default=None, gt=0)
+    rated_power_kw: float | None = Field(default=None, gt=0, le=1e4)
+    rated_torque_nm: float | None = Field(default=None, gt=0, le=1e5)

@@ -13,12 +13,13 @@ import math
 import os
 import tomllib
 from pathlib import Path
-from typing import Any, Literal, TypeVar
+from typing import Annotated, Any, Literal, TypeVar
 
 from pydantic import Field, ValidationError, model_validator
 
 from cnctwin.config.base import Section
 from cnctwin.config.loading import _describe_validation_error
+from cnctwin.config.machine import MAX_SPINDLE_RPM
 from cnctwin.dynamics.stability import (
     MillingProcess,
     OrthogonalProcess,
@@ -41,6 +42,8 @@ __all__ = [
 ]
 
 _DIRECTIONS = {"x": 0.0, "y": 90.0}
+#: A spindle speed of the lobe diagram, rpm (as ``[machine] max_spindle_rpm``).
+_Rpm = Annotated[float, Field(gt=0, le=MAX_SPINDLE_RPM)]
 _Model = TypeVar("_Model", bound=Section)
 
 
@@ -52,23 +55,23 @@ class ModeEntry(Section):
     direction
         ``"x"`` (feed) or ``"y"`` (normal to the feed); exclusive with ``direction_deg``.
     direction_deg
-        Direction in degrees from +x toward +y, for modes not along x or y.
+        Direction in degrees from +x toward +y, for modes not along x or y (-360 to 360).
     fn_hz
-        Undamped natural frequency in Hz, > 0.
+        Undamped natural frequency in Hz, 0.1 to 1,000,000.
     damping_ratio
         Viscous damping ratio, 0 <= zeta < 1.
     stiffness_n_m
-        Modal stiffness in N/m; exclusive with ``mass_kg``.
+        Modal stiffness in N/m (1 to 1e12); exclusive with ``mass_kg``.
     mass_kg
-        Modal mass in kg (``k = m (2 pi fn)^2``).
+        Modal mass in kg (``k = m (2 pi fn)^2``; 1e-6 to 1e6).
     """
 
     direction: Literal["x", "y"] | None = None
-    direction_deg: float | None = None
-    fn_hz: float = Field(gt=0)
+    direction_deg: float | None = Field(default=None, ge=-360, le=360)
+    fn_hz: float = Field(ge=0.1, le=1e6)
     damping_ratio: float = Field(ge=0, lt=1)
-    stiffness_n_m: float | None = Field(default=None, gt=0)
-    mass_kg: float | None = Field(default=None, gt=0)
+    stiffness_n_m: float | None = Field(default=None, ge=1, le=1e12)
+    mass_kg: float | None = Field(default=None, ge=1e-6, le=1e6)
 
     @model_validator(mode="after")
     def _one_of_each(self) -> ModeEntry:
@@ -98,7 +101,7 @@ class CutSection(Section):
     operation
         ``"milling"`` or ``"orthogonal"`` (turning, boring, shaping: one chip per revolution).
     teeth
-        Milling: number of teeth, >= 1.
+        Milling: number of teeth, 1 to 100.
     radial_immersion
         Milling: radial depth over diameter ae/D, 0 < ae/D <= 1 (1 is a slot).
     milling
@@ -107,26 +110,28 @@ class CutSection(Section):
         Milling: an entry of the materials library (``cnctwin.mechanics.materials``);
         exclusive with ``ktc_n_mm2`` and ``krc_n_mm2``.
     ktc_n_mm2, krc_n_mm2
-        Milling: tangential and radial cutting coefficients in N/mm^2.
+        Milling: tangential (> 0) and radial cutting coefficients in N/mm^2, magnitudes up
+        to 100,000 (hardened steels need about 5,000).
     kf_n_mm2
-        Orthogonal: cutting force coefficient Kf in N/mm^2.
+        Orthogonal: cutting force coefficient Kf in N/mm^2 (> 0, <= 100,000).
     chip_direction_deg
         Orthogonal: direction in which the tool's displacement thickens the chip, degrees
-        from +x toward +y.
+        from +x toward +y (-360 to 360).
     force_angle_deg
-        Orthogonal: angle beta of the cutting force from the chip direction, degrees.
+        Orthogonal: angle beta of the cutting force from the chip direction, degrees
+        (-360 to 360).
     """
 
     operation: Literal["milling", "orthogonal"] = "milling"
-    teeth: int | None = Field(default=None, ge=1)
+    teeth: int | None = Field(default=None, ge=1, le=100)
     radial_immersion: float = Field(default=1.0, gt=0, le=1)
     milling: Literal["down", "up"] = "down"
     material: str | None = None
-    ktc_n_mm2: float | None = Field(default=None, gt=0)
-    krc_n_mm2: float | None = None
-    kf_n_mm2: float | None = Field(default=None, gt=0)
-    chip_direction_deg: float = 90.0
-    force_angle_deg: float = 0.0
+    ktc_n_mm2: float | None = Field(default=None, gt=0, le=1e5)
+    krc_n_mm2: float | None = Field(default=None, ge=-1e5, le=1e5)
+    kf_n_mm2: float | None = Field(default=None, gt=0, le=1e5)
+    chip_direction_deg: float = Field(default=90.0, ge=-360, le=360)
+    force_angle_deg: float = Field(default=0.0, ge=-360, le=360)
 
 
 class LobesSection(Section):
@@ -137,21 +142,22 @@ class LobesSection(Section):
     method
         ``"zoa"`` (zero-order approximation) or ``"sdm"`` (semi-discretization).
     rpm
-        Lowest and highest spindle speed in rpm.
+        Lowest and highest spindle speed in rpm, each > 0 and <= 200,000.
     points
-        Number of spindle speeds, evenly spaced, >= 2.
+        Number of spindle speeds, evenly spaced, 2 to 100,000.
     max_depth_mm
-        Semi-discretization: highest depth searched in mm.
+        Semi-discretization: highest depth searched in mm (> 0, <= 1000).
     steps
-        Semi-discretization: steps per period, >= 2, or ``"auto"`` (20 per cycle of the
-        highest mode, at least 40).
+        Semi-discretization: steps per period, 2 to 10,000, or ``"auto"`` (20 per cycle of
+        the highest mode, at least 40). The work of the whole diagram must fit the work
+        limit (:mod:`cnctwin.config.limits`).
     """
 
     method: Literal["zoa", "sdm"] = "zoa"
-    rpm: tuple[float, float] = (2000.0, 20000.0)
-    points: int = Field(default=200, ge=2)
-    max_depth_mm: float = Field(default=10.0, gt=0)
-    steps: int | Literal["auto"] = "auto"
+    rpm: tuple[_Rpm, _Rpm] = (2000.0, 20000.0)
+    points: int = Field(default=200, ge=2, le=100_000)
+    max_depth_mm: float = Field(default=10.0, gt=0, le=1000)
+    steps: Annotated[int, Field(le=10_000)] | Literal["auto"] = "auto"
 
     @model_validator(mode="after")
     def _ranges(self) -> LobesSection:
@@ -169,17 +175,18 @@ class ProcessDampingSection(Section):
     Attributes
     ----------
     cpd_n_m2
-        Process damping coefficient C_pd in N/m^2, >= 0.
+        Process damping coefficient C_pd in N/m^2, 0 to 1e15.
     chip_thickness_mm
-        Chip thickness h in mm: the feed per tooth in milling, per revolution in turning.
+        Chip thickness h in mm: the feed per tooth in milling, per revolution in turning
+        (> 0, <= 100).
     diameter_mm
         Cutting diameter in mm (the tool's in milling, the workpiece's in turning), for the
-        cutting speed ``V_c``.
+        cutting speed ``V_c`` (0.01 to 10,000).
     """
 
-    cpd_n_m2: float = Field(ge=0)
-    chip_thickness_mm: float = Field(gt=0)
-    diameter_mm: float = Field(gt=0)
+    cpd_n_m2: float = Field(ge=0, le=1e15)
+    chip_thickness_mm: float = Field(gt=0, le=100)
+    diameter_mm: float = Field(ge=0.01, le=1e4)
 
 
 class ModesFile(Section):

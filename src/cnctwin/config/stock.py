@@ -20,7 +20,9 @@ class BoxStock(Section):
     kind
         ``"box"``.
     min_mm, max_mm
-        Opposite corners in machine coordinates, mm; ``max_mm`` exceeds ``min_mm`` in x, y and z.
+        Opposite corners in machine coordinates, mm, within +-100,000; ``max_mm`` exceeds
+        ``min_mm`` in x, y and z. The stock's dexel rays must fit the work limit
+        (:mod:`cnctwin.config.limits`).
     """
 
     kind: Literal["box"] = "box"

@@ -11,7 +11,13 @@ from pydantic_core import PydanticCustomError
 from cnctwin.config.base import Section
 from cnctwin.nc.setup import ToolEntry
 
-__all__ = ["ToolConfig"]
+__all__ = ["MAX_TOOL_DIAMETER_MM", "MAX_TOOL_LENGTH_MM", "MIN_TOOL_DIAMETER_MM", "ToolConfig"]
+
+#: Smallest and largest cutter diameter, mm: 10 um micro end mills to 1 m face mills.
+MIN_TOOL_DIAMETER_MM = 0.01
+MAX_TOOL_DIAMETER_MM = 1000.0
+#: Largest fluted length and tool length offset magnitude, mm (long drills, extensions).
+MAX_TOOL_LENGTH_MM = 2000.0
 
 
 class ToolConfig(Section):
@@ -20,38 +26,38 @@ class ToolConfig(Section):
     Attributes
     ----------
     number
-        Tool number (the T word), >= 0.
+        Tool number (the T word), 0 to 99,999.
     kind
         ``"flat"`` end mill, ``"ball"`` nose or ``"bull"`` nose (corner radius).
     diameter_mm
-        Cutter diameter in mm, > 0.
+        Cutter diameter in mm, 0.01 to 1000.
     corner_radius_mm
         Corner radius in mm: 0 for ``flat`` (the default), ``diameter_mm / 2`` for ``ball``
         (the default), and required, strictly between 0 and ``diameter_mm / 2``, for ``bull``.
     flutes
-        Number of flutes (teeth), >= 1.
+        Number of flutes (teeth), an integer 1 to 100.
     helix_deg
-        Helix angle in degrees, 0 <= helix_deg < 90.
+        Helix angle in degrees, 0 to 89.
     flute_length_mm
-        Length of the fluted part in mm, if known.
+        Length of the fluted part in mm, if known: 0.01 to 2000.
     length_mm
-        Tool length offset along Z in mm (applied by G43).
+        Tool length offset along Z in mm (applied by G43), within +-2000.
     x_offset_mm
-        Lathe X offset in mm.
+        Lathe X offset in mm, within +-2000.
     orientation
         Lathe tool orientation 0-9 (LinuxCNC's Q: which imaginary tip point is programmed);
         0 for mill tools.
     """
 
-    number: int = Field(ge=0)
+    number: int = Field(ge=0, le=99_999)
     kind: Literal["flat", "ball", "bull"] = "flat"
-    diameter_mm: float = Field(gt=0)
+    diameter_mm: float = Field(ge=MIN_TOOL_DIAMETER_MM, le=MAX_TOOL_DIAMETER_MM)
     corner_radius_mm: float | None = Field(default=None, ge=0, validate_default=True)
-    flutes: int = Field(default=2, ge=1)
-    helix_deg: float = Field(default=30.0, ge=0, lt=90)
-    flute_length_mm: float | None = Field(default=None, gt=0)
-    length_mm: float = 0.0
-    x_offset_mm: float = 0.0
+    flutes: int = Field(default=2, ge=1, le=100)
+    helix_deg: float = Field(default=30.0, ge=0, le=89)
+    flute_length_mm: float | None = Field(default=None, ge=0.01, le=MAX_TOOL_LENGTH_MM)
+    length_mm: float = Field(default=0.0, ge=-MAX_TOOL_LENGTH_MM, le=MAX_TOOL_LENGTH_MM)
+    x_offset_mm: float = Field(default=0.0, ge=-MAX_TOOL_LENGTH_MM, le=MAX_TOOL_LENGTH_MM)
     orientation: int = Field(default=0, ge=0, le=9)
 
     @field_validator("corner_radius_mm")

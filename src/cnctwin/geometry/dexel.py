@@ -61,6 +61,7 @@ from typing import Literal
 import numpy as np
 from numba import njit
 
+from cnctwin.config.limits import check_memory
 from cnctwin.errors import ConfigError, DataError
 
 __all__ = ["AXES", "Axis", "DexelGrid", "DexelStock"]
@@ -80,6 +81,7 @@ _INITIAL_HEAP_ROWS = 1024
 #: the rays to double their capacity before the first (costly: a copy of every row) growth.
 _INITIAL_HEAP_FRACTION = 0.25
 _BYTES_PER_RAY_FIXED = 12  # count, start, block (int32 each)
+_MAX_ROWS = 2**31 - 1  # rows of one family: ``start`` is int32
 #: A full heap grows to this many times its size, and at least to this many times the inline
 #: rows: few growths (each copies every used row of the family) over a long cut.
 _HEAP_GROWTH = 4
@@ -191,6 +193,14 @@ class _Family:
     def nbytes(self) -> int:
         return sum(a.nbytes for a in self.arrays())
 
+    def grown_heap_rows(self, capacity: int) -> int:
+        """Heap rows after the next :meth:`grow_heap`."""
+        return max(
+            _HEAP_GROWTH * (self.rows.shape[0] - self.count.shape[0] * capacity),
+            _FIRST_GROWTH_INLINE * self.count.shape[0] * capacity,
+            _INITIAL_HEAP_ROWS,
+        )
+
     def grow_heap(self, capacity: int) -> None:
         """Copy the rows into an array with a heap :data:`_HEAP_GROWTH` times as large (the
         first time at least :data:`_FIRST_GROWTH_INLINE` times the inline rows).
@@ -201,11 +211,7 @@ class _Family:
         """
         heap_base = self.count.shape[0] * capacity
         used = int(self.heap_top[0])
-        heap_rows = max(
-            _HEAP_GROWTH * (self.rows.shape[0] - heap_base),
-            _FIRST_GROWTH_INLINE * heap_base,
-            _INITIAL_HEAP_ROWS,
-        )
+        heap_rows = self.grown_heap_rows(capacity)
         rows = np.empty((heap_base + heap_rows, 2), dtype=np.float32)
         rows[:used] = self.rows[:used]
         self.rows = rows
@@ -231,6 +237,7 @@ class DexelStock:
     def __init__(self, grid: DexelGrid, capacity: int = 2) -> None:
         if isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1:
             raise ConfigError(f"capacity={capacity!r}; give an integer >= 1 intervals per ray")
+        _check_size(grid, capacity)
         self.grid = grid
         self.capacity = capacity
         self._families = {axis: _Family(grid.n_rays(axis), capacity) for axis in AXES}
@@ -278,12 +285,7 @@ class DexelStock:
     ) -> int:
         """Bytes a fresh :meth:`box` stock takes: ``n_rays (8 capacity + 12)`` per family plus
         the initial heap (8 bytes a row, a quarter of the inline rows, at least 1024)."""
-        grid = DexelGrid.from_box(min_mm, max_mm, density_per_mm)
-        per_ray = 8 * capacity + _BYTES_PER_RAY_FIXED
-        return sum(
-            grid.n_rays(axis) * per_ray + _initial_heap_rows(grid.n_rays(axis), capacity) * 8 + 8
-            for axis in AXES
-        )
+        return _grid_nbytes(DexelGrid.from_box(min_mm, max_mm, density_per_mm), capacity)
 
     @property
     def nbytes(self) -> int:
@@ -297,8 +299,23 @@ class DexelStock:
         return self._families[_check_axis(axis)].arrays()
 
     def grow_heap(self, axis: Axis) -> None:
-        """Enlarge a family's overflow heap (called when a kernel reports it full)."""
-        self._families[_check_axis(axis)].grow_heap(self.capacity)
+        """Enlarge a family's overflow heap (called when a kernel reports it full).
+
+        Raises
+        ------
+        ConfigError
+            When the grown stock would exceed the memory limit (:mod:`cnctwin.config.limits`)
+            or the family's int32 row index: the cut has split the rays into more intervals
+            than fit.
+        """
+        fam = self._families[_check_axis(axis)]
+        rows = fam.count.shape[0] * self.capacity + fam.grown_heap_rows(self.capacity)
+        what = f"growing the {axis} rays' heap of a dexel stock to {rows:.3g} rows"
+        advice = "use a lower density or a smaller stock (the cut splits its rays)"
+        if rows > _MAX_ROWS:
+            raise ConfigError(f"{what}, more than one family can index ({_MAX_ROWS}): {advice}")
+        check_memory(what, self.nbytes + 8.0 * (rows - fam.rows.shape[0]), lambda _: advice)
+        fam.grow_heap(self.capacity)
         self.version += 1
 
     def load(self, axis: Axis, counts: np.ndarray, intervals_mm: np.ndarray) -> None:
@@ -410,6 +427,46 @@ def _check_axis(axis: str) -> Axis:
 
 def _family_axes(axis: str) -> tuple[int, int, int]:
     return _FAMILY_AXES[_check_axis(axis)]
+
+
+def _grid_nbytes(grid: DexelGrid, capacity: int) -> int:
+    """Bytes of a fresh stock on ``grid`` (see :meth:`DexelStock.estimate_nbytes`)."""
+    per_ray = 8 * capacity + _BYTES_PER_RAY_FIXED
+    return sum(
+        grid.n_rays(axis) * per_ray + _initial_heap_rows(grid.n_rays(axis), capacity) * 8 + 8
+        for axis in AXES
+    )
+
+
+def _check_size(grid: DexelGrid, capacity: int) -> None:
+    """Refuse a grid whose stock exceeds the memory limit or a family's int32 row index.
+
+    Raises
+    ------
+    ConfigError
+        Naming the grid, its rays and the largest density that fits.
+    """
+    rays = sum(grid.n_rays(axis) for axis in AXES)
+    size = " x ".join(f"{s:g}" for s in grid.size_mm)
+    density = 1.0 / max(grid.pitch_mm)
+    what = f"a dexel stock of {size} mm at {density:.3g} /mm is {rays:.3g} rays"
+
+    def remedy(fraction: float) -> str:
+        return (
+            f"at most {rays * fraction:.3g} rays fit: use a density <= "
+            f"{density * math.sqrt(fraction):.3g} /mm or a smaller stock"
+        )
+
+    check_memory(what, float(_grid_nbytes(grid, capacity)), remedy)
+    rows = max(
+        grid.n_rays(axis) * capacity + _initial_heap_rows(grid.n_rays(axis), capacity)
+        for axis in AXES
+    )
+    if rows > _MAX_ROWS:
+        raise ConfigError(
+            f"{what}, more than one family can index ({_MAX_ROWS} rows): "
+            + remedy(_MAX_ROWS / rows)
+        )
 
 
 def _initial_heap_rows(n_rays: int, capacity: int) -> int:

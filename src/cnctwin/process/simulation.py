@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from cnctwin.config.limits import check_memory
 from cnctwin.errors import NCError
 from cnctwin.geometry import Cutter, DexelStock, Engagement
 from cnctwin.geometry.engagement import cut_path
@@ -88,16 +89,48 @@ class CutStep:
 
 @dataclass(slots=True)
 class StepTable:
-    """Per-step results as columns (see :data:`COLUMNS`), filled chunk by chunk."""
+    """Per-step results as columns (see :data:`COLUMNS`), filled chunk by chunk.
+
+    Attributes
+    ----------
+    columns
+        The blocks of each column.
+    row_bytes
+        Memory a row costs the computation that fills the table, bytes: the table's own
+        8 per column by default, more where the rows feed further arrays. The rows so far
+        times this are checked against the memory limit (:mod:`cnctwin.config.limits`) before
+        each block is kept: the number of positions of a program (its duration over the cycle
+        time) is known only once it has been sampled.
+    """
 
     columns: dict[str, list[NDArray[np.float64]]] = field(
         default_factory=lambda: {name: [] for name in COLUMNS}
     )
+    row_bytes: int = 8 * len(COLUMNS)
+    rows: int = 0
 
     def append(self, block: NDArray[np.float64]) -> None:
-        """Append an (n, len(COLUMNS)) block of rows."""
+        """Append an (n, len(COLUMNS)) block of rows.
+
+        Raises
+        ------
+        cnctwin.errors.ConfigError
+            When the rows would exceed the memory limit: the program is too long for its
+            cycle time.
+        """
+        rows = self.rows + len(block)
+        t_s = float(block[-1, 0]) if len(block) else 0.0
+        check_memory(
+            f"the program at this cycle time is more than {rows:.3g} positions by t = {t_s:.6g} s",
+            float(rows) * self.row_bytes,
+            lambda fraction: (
+                f"at most {rows * fraction:.3g} positions fit: use a longer cycle time "
+                "(cycle_ms, --cycle-ms) or a shorter program"
+            ),
+        )
         for k, name in enumerate(COLUMNS):
             self.columns[name].append(block[:, k].copy())
+        self.rows = rows
 
     def column(self, name: str) -> NDArray[np.float64]:
         """One column over all steps."""
@@ -105,7 +138,7 @@ class StepTable:
         return np.concatenate(parts) if parts else np.empty(0)
 
     def __len__(self) -> int:
-        return sum(part.size for part in self.columns["t_s"])
+        return self.rows
 
 
 def simulate_cut(
