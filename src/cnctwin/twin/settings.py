@@ -41,11 +41,11 @@ class FilterConfig(Section):
     """
 
     kind: Literal["hampel", "kalman", "butterworth"]
-    window: int = Field(default=7, ge=3)
-    n_sigma: float = Field(default=3.0, gt=0.0)
-    process_var: float = Field(default=1.0, gt=0.0)
-    measurement_var: float = Field(default=25.0, gt=0.0)
-    cutoff_hz: float = Field(default=10.0, gt=0.0)
+    window: int = Field(default=7, ge=3, le=1001)
+    n_sigma: float = Field(default=3.0, gt=0.0, le=100.0)
+    process_var: float = Field(default=1.0, gt=0.0, le=1e12)
+    measurement_var: float = Field(default=25.0, gt=0.0, le=1e12)
+    cutoff_hz: float = Field(default=10.0, gt=0.0, le=1e5)
     order: int = Field(default=2, ge=1, le=8)
 
 
@@ -63,7 +63,7 @@ class WindowConfig(Section):
     """
 
     signal: str
-    length: int = Field(default=80, ge=2)
+    length: int = Field(default=80, ge=2, le=100_000)
     features: list[str] = Field(default_factory=lambda: ["mean", "rms"])
 
 
@@ -98,12 +98,12 @@ class ForceBandConfig(Section):
     """
 
     enabled: bool = True
-    k: float = Field(default=4.0, gt=0.0)
-    min_width_n: float = Field(default=15.0, ge=0.0)
+    k: float = Field(default=4.0, gt=0.0, le=100.0)
+    min_width_n: float = Field(default=15.0, ge=0.0, le=1e6)
     min_width_rel: float = Field(default=0.1, ge=0.0, lt=1.0)
-    scatter_window: int = Field(default=200, ge=10)
-    min_predicted_n: float = Field(default=10.0, ge=0.0)
-    settle_cycles: int = Field(default=8, ge=0)
+    scatter_window: int = Field(default=200, ge=10, le=100_000)
+    min_predicted_n: float = Field(default=10.0, ge=0.0, le=1e6)
+    settle_cycles: int = Field(default=8, ge=0, le=100_000)
 
 
 class FormErrorConfig(Section):
@@ -125,10 +125,10 @@ class FormErrorConfig(Section):
     """
 
     enabled: bool = True
-    tolerance_um: float = Field(default=40.0, gt=0.0)
-    stiffness_n_um: float | None = Field(default=None, gt=0.0)
-    overhang_mm: float = Field(default=30.0, gt=0.0)
-    youngs_modulus_gpa: float = Field(default=600.0, gt=0.0)
+    tolerance_um: float = Field(default=40.0, gt=0.0, le=10_000.0)
+    stiffness_n_um: float | None = Field(default=None, gt=0.0, le=1e4)
+    overhang_mm: float = Field(default=30.0, ge=0.1, le=2000.0)
+    youngs_modulus_gpa: float = Field(default=600.0, ge=1.0, le=2000.0)
 
 
 class StopConfirmationConfig(Section):
@@ -155,7 +155,7 @@ class StopConfirmationConfig(Section):
     """
 
     timeout_s: float = Field(default=0.5, gt=0.0, le=60.0)
-    rest_speed_mm_min: float = Field(default=6.0, gt=0.0)
+    rest_speed_mm_min: float = Field(default=6.0, gt=0.0, le=1e6)
     rest_readings: int = Field(default=2, ge=1, le=1000)
     escalate: bool = True
 
@@ -230,7 +230,9 @@ class TwinSection(Section):
     Attributes
     ----------
     cycle_s
-        Cycle time, s (Heide 2025: 12.5 ms).
+        Cycle time, s, 0.001 to 1 (Heide 2025: 12.5 ms; no machine interface delivers
+        readings faster than 1 ms). Every numeric key of ``[twin]`` has a range, listed in
+        docs/twin.md.
     program
         The NC program the machine runs, relative to the configuration file: the twin reads
         the tool offset of each line from it. ``None``: ``[virtual].program`` when there is
@@ -270,12 +272,12 @@ class TwinSection(Section):
         Overload detection and shedding.
     """
 
-    cycle_s: float = Field(default=0.0125, gt=0.0, le=1.0)
+    cycle_s: float = Field(default=0.0125, ge=0.001, le=1.0)
     program: Path | None = None
-    watchdog_s: float = Field(default=0.5, gt=0.0)
-    density_per_mm: float | None = Field(default=None, gt=0.0, le=100.0)
-    attach_s: float = Field(default=1.0, ge=0.0)
-    position_deadband_mm: float = Field(default=0.005, ge=0.0)
+    watchdog_s: float = Field(default=0.5, gt=0.0, le=3600.0)
+    density_per_mm: float | None = Field(default=None, ge=0.1, le=100.0)
+    attach_s: float = Field(default=1.0, ge=0.0, le=1e6)
+    position_deadband_mm: float = Field(default=0.005, ge=0.0, le=100.0)
     max_sample_age_s: float = Field(default=2.0, gt=0.0, le=3600.0)
     plausibility: PlausibilityConfig = Field(default_factory=PlausibilityConfig)
     filters: dict[str, FilterConfig] = Field(default_factory=dict)
