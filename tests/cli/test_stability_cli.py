@@ -115,7 +115,7 @@ def test_materials_library_coefficients(tmp_path: Path) -> None:
         (["--config", "{cfg}", "--steps", "1"], "--steps '1'"),
         (["--config", "{cfg}", "--material", "AA6060-T6", "--ktc", "700"], "exclude"),
         (["--config", "{cfg}", "--material", "unobtainium"], "no milling material"),
-        (["--config", "{bad}"], "modes[0].damping_ratio: must be less than 1"),
+        (["--config", "{bad}"], "modes[0].damping_ratio: must be >= 0 and < 1"),
         (["--config", "{damped}", "--method", "zoa"], "process damping needs --method sdm"),
         (["--modes-file", "{cfg}"], "cut: unknown key"),
         (["--modes-file", "{modes}"], "cut.teeth: milling needs the number of teeth"),

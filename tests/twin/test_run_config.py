@@ -49,7 +49,7 @@ def test_empty_file_is_a_valid_twin_with_control_off(tmp_path: Path) -> None:
     ("text", "message"),
     [
         ("[twin]\ncycle = 1\n", "twin.cycle: unknown key"),
-        ("[twin.force_band]\nk = -1\n", "twin.force_band.k: must be greater than 0"),
+        ("[twin.force_band]\nk = -1\n", "twin.force_band.k: must be > 0 and <= 100; got -1"),
         ('[twin.filters.force_x_n]\nkind = "median"\n', "twin.filters.force_x_n.kind"),
         ('[twin]\nprogram = "missing.ngc"\n', "no such file"),
         (
