@@ -280,7 +280,7 @@ class ReadStage:
         self, state: CycleState, raw: Mapping[str, float], rejected: Mapping[str, str]
     ) -> None:
         """An event for every signal that turns invalid with this sample."""
-        for name in rejected.keys() - self._invalid:
+        for name in [n for n in rejected if n not in self._invalid]:
             value = raw.get(name)
             shown = (
                 value if isinstance(value, float | int) and math.isfinite(value) else repr(value)

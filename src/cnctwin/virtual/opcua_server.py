@@ -476,8 +476,13 @@ def _data_value(name: str, value: float, stamp: ua.DateTime) -> ua.DataValue:
     try:
         variant = ua.Variant(_coerce(name, value), variant_type(name))
     except (TypeError, ValueError):
-        return ua.DataValue(StatusCode=_status(ua.StatusCodes.BadOutOfRange), SourceTimestamp=stamp)
-    return ua.DataValue(variant, SourceTimestamp=stamp)
+        return ua.DataValue(
+            StatusCode=_status(ua.StatusCodes.BadOutOfRange),
+            SourceTimestamp=stamp,
+            ServerTimestamp=stamp,
+        )
+    # the machine's tick is the source time; the server holds the value from then on
+    return ua.DataValue(variant, SourceTimestamp=stamp, ServerTimestamp=stamp)
 
 
 def free_port(host: str = "127.0.0.1") -> int:
