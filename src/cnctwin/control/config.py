@@ -31,7 +31,8 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
+from pydantic_core import PydanticCustomError
 
 from cnctwin.config.base import Section
 from cnctwin.control.expression import Expression
@@ -70,7 +71,8 @@ class RuleConfig(Section):
         When the rule applies: an expression over signal and prediction names (see
         :mod:`cnctwin.control.expression`), e.g. ``"form_error_um > 40"``.
     for_s
-        How long the condition must hold without interruption before the rule fires, s.
+        How long the condition must hold without interruption before the rule fires, s
+        (0 to 3600; every numeric key's range is listed in docs/configuration.md).
     action
         ``"stop"`` (latched program stop), ``"feed_hold"``, ``"feed_override"``,
         ``"spindle_override"`` or ``"notify"`` (record and log only).
@@ -92,12 +94,21 @@ class RuleConfig(Section):
 
     name: str = Field(min_length=1)
     condition: str = Field(min_length=1)
-    for_s: float = Field(default=0.0, ge=0.0)
+    for_s: float = Field(default=0.0, ge=0.0, le=3600.0)
     action: RuleAction
     value: float | str | None = None
-    step: float | None = None
+    step: float | None = Field(default=None, ge=-1000.0, le=1000.0)
     reason: str | None = None
-    cooldown_s: float = Field(default=1.0, ge=0.0)
+    cooldown_s: float = Field(default=1.0, ge=0.0, le=3600.0)
+
+    @field_validator("value")
+    @classmethod
+    def _value_in_range(cls, value: float | str | None) -> float | str | None:
+        if isinstance(value, float | int) and not -1000.0 <= value <= 1000.0:
+            raise PydanticCustomError(
+                "value_range", "must be >= -1000 and <= 1000 (%), or an expression"
+            )
+        return value
 
     @model_validator(mode="after")
     def _value_fits_action(self) -> RuleConfig:
@@ -137,10 +148,10 @@ class OverrideLimits(Section):
         machine's reading); ``None`` for no limit.
     """
 
-    min_pct: float = Field(ge=0.0)
-    max_pct: float = Field(ge=0.0)
-    max_rise_pct_per_s: float | None = Field(default=None, gt=0.0)
-    max_fall_pct_per_s: float | None = Field(default=None, gt=0.0)
+    min_pct: float = Field(ge=0.0, le=1000.0)
+    max_pct: float = Field(ge=0.0, le=1000.0)
+    max_rise_pct_per_s: float | None = Field(default=None, gt=0.0, le=1e4)
+    max_fall_pct_per_s: float | None = Field(default=None, gt=0.0, le=1e4)
 
 
 def _feed_limits() -> OverrideLimits:
@@ -184,9 +195,9 @@ class ControlConfig(Section):
     enabled: bool = False
     feed_override: OverrideLimits = Field(default_factory=_feed_limits)
     spindle_override: OverrideLimits = Field(default_factory=_spindle_limits)
-    min_interval_s: float = Field(default=0.1, gt=0.0)
-    max_commands_per_s: float = Field(default=20.0, ge=1.0)
-    readback_tolerance_pct: float = Field(default=0.5, ge=0.0)
+    min_interval_s: float = Field(default=0.1, gt=0.0, le=3600.0)
+    max_commands_per_s: float = Field(default=20.0, ge=1.0, le=1000.0)
+    readback_tolerance_pct: float = Field(default=0.5, ge=0.0, le=100.0)
     on_reconnect: Literal["resume", "feed_hold", "stop"] = "resume"
 
     @model_validator(mode="after")

@@ -26,9 +26,10 @@ class HistorianConfig(Section):
     max_pending
         Items the queue may hold while the database is slow or unreachable; beyond it new
         items are dropped and counted, so the twin's cycle never waits for the database.
+        At most 10,000,000 (a few GB of queued frames).
     """
 
     url: str | None = None
     flush_interval_s: float = Field(default=0.25, gt=0.0, le=1.0)
-    batch_size: int = Field(default=2000, ge=1)
-    max_pending: int = Field(default=1_000_000, ge=1)
+    batch_size: int = Field(default=2000, ge=1, le=1_000_000)
+    max_pending: int = Field(default=1_000_000, ge=1, le=10_000_000)

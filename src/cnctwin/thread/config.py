@@ -71,9 +71,9 @@ class ConnectionConfig(Section):
 
     transport: Literal["opcua", "modbus"] = "opcua"
     endpoint: str = "opc.tcp://127.0.0.1:4840/cnctwin"
-    timeout_s: float = Field(default=2.0, gt=0.0)
-    reconnect_initial_s: float = Field(default=0.1, gt=0.0)
-    reconnect_max_s: float = Field(default=5.0, gt=0.0)
+    timeout_s: float = Field(default=2.0, ge=0.001, le=600.0)
+    reconnect_initial_s: float = Field(default=0.1, ge=0.001, le=3600.0)
+    reconnect_max_s: float = Field(default=5.0, ge=0.001, le=3600.0)
     unit_id: int = Field(default=1, ge=0, le=247)
     security: OpcUaSecurityConfig = Field(default_factory=OpcUaSecurityConfig)
     mapping: dict[str, str] = Field(default_factory=dict)

@@ -2,7 +2,9 @@
 
 The physics of the virtual machine (machine, tools, stock, material, dexel density) is an
 ordinary :class:`cnctwin.config.TwinConfig`; this table says what the machine runs and how it
-misbehaves. Units are in the key names (mm, ms, s, N, N m, A, W, %, rpm, Hz).
+misbehaves. Units are in the key names (mm, ms, s, N, N m, A, W, %, rpm, Hz); every numeric
+key has a range (docs/configuration.md), far beyond what a machine shows and small enough to
+keep the simulation finite.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from typing import Annotated, Literal
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from cnctwin.config.base import Section, Vec3Mm, resolve_file
+from cnctwin.config.base import CoordinateMm, Section, Vec3Mm, resolve_file
 
 __all__ = [
     "AxisDriveConfig",
@@ -50,14 +52,14 @@ class NoiseConfig(Section):
         Axis drive loads, % of rated.
     """
 
-    position_mm: float = Field(default=0.0005, ge=0)
-    feed_mm_min: float = Field(default=0.5, ge=0)
-    spindle_rpm: float = Field(default=2.0, ge=0)
-    force_n: float = Field(default=2.0, ge=0)
-    torque_nm: float = Field(default=0.02, ge=0)
-    current_a: float = Field(default=0.02, ge=0)
-    power_w: float = Field(default=5.0, ge=0)
-    load_pct: float = Field(default=0.1, ge=0)
+    position_mm: float = Field(default=0.0005, ge=0, le=100)
+    feed_mm_min: float = Field(default=0.5, ge=0, le=1e5)
+    spindle_rpm: float = Field(default=2.0, ge=0, le=1e5)
+    force_n: float = Field(default=2.0, ge=0, le=1e5)
+    torque_nm: float = Field(default=0.02, ge=0, le=1e4)
+    current_a: float = Field(default=0.02, ge=0, le=1e4)
+    power_w: float = Field(default=5.0, ge=0, le=1e6)
+    load_pct: float = Field(default=0.1, ge=0, le=100)
 
 
 class AxisDriveConfig(Section):
@@ -73,16 +75,16 @@ class AxisDriveConfig(Section):
         Mass the drive accelerates, kg (>= 0).
     """
 
-    rated_force_n: float = Field(default=5000.0, gt=0)
-    friction_n: float = Field(default=150.0, ge=0)
-    moving_mass_kg: float = Field(default=150.0, ge=0)
+    rated_force_n: float = Field(default=5000.0, gt=0, le=1e7)
+    friction_n: float = Field(default=150.0, ge=0, le=1e6)
+    moving_mass_kg: float = Field(default=150.0, ge=0, le=1e6)
 
 
 class _Trigger(Section):
     """When a fault starts: at a machine time or when a program line first executes."""
 
-    at_s: float | None = Field(default=None, ge=0)
-    at_line: int | None = Field(default=None, ge=1)
+    at_s: float | None = Field(default=None, ge=0, le=1e7)
+    at_line: int | None = Field(default=None, ge=1, le=1_000_000_000)
 
 
 class ToolBreakageFault(_Trigger):
@@ -98,7 +100,7 @@ class ToolBreakageFault(_Trigger):
     """
 
     kind: Literal["breakage"]
-    lost_length_mm: float | None = Field(default=None, gt=0)
+    lost_length_mm: float | None = Field(default=None, gt=0, le=2000)
 
     @model_validator(mode="after")
     def _one_trigger(self) -> ToolBreakageFault:
@@ -120,9 +122,9 @@ class HoleFault(Section):
     shape: Literal["box", "cylinder"] = "box"
     min_mm: Vec3Mm | None = None
     max_mm: Vec3Mm | None = None
-    center_mm: tuple[float, float] | None = None
-    radius_mm: float | None = Field(default=None, gt=0)
-    z_mm: tuple[float, float] | None = None
+    center_mm: tuple[CoordinateMm, CoordinateMm] | None = None
+    radius_mm: float | None = Field(default=None, gt=0, le=1e5)
+    z_mm: tuple[CoordinateMm, CoordinateMm] | None = None
 
     @model_validator(mode="after")
     def _shape_keys(self) -> HoleFault:
@@ -168,8 +170,8 @@ class WearFault(_Trigger):
     """
 
     kind: Literal["wear"]
-    growth_per_min: float = Field(default=0.5, gt=0)
-    max_scale: float = Field(default=3.0, ge=1)
+    growth_per_min: float = Field(default=0.5, gt=0, le=1000)
+    max_scale: float = Field(default=3.0, ge=1, le=1000)
 
 
 class ChatterFault(_Trigger):
@@ -191,9 +193,9 @@ class ChatterFault(_Trigger):
     """
 
     kind: Literal["chatter"]
-    until_s: float | None = Field(default=None, gt=0)
-    frequency_hz: float = Field(default=1250.0, gt=0)
-    amplitude_ratio: float = Field(default=0.5, gt=0)
+    until_s: float | None = Field(default=None, gt=0, le=1e7)
+    frequency_hz: float = Field(default=1250.0, gt=0, le=1e5)
+    amplitude_ratio: float = Field(default=0.5, gt=0, le=100)
 
 
 #: One ``[[virtual.faults]]`` entry, told apart by its ``kind``.
@@ -237,10 +239,10 @@ class VirtualMachineConfig(Section):
     physics_config: Path | None = None
     tick_ms: float = Field(default=5.0, ge=0.5, le=50.0)
     speed: float = Field(default=1.0, gt=0, le=1000.0)
-    density_per_mm: float | None = Field(default=None, gt=0, le=100)
-    junction_deviation_mm: float = Field(default=0.01, ge=0)
+    density_per_mm: float | None = Field(default=None, ge=0.1, le=100)
+    junction_deviation_mm: float = Field(default=0.01, ge=0, le=100)
     noise: NoiseConfig = Field(default_factory=NoiseConfig)
-    seed: int = 0
+    seed: int = Field(default=0, ge=0, le=2**64 - 1)
     axes: AxisDriveConfig = Field(default_factory=AxisDriveConfig)
     faults: list[FaultConfig] = Field(default_factory=list)
 
