@@ -382,7 +382,11 @@ def test_incomplete_client_security_is_a_config_error(tmp_path: Path) -> None:
 
     run(body)
     missing = OpcUaSecurityConfig(
-        policy="Basic256Sha256", mode="Sign", certificate="no.der", private_key="no.pem"
+        policy="Basic256Sha256",
+        mode="Sign",
+        certificate="no.der",
+        private_key="no.pem",
+        server_certificate="no-server.der",
     )
     conn = OpcUaConnection(ConnectionConfig(security=missing), base_dir=tmp_path)
 

@@ -19,6 +19,7 @@ from asyncua.crypto import security_policies
 from opcua_fixtures import TIMEOUT_S, FakeMachine
 from pki import certificate
 
+from cnctwin.errors import ConfigError
 from cnctwin.thread.config import ConnectionConfig, OpcUaSecurityConfig
 from cnctwin.thread.connection import CommandRejected, ConnectionLost
 from cnctwin.thread.opcua import CLIENT_APPLICATION_URI, NAMESPACE_URI, NODE_MAP, OpcUaConnection
@@ -262,7 +263,7 @@ def test_twin_refuses_a_server_certificate_it_does_not_trust(pki: Path, tmp_path
             with pytest.raises(ConnectionLost):
                 await OpcUaConnection(twin_config(server, **pinned), base_dir=pki).connect()
             # neither pinned nor a trust folder: a configuration error, not "accept any"
-            with pytest.raises(Exception, match="server_certificate .* or trust_folder"):
+            with pytest.raises(ConfigError, match="server_certificate .* or trust_folder"):
                 await OpcUaConnection(twin_config(server), base_dir=pki).connect()
             shutil.copy(pki / "server-cert.pem", trusted)
             async with OpcUaConnection(twin_config(server, **folder), base_dir=pki) as twin:
