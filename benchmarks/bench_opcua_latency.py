@@ -42,6 +42,7 @@ from cnctwin.thread.latency import JitterProxy, LatencyResult, LatencyStats, mea
 from cnctwin.thread.opcua import DEFAULT_SUBSCRIPTION_MS, NODE_MAP, OpcUaConnection
 from cnctwin.virtual import MachineClock, VirtualMachine, VirtualMachineConfig
 from cnctwin.virtual.opcua_server import OpcUaMachineServer
+from cnctwin.virtual.users import UserTable
 
 
 def _row(setup: str, name: str, n: int, s: LatencyStats) -> str:
@@ -136,7 +137,8 @@ async def _separate(n: int, interval_s: float, jitters: list[float]) -> list[str
 async def _same_process(n: int, interval_s: float) -> tuple[list[str], str]:
     vm = VirtualMachine(VirtualMachineConfig())
     vm.step(vm.tick_s)  # load the compiled kernels before the clock runs
-    async with OpcUaMachineServer(vm) as server:
+    # the bench writes the feed override anonymously, on loopback
+    async with OpcUaMachineServer(vm, users=UserTable(anonymous="operator")) as server:
         clock = MachineClock(vm, vm.tick_s, speed=1.0)
         clock.add_listener(server.publish)
         async with clock:
