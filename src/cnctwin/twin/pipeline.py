@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import asyncio
 import os
+import time
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 
 from cnctwin.control import RuleEngine, SafetyFilter
+from cnctwin.control.expression import Expression
 from cnctwin.thread.connection import MachineConnection
 from cnctwin.thread.signals import SIGNALS
 from cnctwin.twin.actions import ActionStage, RuleStage
@@ -29,7 +33,16 @@ from cnctwin.twin.stages import (
     Stage,
 )
 
-__all__ = ["Twin", "build_twin", "signal_names"]
+__all__ = ["SHED_ORDER", "Twin", "build_twin", "shed_order", "signal_names"]
+
+#: The optional work of the cycle, first shed first when the twin is overloaded
+#: (docs/twin.md, "Overload"): the historian's per-cycle detail, the windowed features, the
+#: form-error prediction. The reading, kinematics, cut, engagement, process forces, filters,
+#: force band, rules and actions (the chain that decides a stop) are never shed.
+SHED_ORDER = ("historian_detail", "features", "form_error")
+
+#: What each optional stage adds that a rule could read (features: by configuration).
+_FORM_ERROR_NAMES = ("deflection_um", "form_error_um", "form_error_tolerance_um", "form_error_out")
 
 
 def signal_names(config: RunConfig) -> list[str]:
@@ -40,6 +53,26 @@ def signal_names(config: RunConfig) -> list[str]:
     names += [f"{w.signal}_{f}" for w in config.twin.windows for f in w.features]
     names += list(PREDICTIONS)
     return names
+
+
+def shed_order(config: RunConfig) -> tuple[str, ...]:
+    """The stages of :data:`SHED_ORDER` this configuration may shed, in order.
+
+    A stage whose output a protective rule (``stop`` or ``feed_hold``) reads is not
+    optional: it is kept whatever the load.
+    """
+    protective: set[str] = set()
+    for rule in config.rules:
+        if rule.action in ("stop", "feed_hold"):
+            protective.update(Expression(rule.condition, logical=True).names)
+            if isinstance(rule.value, str):
+                protective.update(Expression(rule.value).names)
+    outputs = {
+        "historian_detail": (),
+        "features": tuple(f"{w.signal}_{f}" for w in config.twin.windows for f in w.features),
+        "form_error": _FORM_ERROR_NAMES,
+    }
+    return tuple(name for name in SHED_ORDER if not protective.intersection(outputs[name]))
 
 
 @dataclass
@@ -72,6 +105,8 @@ def build_twin(
     program: str | os.PathLike[str] | None = None,
     program_text: str | None = None,
     realtime: bool = True,
+    clock: Callable[[], float] = time.monotonic,
+    sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
 ) -> Twin:
     """The stages of ARCHITECTURE section 3 for ``config``, reading and writing ``connection``.
 
@@ -88,6 +123,9 @@ def build_twin(
         neither: G43 with the tool's length is assumed.
     realtime
         Keep the cycle period (``False``: back to back, for lockstep tests).
+    clock, sleep
+        The runtime's clock (s) and wait (s); tests give a fake clock (see
+        :class:`~cnctwin.twin.runtime.TwinRuntime`).
 
     Raises
     ------
@@ -129,5 +167,9 @@ def build_twin(
         watchdog_s=twin_cfg.watchdog_s,
         recorder=recorder,
         realtime=realtime,
+        overload=twin_cfg.overload,
+        shed_order=shed_order(config),
+        clock=clock,
+        sleep=sleep,
     )
     return Twin(runtime, process, actions, safety)

@@ -28,16 +28,17 @@ import inspect
 import logging
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from cnctwin.thread.signals import RunState
 from cnctwin.twin.actions import ActionStage
 from cnctwin.twin.recorder import Recorder
+from cnctwin.twin.settings import OverloadConfig
 from cnctwin.twin.stages import Stage
 from cnctwin.twin.state import CycleState, TwinEvent
-from cnctwin.twin.timing import TimingSeries
+from cnctwin.twin.timing import OverloadMonitor, TimingSeries
 
 __all__ = ["RunSummary", "TwinRuntime"]
 
@@ -56,9 +57,15 @@ class RunSummary:
         Cycle time (all stages, read and actions included), ms.
     overruns
         Cycles that ended after their period.
+    overloaded_cycles
+        Cycles run while the twin was overloaded (docs/twin.md, "Overload").
+    overload_episodes
+        Times the twin became overloaded.
+    shed
+        The optional stages shed at the worst of the overload, in the order they were shed.
     stop_reaction_ms
         From the first out-of-band sample of the anomaly that stopped the machine to the
-        machine's confirmed stop (read-back), ms; ``None`` without a stop.
+        reading that showed the axes at rest, ms; ``None`` without a stop.
     stop_reactions_ms
         Every such reaction of the run, ms.
     feed_override_min
@@ -86,6 +93,9 @@ class RunSummary:
     cycle_p99_ms: float = 0.0
     cycle_max_ms: float = 0.0
     overruns: int = 0
+    overloaded_cycles: int = 0
+    overload_episodes: int = 0
+    shed: list[str] = field(default_factory=list)
     stop_reaction_ms: float | None = None
     stop_reactions_ms: list[float] = field(default_factory=list)
     feed_override_min: float | None = None
@@ -127,6 +137,14 @@ class TwinRuntime:
         Called with every finished cycle's state (the live view); keep it quick.
     stop_hold_s
         After the machine reports STOPPED, keep cycling this long before ending, s.
+    overload
+        When the twin counts as overloaded, and whether it sheds (``None``: the defaults).
+    shed_order
+        The optional stages to shed while overloaded, first shed first (stage names, and
+        ``"historian_detail"``: the historian keeps every ``sample_every``-th cycle).
+    clock, sleep
+        The runtime's clock (s) and how it waits (s): ``time.monotonic`` and
+        ``asyncio.sleep``; tests give a fake clock whose sleep advances it.
     """
 
     def __init__(
@@ -140,8 +158,24 @@ class TwinRuntime:
         realtime: bool = True,
         on_cycle: Callable[[CycleState], None] | None = None,
         stop_hold_s: float = 0.1,
+        overload: OverloadConfig | None = None,
+        shed_order: Sequence[str] = (),
+        clock: Callable[[], float] = time.monotonic,
+        sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
     ) -> None:
         self.stages = list(stages)
+        self.overload = overload or OverloadConfig()
+        self.shed_order = tuple(shed_order) if self.overload.shed else ()
+        self.load = OverloadMonitor(
+            self.overload.window_cycles,
+            self.overload.enter_fraction,
+            self.overload.exit_fraction,
+            len(self.shed_order),
+        )
+        self._clock = clock
+        self._sleep = sleep
+        self._shed: frozenset[str] = frozenset()
+        self._shed_most: tuple[str, ...] = ()
         self.actions = actions
         self.cycle_s = cycle_s
         self.watchdog_s = watchdog_s
@@ -201,8 +235,8 @@ class TwinRuntime:
             The run's figures; also recorded with the run when there is a recorder.
         """
         self.prepare()
-        t0 = time.monotonic()
-        self._beat_s = t0
+        t0 = self._clock()
+        self._beat_s = time.monotonic()
         deadline = t0
         ended = "interrupted"
         try:
@@ -210,19 +244,21 @@ class TwinRuntime:
                 if stop_event is not None and stop_event.is_set():
                     ended = "interrupted"
                     break
-                clock = time.monotonic() if self.realtime else self.cycles * self.cycle_s
+                clock = self._clock() if self.realtime else self.cycles * self.cycle_s
                 state = CycleState(self.cycles, deadline, clock)
-                started = time.perf_counter()
+                started = self._clock()
                 for stage in self.stages:
                     if getattr(stage, "per_sample", False) and not state.new_sample:
                         continue  # nothing new to compute: no duplicate sample downstream
-                    t_stage = time.perf_counter()
+                    if stage.name in self._shed:
+                        continue  # overloaded: an optional stage is shed (docs/twin.md)
+                    t_stage = self._clock()
                     result = stage.process(state)
                     if inspect.isawaitable(result):
                         result = await result
                     state = result
-                    self.timings[stage.name].add(time.perf_counter() - t_stage)
-                self.cycle_times.add(time.perf_counter() - started)
+                    self.timings[stage.name].add(self._clock() - t_stage)
+                self.cycle_times.add(self._clock() - started)
                 self.cycles += 1
                 await self._watch(state)
                 self._bookkeep(state)
@@ -233,7 +269,7 @@ class TwinRuntime:
                 if end is not None:
                     ended = end
                     break
-                now = time.monotonic()
+                now = self._clock()
                 if duration_s is not None and now - t0 >= duration_s:
                     ended = "duration"
                     break
@@ -242,11 +278,13 @@ class TwinRuntime:
                     deadline = now
                     continue
                 deadline += self.cycle_s
-                if now > deadline:
+                overran = now > deadline
+                if overran:
                     self.overruns += 1
                     missed = math.ceil((now - deadline) / self.cycle_s)
                     deadline += missed * self.cycle_s
-                await asyncio.sleep(max(deadline - time.monotonic(), 0.0))
+                self._judge_load(state, overran)
+                await self._sleep(max(deadline - self._clock(), 0.0))
         except asyncio.CancelledError:
             ended = "interrupted"
             raise
@@ -255,6 +293,60 @@ class TwinRuntime:
             if self.recorder is not None:
                 self.recorder.end(_status(ended), summary.to_dict())
         return summary
+
+    # ------------------------------------------------------------------ overload
+    def _judge_load(self, state: CycleState, overran: bool) -> None:
+        """Follow the overrun fraction; say when the twin is overloaded, shed, recovered.
+
+        The events go to the historian and the log (a warning: the terminal) at once; the
+        cycle's own bookkeeping is already done. Cycles without the machine do not count:
+        a read that times out is a lost connection (the watchdog's events), not a load.
+        """
+        if not (state.connected and self.connected):
+            return
+        change = self.load.update(overran)
+        if change is None:
+            return
+        load = self.load
+        shed = self.shed_order[: load.level]
+        self._shed = frozenset(shed)
+        if len(shed) > len(self._shed_most):
+            self._shed_most = shed
+        recent = (
+            f"overruns in {load.fraction:.0%} of the last {load.window} cycles, cycle p50 "
+            f"{self.cycle_times.recent_percentile_ms(50, load.window):.1f} ms / p99 "
+            f"{self.cycle_times.recent_percentile_ms(99, load.window):.1f} ms against a "
+            f"period of {self.cycle_s * 1e3:g} ms"
+        )
+        data: dict[str, Any] = {
+            "overrun_fraction": load.fraction,
+            "cycle_p99_ms": self.cycle_times.recent_percentile_ms(99, load.window),
+            "shed": list(shed),
+        }
+        if change == "cleared":
+            event = TwinEvent(
+                "overload_cleared", f"cycle keeps its period again ({recent})", self._clock(), data
+            )
+        elif change == "entered":
+            doing = f"; shedding {shed[0]}" if shed else "; nothing optional to shed"
+            event = TwinEvent(
+                "overload",
+                f"twin overloaded: {recent}{doing}; protection (reading, force band, rules, "
+                "actions) still runs every cycle on the latest reading",
+                self._clock(),
+                data,
+            )
+        else:
+            event = TwinEvent(
+                "overload_shed",
+                f"still overloaded ({recent}): shedding {shed[-1]} too",
+                self._clock(),
+                data,
+            )
+        logger.warning("%s", event.message)
+        self.events.append(event)
+        if self.recorder is not None:
+            self.recorder.event(event)
 
     # ------------------------------------------------------------------ watchdog
     async def _watch(self, state: CycleState) -> None:
@@ -332,7 +424,8 @@ class TwinRuntime:
                 self.feed_override_min is None or override < self.feed_override_min
             ):
                 self.feed_override_min = override
-        if self.recorder is not None:
+        thinned = "historian_detail" in self._shed and state.index % self.overload.sample_every
+        if self.recorder is not None and not thinned:
             self.recorder.cycle(state)
             for event in state.events:
                 if event.kind not in ("connection_lost", "connection_restored", "connected"):
@@ -372,6 +465,9 @@ class TwinRuntime:
             cycle_p99_ms=cycle["p99_ms"],
             cycle_max_ms=cycle["max_ms"],
             overruns=self.overruns,
+            overloaded_cycles=self.load.overloaded_cycles,
+            overload_episodes=self.load.episodes,
+            shed=list(self._shed_most),
             stop_reaction_ms=reactions[0] if reactions else None,
             stop_reactions_ms=reactions,
             feed_override_min=self.feed_override_min,

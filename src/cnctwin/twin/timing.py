@@ -1,12 +1,14 @@
-"""Cycle and stage timing of the twin runtime: percentiles over a bounded history."""
+"""Cycle and stage timing of the twin runtime: percentiles over a bounded history, and the
+overload detector that says when the cycle cannot keep its period."""
 
 from __future__ import annotations
 
 from collections import deque
+from typing import Literal
 
 import numpy as np
 
-__all__ = ["TimingSeries"]
+__all__ = ["OverloadMonitor", "TimingSeries"]
 
 
 class TimingSeries:
@@ -51,3 +53,79 @@ class TimingSeries:
             "max_ms": self.max_s * 1e3,
             "count": float(self.count),
         }
+
+
+class OverloadMonitor:
+    """Whether the cycle keeps its period, from the overruns of the last cycles.
+
+    The twin is *overloaded* from the cycle at which at least ``enter_fraction`` of the last
+    ``window`` cycles overran (a full window is needed), until at most ``exit_fraction`` of
+    them did. The two thresholds keep it from flapping. While overloaded, one more optional
+    stage is shed every ``window`` cycles that the overrun fraction stays at or above
+    ``enter_fraction`` (the level counts the stages shed; see docs/twin.md).
+
+    Parameters
+    ----------
+    window
+        Cycles the overrun fraction is taken over (>= 2).
+    enter_fraction, exit_fraction
+        Thresholds of the overrun fraction, 0 <= exit < enter <= 1.
+    levels
+        Most stages there are to shed (0: report only).
+    """
+
+    def __init__(
+        self, window: int, enter_fraction: float, exit_fraction: float, levels: int = 0
+    ) -> None:
+        if not 0.0 <= exit_fraction < enter_fraction <= 1.0 or window < 2:
+            raise ValueError(
+                f"overload window={window}, enter={enter_fraction}, exit={exit_fraction}; "
+                "give window >= 2 and 0 <= exit < enter <= 1"
+            )
+        self.window = window
+        self.enter_fraction = enter_fraction
+        self.exit_fraction = exit_fraction
+        self.levels = levels
+        self.overloaded = False
+        self.level = 0
+        self.episodes = 0
+        self.overloaded_cycles = 0
+        self._overruns: deque[bool] = deque(maxlen=window)
+        self._count = 0
+        self._since_shed = 0
+
+    @property
+    def fraction(self) -> float:
+        """Overrun fraction of the kept cycles (0 when none)."""
+        return self._count / len(self._overruns) if self._overruns else 0.0
+
+    def update(self, overran: bool) -> Literal["entered", "shed", "cleared"] | None:
+        """Add one cycle; say what changed: overload ``"entered"`` (level 1 when there is
+        something to shed), one more stage ``"shed"``, overload ``"cleared"``, or ``None``."""
+        if len(self._overruns) == self.window and self._overruns[0]:
+            self._count -= 1
+        self._overruns.append(overran)
+        self._count += int(overran)
+        full = len(self._overruns) == self.window
+        fraction = self.fraction
+        if not self.overloaded:
+            if full and fraction >= self.enter_fraction:
+                self.overloaded = True
+                self.episodes += 1
+                self.overloaded_cycles += 1
+                self.level = min(1, self.levels)
+                self._since_shed = 0
+                return "entered"
+            return None
+        self.overloaded_cycles += 1
+        if fraction <= self.exit_fraction:
+            self.overloaded = False
+            self.level = 0
+            return "cleared"
+        self._since_shed += 1
+        if self._since_shed >= self.window and fraction >= self.enter_fraction:
+            self._since_shed = 0
+            if self.level < self.levels:
+                self.level += 1
+                return "shed"
+        return None
