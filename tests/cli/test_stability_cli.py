@@ -201,7 +201,7 @@ def test_rpm_range_spans_min_max_with_n_speeds() -> None:
     [
         (["--rpm-range", "9000:5000:10"], "--rpm-range '9000:5000:10'"),
         (["--rpm-range", "5000:9000"], "MIN:MAX:N"),
-        (["--rpm-range", "5000:9000:1"], "N >= 2"),
+        (["--rpm-range", "5000:9000:1"], "2 <= N <= 100000"),
         (["--rpm", "8000,x"], "--rpm '8000,x'"),
         (["--rpm", "8000,-1"], "each > 0"),
         (["--rpm", "8000", "--rpm-range", "1:2:3"], "exclude each other"),

@@ -17,6 +17,12 @@ from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.config import TwinConfig, load_config
+from cnctwin.config.simulation import (
+    MAX_CYCLE_MS,
+    MAX_DENSITY_PER_MM,
+    MIN_CYCLE_MS,
+    MIN_DENSITY_PER_MM,
+)
 from cnctwin.errors import ConfigError, NCError
 
 __all__ = ["resolution", "simulate", "simulate_report"]
@@ -29,10 +35,15 @@ def resolution(
     ``[simulation]``; a one-line :class:`ConfigError` for values out of range."""
     rho = density if density is not None else settings.simulation.density_per_mm
     cycle = cycle_ms if cycle_ms is not None else settings.simulation.cycle_ms
-    if not (0 < rho <= 100):
-        raise ConfigError(f"--density {rho}: give 0 < density <= 100 dexels per mm")
-    if not (0 < cycle <= 1000):
-        raise ConfigError(f"--cycle-ms {cycle}: give 0 < cycle <= 1000 ms")
+    if not (MIN_DENSITY_PER_MM <= rho <= MAX_DENSITY_PER_MM):
+        raise ConfigError(
+            f"--density {rho}: give {MIN_DENSITY_PER_MM:g} <= density <= "
+            f"{MAX_DENSITY_PER_MM:g} dexels per mm"
+        )
+    if not (MIN_CYCLE_MS <= cycle <= MAX_CYCLE_MS):
+        raise ConfigError(
+            f"--cycle-ms {cycle}: give {MIN_CYCLE_MS:g} <= cycle <= {MAX_CYCLE_MS:g} ms"
+        )
     return rho, cycle / 1e3
 
 

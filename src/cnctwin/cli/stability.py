@@ -64,18 +64,26 @@ def parse_rpm_range(text: str, option: str = "--rpm-range") -> np.ndarray:
     Raises
     ------
     ConfigError
-        Naming the option and the text, unless ``0 < MIN < MAX`` and ``N >= 2``.
+        Naming the option and the text, unless ``0 < MIN < MAX <= 200,000`` and
+        ``2 <= N <= 100,000``.
     """
+    from cnctwin.config.machine import MAX_SPINDLE_RPM
+    from cnctwin.config.stability import MAX_POINTS
+
     parts = text.split(":")
     try:
         low, high, count = float(parts[0]), float(parts[1]), int(parts[2])
-        valid = len(parts) == 3 and math.isfinite(high) and 0.0 < low < high and count >= 2
+        valid = (
+            len(parts) == 3
+            and 0.0 < low < high <= MAX_SPINDLE_RPM
+            and 2 <= count <= MAX_POINTS
+        )
     except (ValueError, IndexError):
         valid = False
     if not valid:
         raise ConfigError(
-            f"{option} {text!r}; give MIN:MAX:N with 0 < MIN < MAX rpm and N >= 2, "
-            "e.g. 5000:25000:400"
+            f"{option} {text!r}; give MIN:MAX:N with 0 < MIN < MAX <= {MAX_SPINDLE_RPM:g} rpm "
+            f"and 2 <= N <= {MAX_POINTS}, e.g. 5000:25000:400"
         )
     return np.linspace(low, high, count)
 
@@ -109,6 +117,7 @@ def lobes_report(config: Any, rpm: np.ndarray | None = None) -> dict[str, Any]:
     spec = config.lobes
     if rpm is None:
         rpm = np.linspace(spec.rpm[0], spec.rpm[1], spec.points)
+    config.check_work(float(rpm.min()))
     started = time.perf_counter()
     if spec.method == "zoa":
         if damping is not None:

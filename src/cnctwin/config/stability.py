@@ -18,6 +18,7 @@ from typing import Annotated, Any, Literal, TypeVar
 from pydantic import Field, ValidationError, model_validator
 
 from cnctwin.config.base import Section
+from cnctwin.config.limits import check_memory
 from cnctwin.config.loading import _describe_validation_error
 from cnctwin.config.machine import MAX_SPINDLE_RPM
 from cnctwin.dynamics.stability import (
@@ -26,6 +27,7 @@ from cnctwin.dynamics.stability import (
     ProcessDamping,
     ToolDynamics,
     ToolMode,
+    _auto_steps,
 )
 from cnctwin.errors import ConfigError
 from cnctwin.mechanics.coefficients import CuttingCoefficients
@@ -42,6 +44,8 @@ __all__ = [
 ]
 
 _DIRECTIONS = {"x": 0.0, "y": 90.0}
+#: Most spindle speeds of a lobe diagram (``[lobes] points``, ``--rpm-range``).
+MAX_POINTS = 100_000
 #: A spindle speed of the lobe diagram, rpm (as ``[machine] max_spindle_rpm``).
 _Rpm = Annotated[float, Field(gt=0, le=MAX_SPINDLE_RPM)]
 _Model = TypeVar("_Model", bound=Section)
@@ -155,7 +159,7 @@ class LobesSection(Section):
 
     method: Literal["zoa", "sdm"] = "zoa"
     rpm: tuple[_Rpm, _Rpm] = (2000.0, 20000.0)
-    points: int = Field(default=200, ge=2, le=100_000)
+    points: int = Field(default=200, ge=2, le=MAX_POINTS)
     max_depth_mm: float = Field(default=10.0, gt=0, le=1000)
     steps: Annotated[int, Field(le=10_000)] | Literal["auto"] = "auto"
 
@@ -256,6 +260,39 @@ class StabilityConfig(Section):
         if cut.material is None and cut.ktc_n_mm2 is not None and cut.krc_n_mm2 is not None:
             return CuttingCoefficients.from_n_mm(cut.ktc_n_mm2, cut.krc_n_mm2)
         raise ConfigError("cut: give either material or both ktc_n_mm2 and krc_n_mm2")
+
+    def check_work(self, lowest_rpm: float) -> None:
+        """Refuse a semi-discretization whose transition matrix exceeds the memory limit.
+
+        The monodromy matrix of ``m`` steps per period is ``2 n + 2 m`` square (``n`` modes,
+        two tool-tip directions), built from ``2 m`` blocks of its width: about
+        ``8 (2 m)^2 3`` bytes, largest at the lowest speed (the longest period).
+
+        Parameters
+        ----------
+        lowest_rpm
+            The lowest spindle speed of the diagram, rpm.
+
+        Raises
+        ------
+        ConfigError
+            Naming the steps, the matrix and what would fit (:mod:`cnctwin.config.limits`).
+        """
+        if self.lobes.method != "sdm":
+            return
+        steps = self.lobes.steps
+        if steps == "auto":
+            steps = _auto_steps(self.tool_dynamics(), self.process(), lowest_rpm * math.pi / 30)
+        size = 2 * len(self.modes) + 2 * steps
+        check_memory(
+            f"semi-discretization with {steps} steps per period at {lowest_rpm:g} rpm is a "
+            f"{size} x {size} transition matrix",
+            8.0 * size * (size + 4 * steps),
+            lambda fraction: (
+                f"use lobes.steps (--steps) <= {int(steps * math.sqrt(fraction))}, a higher "
+                "lowest speed, or method zoa"
+            ),
+        )
 
     def process_damping_model(self) -> ProcessDamping | None:
         """The ``[process_damping]`` table as a :class:`~cnctwin.dynamics.ProcessDamping`."""
