@@ -9,6 +9,7 @@ that port in its endpoint.
 from __future__ import annotations
 
 import asyncio
+import io
 import os
 import re
 import subprocess
@@ -103,3 +104,17 @@ def test_refused_serve_options_exit_2_with_one_line(argv: list[str], message: st
     _, err = refused.communicate(timeout=120)
     assert refused.returncode == 2
     assert message in err and err.count("\n") == 1, err
+
+
+def test_hash_password_prints_a_users_table_that_loads(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from cnctwin.cli.app import run
+    from cnctwin.virtual.users import load_users
+
+    monkeypatch.setattr(sys, "stdin", io.StringIO("pass word\n"))
+    assert run(["virtual", "hash-password", "--user", "Jane Doe", "--role", "read-only"]) == 0
+    (tmp_path / "users.toml").write_text(capsys.readouterr().out)
+    assert load_users(tmp_path / "users.toml").role_of("Jane Doe", "pass word") == "read-only"
+    assert run(["virtual", "hash-password", "--role", "admin"]) == 2
+    assert "--role 'admin'; valid: read-only, operator" in capsys.readouterr().err
