@@ -57,7 +57,7 @@ MAX_SEGMENTS = 10_000_000
 #: Most segments a single block may produce (canned-cycle repeats and pecks, splines).
 MAX_SEGMENTS_PER_BLOCK = 1_000_000
 #: Most lines read again after O-word jumps back (loop iterations, subroutine calls),
-#: by default: seconds of work (a 3-line loop runs about 100 000 times a second).
+#: by default: seconds of work (about 10 s on a loaded two-core machine).
 MAX_REPEATED_LINES = 1_000_000
 #: Largest canned-cycle repeat count L (holes drilled by one block).
 MAX_CYCLE_REPEATS = 10_000

@@ -20,7 +20,7 @@ from cnctwin.nc.source import LineSource
 __all__ = ["OWordControl", "MAX_CALL_DEPTH", "MAX_LOOP_ITERATIONS"]
 
 #: Upper bound on the iterations of one O-word loop (and on a repeat count), against
-#: runaway programs; a loop of a few lines reaches it in about a second.
+#: runaway programs; a loop of a few lines reaches it in a few seconds.
 MAX_LOOP_ITERATIONS = 100_000
 #: Upper bound on nested subroutine calls.
 MAX_CALL_DEPTH = 100
