@@ -52,7 +52,7 @@ MAX_LINE_BYTES = 65_536
 #: Largest program file, bytes, by default (about ten million lines of CAM output).
 MAX_PROGRAM_BYTES = 256 * 1024 * 1024
 #: Most motion segments one program may produce, by default (a ten-million-line
-#: program; about a minute of interpretation).
+#: program; minutes of interpretation at the 60 000 segments/s of a loaded machine).
 MAX_SEGMENTS = 10_000_000
 #: Most segments a single block may produce (canned-cycle repeats and pecks, splines).
 MAX_SEGMENTS_PER_BLOCK = 1_000_000
