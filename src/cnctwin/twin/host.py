@@ -178,10 +178,13 @@ async def serve(
                 _answer({"restarted": True})
             elif command == "state":
                 vm = machine.vm
+                values = vm.snapshot()
                 _answer(
                     {
                         "t_s": vm.time_s,
                         "run_state": int(vm.run_state),
+                        "at_rest": vm.finished,
+                        "position_mm": [values["x_mm"], values["y_mm"], values["z_mm"]],
                         "faults": [repr(e) for e in vm.fault_events],
                         "clock": dataclasses.asdict(machine.clock.stats),
                     }
@@ -358,7 +361,8 @@ class MachineProcess:
         return bool(answer and answer.get("restarted"))
 
     def state(self, timeout_s: float = 5.0) -> dict[str, Any] | None:
-        """The machine's time, run state, started faults and clock counters (or ``None``)."""
+        """The machine's time, run state, whether its axes are at rest after the program, its
+        axes' position (machine frame, mm), started faults and clock counters (or ``None``)."""
         if not self._send("state"):
             return None
         return self._receive(timeout_s)

@@ -313,7 +313,7 @@ class TwinRuntime:
         if len(shed) > len(self._shed_most):
             self._shed_most = shed
         recent = (
-            f"overruns in {load.fraction:.0%} of the last {load.window} cycles, cycle p50 "
+            f"overruns in {load.fraction:.0%} of the last {load.window} cycles, cycle work p50 "
             f"{self.cycle_times.recent_percentile_ms(50, load.window):.1f} ms / p99 "
             f"{self.cycle_times.recent_percentile_ms(99, load.window):.1f} ms against a "
             f"period of {self.cycle_s * 1e3:g} ms"
