@@ -10,12 +10,12 @@ them side by side. Units: mm, mm/min, s, percent (names say so).
 from __future__ import annotations
 
 import csv
-import json
 from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from cnctwin import finite_json
 from cnctwin.errors import CnctwinError
 from cnctwin.studies.dexel_study import PAPER, DexelStudy, RunResult
 from cnctwin.studies.plots import write_heatmaps
@@ -256,5 +256,5 @@ def write_outputs(
     report_path.write_text(_report(summary))
     summary_path = out / "summary.json"
     summary["files"] = [str(p) for p in (csv_path, *plots, report_path, summary_path)]
-    summary_path.write_text(json.dumps(summary, indent=2) + "\n")
+    summary_path.write_text(finite_json.dumps(summary, indent=2) + "\n")
     return summary
