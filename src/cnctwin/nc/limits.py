@@ -15,7 +15,7 @@ each):
   micrometre move at 1 m/min is already F1e6), speeds S <= 1e6 (rpm or m/min);
 - dwell and other P values <= 1e6 (s, turns, tolerance); L <= 1e6 (canned-cycle
   repeats are bounded further by :data:`MAX_CYCLE_REPEATS`);
-- tool numbers T and offset registers H <= 99 999;
+- tool numbers T and offset registers H <= 99 999; G <= 1000, M <= 10 000, N <= 1e12;
 - a number literal has at most :data:`MAX_NUMBER_CHARS` characters.
 """
 
@@ -67,7 +67,8 @@ MAX_PECKS = 10_000
 _LENGTH = 1e6
 _TOOL = 99_999.0
 #: Largest allowed magnitude of each word, in program units (mm or inch, degrees,
-#: mm/min or in/min, rpm, s). G, M and N have their own checks.
+#: mm/min or in/min, rpm, s); any other letter has the length bound. G and M values are
+#: then checked as codes by the lexer.
 WORD_LIMITS: dict[str, tuple[float, str]] = {
     **{letter: (_LENGTH, "length") for letter in "xyzuwijkrq@d"},
     **{letter: (_LENGTH, "angle, degrees") for letter in "abc^"},
