@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any, Literal, Protocol
 
 from asyncua import Server, ua
+from asyncua.common.utils import ServiceError
 from asyncua.crypto.permission_rules import USER_TYPES, PermissionRuleset, User, UserRole
 from asyncua.server.address_space import AttributeService, AttributeValue
 from asyncua.server.user_managers import UserManager
@@ -280,6 +281,7 @@ class OpcUaMachineServer:
         iserver.attribute_service = _MachineAttributeService(
             self, iserver.attribute_service, iserver.isession.user
         )
+        _answer_republish_by_the_spec(iserver.subscription_service)
         await server.start()
         self._server = server
         self.publish()
@@ -483,6 +485,24 @@ def _data_value(name: str, value: float, stamp: ua.DateTime) -> ua.DataValue:
         )
     # the machine's tick is the source time; the server holds the value from then on
     return ua.DataValue(variant, SourceTimestamp=stamp, ServerTimestamp=stamp)
+
+
+def _answer_republish_by_the_spec(service: Any) -> None:
+    """Answer a Republish of a message the server no longer holds with Bad_MessageNotAvailable
+    (OPC UA Part 4, 5.13.6). asyncua's server answers it with an empty message and Good, on
+    which a client that republishes until that status (asyncua's, after a reconnection) never
+    stops."""
+    republish = service.republish
+
+    def answer(params: ua.RepublishParameters) -> ua.NotificationMessage:
+        subscription = service.subscriptions.get(params.SubscriptionId)
+        if subscription is None:
+            raise ServiceError(ua.StatusCodes.BadSubscriptionIdInvalid)
+        if params.RetransmitSequenceNumber not in subscription._not_acknowledged_results:
+            raise ServiceError(ua.StatusCodes.BadMessageNotAvailable)
+        return republish(params)
+
+    service.republish = answer
 
 
 def free_port(host: str = "127.0.0.1") -> int:
