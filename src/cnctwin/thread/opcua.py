@@ -64,6 +64,9 @@ CLIENT_APPLICATION_URI = "urn:cnctwin:twin"
 #: virtual machine's tick; a server may revise it upward).
 DEFAULT_SUBSCRIPTION_MS = 5.0
 
+#: Longest a subscription's restoration (transfer and republish) may take after a reconnect, s.
+_RESTORE_S = 10.0
+
 #: Session timeout the client asks for, ms (asyncua servers grant at most 10 min).
 _SESSION_TIMEOUT_MS = 600_000
 
@@ -312,25 +315,38 @@ class OpcUaConnection(MachineConnection):
     def _watch_restore(self, subscription: Subscription) -> None:
         """Record how asyncua restores ``subscription`` after a reconnect (transferred with
         the missed notifications republished, or created anew)."""
-        restore = subscription.restore
+        restore, recreate = subscription.restore, subscription.recreate
+        recreated = False
+
+        async def recreating() -> None:
+            nonlocal recreated
+            recreated = True
+            await recreate()
 
         async def watched() -> None:
-            old_id = subscription.subscription_id
+            nonlocal recreated
+            recreated = False
             old_seq = subscription.last_sequence_number or 0
+            note = ""
             try:
-                await restore()
+                # bounded: a server that answers Republish of a message it no longer holds
+                # without Bad_MessageNotAvailable (asyncua's own) would keep it going forever
+                await asyncio.wait_for(restore(), _RESTORE_S)
+            except TimeoutError:
+                note = f" (republish cut off after {_RESTORE_S:g} s)"
             finally:
                 client = self._client
                 session = "" if client is None else self._session_outcome(client)
-                if subscription.subscription_id == old_id:
-                    replayed = (subscription.last_sequence_number or 0) - old_seq
+                if not recreated:
+                    replayed = max((subscription.last_sequence_number or 0) - old_seq, 0)
                     sub = f"subscription transferred, {replayed} notification(s) republished"
                 else:
                     sub = "subscription created anew (missed notifications lost)"
-                self._how = f"{session}; {sub}"
+                self._how = f"{session}; {sub}{note}"
                 self._restoring = False
 
         subscription.restore = watched  # type: ignore[method-assign]
+        subscription.recreate = recreating  # type: ignore[method-assign]
 
     async def _read_signal(self, name: str) -> float:
         client = self._client
