@@ -187,7 +187,7 @@ def test_unknown_keys_are_named_with_their_path(tmp_path: Path, text: str, expec
             "[machine.axes.x]\nmin_mm = -10.0\nmax_mm = -20.0\n",
             "machine.axes.x.max_mm: must be greater than min_mm (-10.0); got -20.0",
         ),
-        ("[machine]\nrapid_mm_min = 0\n", "machine.rapid_mm_min: must be > 0 and <= 1000000; got 0"),
+        ("[machine]\nrapid_mm_min = 0\n", "machine.rapid_mm_min: must be >= 1 and <= 1000000; got 0"),
         ("[machine]\nkind = 'drill'\n", "machine.kind: must be 'mill' or 'lathe'; got 'drill'"),
         (
             "[machine]\nrapid_mm_min = nan\n",
@@ -196,7 +196,7 @@ def test_unknown_keys_are_named_with_their_path(tmp_path: Path, text: str, expec
         ("[machine]\ng28_home_mm = [1, 2]\n", "machine.g28_home_mm[2]: item is missing"),
         (
             "[machine.axes.y]\nmax_accel_mm_s2 = -1\n",
-            "machine.axes.y.max_accel_mm_s2: must be > 0 and <= 1000000; got -1",
+            "machine.axes.y.max_accel_mm_s2: must be >= 1 and <= 1000000; got -1",
         ),
         ("[[tools]]\nnumber = 1\n", "tools[0].diameter_mm: required key is missing"),
         (
@@ -231,7 +231,7 @@ def test_unknown_keys_are_named_with_their_path(tmp_path: Path, text: str, expec
         ),
         (
             "[machine]\nmax_spindle_rpm = 0\n",
-            "machine.max_spindle_rpm: must be > 0 and <= 200000; got 0",
+            "machine.max_spindle_rpm: must be >= 1 and <= 200000; got 0",
         ),
         ("tool_table_units = 'cm'\n", "tool_table_units: must be 'mm' or 'inch'; got 'cm'"),
         (

@@ -35,16 +35,16 @@ class AxisConfig(Section):
         Travel limits in machine coordinates, mm, within +-100,000 mm; ``max_mm`` must exceed
         ``min_mm``.
     max_velocity_mm_min
-        Maximum axis velocity in mm/min, > 0 and <= 1,000,000 (1 km/min; linear-motor axes
-        reach about 200 m/min).
+        Maximum axis velocity in mm/min, 1 to 1,000,000 (1 km/min; linear-motor axes reach
+        about 200 m/min; below 1 mm/min a program's moves would take days per millimetre).
     max_accel_mm_s2
-        Maximum axis acceleration in mm/s^2, > 0 and <= 1,000,000 (about 100 g).
+        Maximum axis acceleration in mm/s^2, 1 to 1,000,000 (about 100 g).
     """
 
     min_mm: CoordinateMm = -500.0
     max_mm: CoordinateMm = Field(default=500.0, validate_default=True)
-    max_velocity_mm_min: float = Field(default=10_000.0, gt=0, le=MAX_FEED_MM_MIN)
-    max_accel_mm_s2: float = Field(default=1_000.0, gt=0, le=1e6)
+    max_velocity_mm_min: float = Field(default=10_000.0, ge=1, le=MAX_FEED_MM_MIN)
+    max_accel_mm_s2: float = Field(default=1_000.0, ge=1, le=1e6)
 
     @field_validator("max_mm")
     @classmethod
@@ -100,10 +100,10 @@ class MachineConfig(Section):
     kind
         ``"mill"`` or ``"lathe"`` (a lathe interprets programs with lathe conventions).
     rapid_mm_min
-        Rapid traverse rate in mm/min, used for rapid-move times; > 0 and <= 1,000,000.
+        Rapid traverse rate in mm/min, used for rapid-move times; 1 to 1,000,000.
     max_spindle_rpm
-        Highest spindle speed in rpm, which limits constant surface speed (G96), > 0 and
-        <= 200,000; ``None`` for no limit.
+        Highest spindle speed in rpm, which limits constant surface speed (G96), 1 to
+        200,000; ``None`` for no limit.
     axes
         Limits of the X, Y and Z axes.
     g28_home_mm, g30_home_mm
@@ -118,8 +118,8 @@ class MachineConfig(Section):
 
     name: str = "cnctwin machine"
     kind: Literal["mill", "lathe"] = "mill"
-    rapid_mm_min: float = Field(default=10_000.0, gt=0, le=MAX_FEED_MM_MIN)
-    max_spindle_rpm: float | None = Field(default=None, gt=0, le=MAX_SPINDLE_RPM)
+    rapid_mm_min: float = Field(default=10_000.0, ge=1, le=MAX_FEED_MM_MIN)
+    max_spindle_rpm: float | None = Field(default=None, ge=1, le=MAX_SPINDLE_RPM)
     axes: AxesConfig = Field(default_factory=AxesConfig)
     g28_home_mm: Vec3Mm = (0.0, 0.0, 0.0)
     g30_home_mm: Vec3Mm = (0.0, 0.0, 0.0)
