@@ -41,7 +41,7 @@ from cnctwin.thread.connection import ConnectionLost, MachineConnection
 from cnctwin.thread.signals import SIGNALS, RunState
 from cnctwin.twin.freshness import Freshness
 from cnctwin.twin.monitoring import ForceBand
-from cnctwin.twin.plausibility import Plausibility
+from cnctwin.twin.plausibility import AXES, Plausibility
 from cnctwin.twin.process import TwinProcess
 from cnctwin.twin.program import ProgramMap
 from cnctwin.twin.settings import FilterConfig, FormErrorConfig, WindowConfig
@@ -394,10 +394,11 @@ class CutStage:
         """Set ``engagement`` and the predicted ``feed_per_tooth_mm``."""
         m = state.measured
         t = m.get("t_s")
-        if t is not None:
-            self._synchronize(state, t)
+        fresh_blank = t is not None and self._synchronize(state, t)
         if state.position_mm is None:
             return state
+        if fresh_blank and any(axis in state.rejected for axis in AXES):
+            return state  # the held position is the old run's: not on the fresh blank
         if state.path_break:
             self.twin.forget_position()
         engagement, fz = self.twin.cut(
@@ -411,7 +412,8 @@ class CutStage:
         state.predicted["feed_per_tooth_mm"] = fz
         return state
 
-    def _synchronize(self, state: CycleState, t_s: float) -> None:
+    def _synchronize(self, state: CycleState, t_s: float) -> bool:
+        """Check the program clock; ``True`` when the twin took a fresh blank."""
         last, self._last_t_s = self._last_t_s, t_s
         running = state.measured.get("run_state") in (RunState.RUNNING, RunState.FEED_HOLD)
         if last is None:
@@ -437,6 +439,8 @@ class CutStage:
                     {"t_s": t_s},
                 )
             )
+            return True
+        return False
 
 
 class EngagementStage:
