@@ -169,23 +169,21 @@ class _MachineAttributeService(AttributeService):
     ) -> list[ua.StatusCode]:
         if user is not None and user is self._internal:
             return await super().write(params, user)
+        operator = isinstance(user, _Session) and user.operator
         results: list[ua.StatusCode] = []
         for item in params.NodesToWrite:
             name = self._machine.name_of(item.NodeId)
-            if not (isinstance(user, _Session) and user.operator):
-                results.append(_status(ua.StatusCodes.BadUserAccessDenied))
-            elif name is None:
+            if not operator or name is None:
+                logger.warning(
+                    "OPC UA write of %s by %s refused: not an operator's command node",
+                    item.NodeId.to_string(),
+                    getattr(user, "name", None) or "an anonymous session",
+                )
                 results.append(_status(ua.StatusCodes.BadUserAccessDenied))
             elif item.AttributeId != ua.AttributeIds.Value or name not in COMMANDS:
                 results.append(_status(ua.StatusCodes.BadNotWritable))
             else:
                 results.append(await self._machine.apply_command(name, item.Value))
-        if any(not r.is_good() for r in results):
-            logger.warning(
-                "OPC UA write by %s refused: %s",
-                getattr(user, "name", None) or "anonymous session",
-                ", ".join(sorted({r.name for r in results if not r.is_good()})),
-            )
         return results
 
 
