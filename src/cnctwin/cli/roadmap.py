@@ -125,14 +125,18 @@ def roadmap_report(
         ``plunge_lines`` (bottom contact only: no lobes), ``engagements`` (distinct
         engagements: teeth, angles, lowest critical depth), ``seconds``.
     """
+    from cnctwin.config.simulation import MAX_DENSITY_PER_MM, MIN_DENSITY_PER_MM
     from cnctwin.dynamics.roadmap import stability_roadmap
     from cnctwin.geometry import Cutter, DexelStock
     from cnctwin.geometry.engagement_map import EngagementMap
     from cnctwin.nc.interpreter import Interpreter
 
     rho = config.simulation.density_per_mm if density_per_mm is None else density_per_mm
-    if not (math.isfinite(rho) and 0.0 < rho <= 100.0):
-        raise ConfigError(f"--density {rho!r}; give 0 < density <= 100 dexels per mm")
+    if not (MIN_DENSITY_PER_MM <= rho <= MAX_DENSITY_PER_MM):
+        raise ConfigError(
+            f"--density {rho!r}; give {MIN_DENSITY_PER_MM:g} <= density <= "
+            f"{MAX_DENSITY_PER_MM:g} dexels per mm"
+        )
     step = 1.0 / rho if step_mm is None else step_mm
     if not (math.isfinite(step) and step > 0.0):
         raise ConfigError(f"--step-mm {step!r}; give a finite length > 0 mm")

@@ -55,6 +55,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
+from cnctwin.config.limits import check_memory
 from cnctwin.errors import ConfigError, DataError, NCError
 from cnctwin.geometry.cutter import Cutter
 from cnctwin.geometry.dexel import DexelStock
@@ -85,6 +86,10 @@ TOLERANCE_MM = 0.5
 TIE_MM = 0.05
 
 _TWO_PI = 2.0 * math.pi
+#: Memory a location takes while a map is built, bytes, checked against the work limit
+#: (measured: about 200 B a location in the finished map, the writer's lists several times
+#: that; rounded up).
+_LOCATION_BYTES = 1000
 _CHORD_SLACK = 1e-6  # relative: a chord longer than the step (plus this) is a jump, not a path
 
 # Columns of the per-location scalar table (float64, one row per location).
@@ -367,7 +372,18 @@ class EngagementMap:
         previous: np.ndarray | None = None
         previous_tool = -1
         rapid = int(MotionKind.RAPID)
+        locations = 0
         for chunk in sampler:
+            locations += chunk.t_s.size
+            check_memory(
+                f"an engagement map {step_mm:g} mm a location is more than {locations:.3g} "
+                "locations",
+                float(locations) * _LOCATION_BYTES,
+                lambda fraction, n=locations: (
+                    f"at most {n * fraction:.3g} locations fit: use a step of at least "
+                    f"{step_mm / fraction:.3g} mm or a shorter program"
+                ),
+            )
             writer.add_path(chunk.t_s * step_mm, chunk.tcp_mm)
             for i in range(chunk.t_s.size):
                 tool = int(chunk.tool[i])

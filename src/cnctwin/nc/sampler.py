@@ -462,7 +462,15 @@ def sample_program(
         All samples, ``ceil(duration_s / cycle_s)`` of them.
     duration_s
         Duration of the program in s.
+
+    Raises
+    ------
+    ConfigError
+        When the samples (kept, then joined: twice their size) would exceed the memory limit
+        (:mod:`cnctwin.config.limits`): the program is too long for one chunk at this cycle.
     """
+    from cnctwin.config.limits import check_memory
+
     sampler = TrajectorySampler(
         segments,
         rapid_mm_min=rapid_mm_min,
@@ -471,7 +479,22 @@ def sample_program(
         rapid_override=rapid_override,
         limits=limits,
     )
-    chunks = list(sampler)
+    chunks: list[SampleChunk] = []
+    samples = 0
+    nbytes = 0
+    for chunk in sampler:
+        samples += chunk.t_s.size
+        nbytes += sum(part.nbytes for part in chunk)
+        check_memory(
+            f"sampling the program at {cycle_s:g} s into one chunk is more than {samples:.3g} "
+            "samples",
+            2.0 * nbytes,
+            lambda fraction, n=samples: (
+                f"at most {n * fraction:.3g} samples fit: iterate a TrajectorySampler, or use "
+                "a longer cycle time or a shorter program"
+            ),
+        )
+        chunks.append(chunk)
     if not chunks:
         return _empty_chunk(0), sampler._duration_s
     return SampleChunk(
