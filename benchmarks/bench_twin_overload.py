@@ -24,24 +24,27 @@ import asyncio
 import json
 import os
 import platform
+import sqlite3
 import subprocess
 import sys
 import tempfile
 import time
+from collections import Counter
 from datetime import UTC, datetime
 from importlib.resources import as_file, files
 from pathlib import Path
 from typing import Any
 
+from cnctwin.store.historian import Historian
 from cnctwin.thread.signals import RunState
 from cnctwin.twin.config import RunConfig, load_run_config
 from cnctwin.twin.host import MachineProcess
 from cnctwin.twin.session import run_session
 from cnctwin.virtual.config import HoleFault
 
-#: Longest run, s (wall): the demo reaches its hole in about 12 s at 2x real time, later
-#: when the machine's own process is starved too.
-RUN_LIMIT_S = 40.0
+#: Longest run, s (wall), quick and full: the demo reaches its hole in about 12 s at 2x real
+#: time, later when the machine's own process is starved too (its clock drops ticks).
+RUN_LIMIT_S = {"quick": 40.0, "full": 120.0}
 
 
 def _with_endpoint(config: RunConfig, endpoint: str) -> RunConfig:
@@ -60,26 +63,38 @@ def _stop(loops: list[subprocess.Popen[bytes]]) -> None:
         proc.wait()
 
 
-def one_run(config: RunConfig, folder: Path, busy: int) -> dict[str, Any]:
+def one_run(config: RunConfig, folder: Path, busy: int, limit_s: float) -> dict[str, Any]:
     """The demo's session beside ``busy`` busy-loop processes."""
     loops: list[subprocess.Popen[bytes]] = []
     machine = MachineProcess(config, "opcua", log=folder / f"machine-{busy}.log")
+    db = folder / f"history-{busy}.sqlite"
     try:
         machine.spawn()
         endpoint = machine.wait_ready()
         loops = _busy_loops(busy)
-        summary = asyncio.run(
-            run_session(
-                _with_endpoint(config, endpoint),
-                duration_s=RUN_LIMIT_S,
-                on_start=lambda _twin: machine.go(),
-                meta={"benchmark": "bench_twin_overload", "busy_loops": busy},
+        with Historian.open(db) as historian:
+            summary = asyncio.run(
+                run_session(
+                    _with_endpoint(config, endpoint),
+                    historian=historian,
+                    duration_s=limit_s,
+                    on_start=lambda _twin: machine.go(),
+                    meta={"benchmark": "bench_twin_overload", "busy_loops": busy},
+                )
             )
-        )
         state = machine.state() or {}
     finally:
         _stop(loops)
         machine.stop()
+    with sqlite3.connect(db) as conn:
+        events = Counter(k for (k,) in conn.execute("SELECT kind FROM hist_events"))
+        stops = [
+            {"rule": rule, "action": action, "accepted": bool(accepted), "reason": reason}
+            for rule, action, accepted, reason in conn.execute(
+                "SELECT rule, action, accepted, reason FROM hist_decisions "
+                "WHERE action IN ('feed_hold', 'stop', 'emergency_stop') ORDER BY seq"
+            )
+        ]
     assert config.virtual is not None
     hole = next(f for f in config.virtual.faults if isinstance(f, HoleFault))
     position = state.get("position_mm")
@@ -94,11 +109,14 @@ def one_run(config: RunConfig, folder: Path, busy: int) -> dict[str, Any]:
         "overrun_pct": 100.0 * summary.overruns / max(summary.cycles, 1),
         "overloaded_cycles": summary.overloaded_cycles,
         "shed": summary.shed,
+        "events": dict(events),
+        "stop_decisions": stops,
         "stop_fired": bool(summary.stop_reactions_ms),
         "stop_reaction_ms": summary.stop_reaction_ms,
         # the machine's own word (not the twin's): its run state and whether it stands
         "machine_run_state": RunState(state["run_state"]).name if "run_state" in state else None,
         "machine_at_rest": state.get("at_rest"),
+        "machine_t_s": state.get("t_s"),
         # how far past the hole's entry the axes came to rest (X, mm; None without a stop)
         "stopped_past_hole_mm": (
             None if x is None or not summary.stop_reactions_ms else x - hole.min_mm[0]
@@ -116,7 +134,7 @@ def markdown(result: dict[str, Any], command: str) -> str:
         f"{r['cycle_p99_ms']:.1f} | {r['overrun_pct']:.1f} % | {r['overloaded_cycles']} | "
         f"{', '.join(r['shed']) or '-'} | {'yes' if r['stop_fired'] else 'NO'} | "
         f"{_figure(r['stop_reaction_ms'], '.1f')} | {_figure(r['stopped_past_hole_mm'], '.1f')} | "
-        f"{r['machine_run_state']} |"
+        f"{r['machine_run_state']} at {_figure(r['machine_t_s'], '.1f')} s |"
         for r in result["runs"]
     )
     return f"""# Benchmark: the twin under CPU load (bench_twin_overload)
@@ -124,7 +142,7 @@ def markdown(result: dict[str, Any], command: str) -> str:
 Date: {result["date"]}. Machine: {result["cores"]} cores ({result["platform"]}). Command:
 `{command}`.
 
-| busy loops | cycles | p50 (ms) | p99 (ms) | overruns | overloaded cycles | shed | hole stop | reaction (ms) | stopped past hole entry (mm) | machine |
+| busy loops | cycles | p50 (ms) | p99 (ms) | overruns | overloaded cycles | shed | hole stop | reaction (ms) | stopped past hole entry (mm) | machine at the end (its clock) |
 |---|---|---|---|---|---|---|---|---|---|---|
 {rows}
 """  # noqa: E501
@@ -151,7 +169,8 @@ def main() -> None:
         config = load_run_config(Path(examples) / "demo_twin.toml")
     started = time.time()
     with tempfile.TemporaryDirectory() as tmp:
-        runs = [one_run(config, Path(tmp), n) for n in loads]
+        limit = RUN_LIMIT_S["quick" if args.quick else "full"]
+        runs = [one_run(config, Path(tmp), n, limit) for n in loads]
     result = {
         "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "platform": f"{platform.python_implementation()} {platform.python_version()}, "
