@@ -8,6 +8,7 @@ limit (:mod:`cnctwin.config.limits`) is tested against hand-computed sizes.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +26,7 @@ from cnctwin.config.limits import (
 from cnctwin.config.stability import StabilityConfig
 from cnctwin.errors import ConfigError
 from cnctwin.geometry import DexelStock
+from cnctwin.nc.segments import Segment
 from cnctwin.process.simulation import COLUMNS, StepTable
 from cnctwin.twin.config import load_run_config
 
@@ -273,3 +275,32 @@ def test_a_long_fluted_tool_in_code_cuts_as_the_config_would(
     capsys.readouterr()
     assert run(["simulate", str(program), "--config", str(config), "--json"]) == 0
     assert math.isfinite(float(capsys.readouterr().out.split('"removed_volume_mm3": ')[1][:8]))
+
+
+def _segments() -> Iterator[Segment]:
+    from cnctwin.nc.interpreter import Interpreter
+    from cnctwin.nc.setup import NCSetup
+
+    return Interpreter(NCSetup()).run_text(PROGRAM.replace("T1 M6\n", ""))
+
+
+def test_an_engagement_map_stops_at_the_limit(monkeypatch: pytest.MonkeyPatch) -> None:
+    from cnctwin.geometry import Cutter
+    from cnctwin.geometry.engagement_map import EngagementMap
+
+    stock = DexelStock.box((0, 0, -5), (20, 10, 0), 2.0)
+    cutters = {0: Cutter.flat(diameter_mm=6.0, flute_length_mm=15.0, flutes=2)}
+    # About 45 mm of path at 0.001 mm a location: 45,000 locations, 1000 B each.
+    monkeypatch.setenv(MEMORY_LIMIT_ENV, "0.01")
+    with pytest.raises(ConfigError, match=r"engagement map 0\.001 mm a location .*use a step"):
+        EngagementMap.build(_segments(), stock, cutters, step_mm=0.001)
+
+
+def test_sampling_into_one_chunk_stops_at_the_limit(monkeypatch: pytest.MonkeyPatch) -> None:
+    from cnctwin.nc.sampler import sample_program
+
+    monkeypatch.setenv(MEMORY_LIMIT_ENV, "0.001")
+    with pytest.raises(ConfigError, match="iterate a TrajectorySampler"):
+        sample_program(_segments(), rapid_mm_min=6000.0, cycle_s=1e-4)
+    samples, duration = sample_program(_segments(), rapid_mm_min=6000.0, cycle_s=0.0125)
+    assert samples.t_s.size == math.ceil(duration / 0.0125)
