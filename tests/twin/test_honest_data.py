@@ -339,3 +339,37 @@ def test_a_jump_the_next_sample_confirms_starts_a_new_path_without_cutting_along
     assert states[11].path_break and "x_mm" not in states[11].rejected
     assert states[-1].position_mm[0] == pytest.approx(260.0)
     assert _volume(twin) == pytest.approx(before, abs=1e-6)
+
+
+def test_plausible_reach_is_the_axis_dynamics_times_the_margin(demo_config: RunConfig) -> None:
+    """Closed form: margin * (v dt + a dt^2 / 2) + floor, v = max(axis velocity, rapid)."""
+    from cnctwin.twin.plausibility import Plausibility
+    from cnctwin.twin.settings import PlausibilityConfig
+
+    config = PlausibilityConfig(jump_margin=2.0, jump_floor_mm=0.5)
+    judge = Plausibility(demo_config.machine, config)
+    # demo: X and Y 12000 mm/min, 2000 mm/s^2; Z 10000 mm/min under a 12000 mm/min rapid
+    dt = 0.0125
+    expected = 2.0 * (200.0 * dt + 0.5 * np.array([2000.0, 2000.0, 1500.0]) * dt**2) + 0.5
+    assert judge.reach_mm(dt) == pytest.approx(expected)
+    first = judge.check({"x_mm": 0.0, "y_mm": 0.0, "z_mm": 0.0, "t_s": 1.0}, 0.0)
+    assert not first.invalid  # the first sample is the reference
+    near = judge.check({"x_mm": expected[0] * 0.99, "y_mm": 0.0, "z_mm": 0.0, "t_s": 1.0 + dt}, dt)
+    assert not near.invalid
+    ranges = judge.check({"feed_override_pct": 150.1, "spindle_override_pct": 49.0}, 0.1)
+    assert set(ranges.invalid) == {"feed_override_pct", "spindle_override_pct"}
+
+
+@pytest.mark.parametrize(
+    ("twin", "key"),
+    [
+        ({"max_sample_age_s": 0.0}, "max_sample_age_s"),
+        ({"plausibility": {"jump_margin": 0.5}}, "jump_margin"),
+        ({"plausibility": {"feed_override_max_pct": 200.0}}, "feed_override_max_pct"),
+    ],
+)
+def test_out_of_range_keys_are_refused_naming_the_key(
+    demo_config: RunConfig, twin: dict[str, object], key: str
+) -> None:
+    with pytest.raises(ValueError, match=key):
+        RunConfig.from_physics(demo_config, twin=twin)

@@ -115,7 +115,7 @@ class MachineConnection(ABC):
     reconnects
         Times the connection was restored.
     last_reconnect
-        How the last restoration went, one line (e.g. ``"new session"``; an OPC UA
+        How the last restoration went, one line (``"closed and opened anew"``; an OPC UA
         connection says whether its session was re-activated and its subscription
         transferred); ``""`` before the first.
     """
@@ -148,12 +148,12 @@ class MachineConnection(ABC):
     async def _reopen(self) -> str:
         """Restore the transport after a loss; return how, one line.
 
-        This default closes what is left and opens anew (a new session); a transport that
-        can resume its session (OPC UA) overrides it. Raises like :meth:`_open`.
+        This default closes what is left and opens anew; a transport that can resume its
+        session (OPC UA) overrides it. Raises like :meth:`_open`.
         """
         await self._close()
         await asyncio.wait_for(self._open(), self.timeout_s)
-        return "new session"
+        return "closed and opened anew"
 
     # Public API -----------------------------------------------------------------------
     async def connect(self) -> None:

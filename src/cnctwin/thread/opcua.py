@@ -291,7 +291,8 @@ class OpcUaConnection(MachineConnection):
         """
         client = self._client
         if client is None:
-            return await super()._reopen()
+            await super()._reopen()
+            return "new session"
         deadline = now_s() + self.timeout_s
         while client.uaclient.state is not UaClientState.CONNECTED or self._restoring:
             if now_s() > deadline:
