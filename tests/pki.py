@@ -19,11 +19,11 @@ from cnctwin.thread.opcua import CLIENT_APPLICATION_URI
 from cnctwin.virtual.opcua_server import SERVER_APPLICATION_URI
 
 
-def certificate(folder: Path, name: str, role: str) -> tuple[Path, Path]:
+def certificate(folder: Path, name: str, role: str, expired: bool = False) -> tuple[Path, Path]:
     """Write ``NAME-cert.pem`` and ``NAME-key.pem`` into ``folder``; (cert, key) paths.
 
     ``role`` is ``"server"`` (the virtual machine's URI, serverAuth) or ``"client"`` (the
-    twin's URI, clientAuth).
+    twin's URI, clientAuth); ``expired``: valid from two days ago until yesterday.
     """
     uri, usage = (
         (SERVER_APPLICATION_URI, ExtendedKeyUsageOID.SERVER_AUTH)
@@ -32,7 +32,7 @@ def certificate(folder: Path, name: str, role: str) -> tuple[Path, Path]:
     )
     key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
     subject = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, name)])
-    now = dt.datetime.now(dt.UTC)
+    now = dt.datetime.now(dt.UTC) - dt.timedelta(days=2 if expired else 0)
     cert = (
         x509.CertificateBuilder()
         .subject_name(subject)

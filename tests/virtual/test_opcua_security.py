@@ -185,15 +185,17 @@ def test_wrong_password_unknown_user_and_refused_anonymous() -> None:
 
 @pytest.fixture(scope="module")
 def pki(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """server, twin (trusted by the server) and stranger (not trusted) certificates, and a
-    server trust folder with the twin's certificate only."""
+    """server, twin (trusted by the server), expired (trusted, but expired) and stranger (not
+    trusted) certificates, and the server's trust folder."""
     folder = tmp_path_factory.mktemp("pki")
     certificate(folder, "server", "server")
     certificate(folder, "other-server", "server")
     twin, _ = certificate(folder, "twin", "client")
     certificate(folder, "stranger", "client")
+    expired, _ = certificate(folder, "expired", "client", expired=True)
     (folder / "trusted-clients").mkdir()
     shutil.copy(twin, folder / "trusted-clients")
+    shutil.copy(expired, folder / "trusted-clients")
     return folder
 
 
@@ -229,6 +231,9 @@ def test_server_refuses_a_client_certificate_not_in_its_trust_folder(pki: Path) 
             stranger = OpcUaConnection(twin_config(server, "stranger", **pinned), base_dir=pki)
             with pytest.raises(ConnectionLost, match="BadCertificateUntrusted"):
                 await stranger.connect()
+            expired = OpcUaConnection(twin_config(server, "expired", **pinned), base_dir=pki)
+            with pytest.raises(ConnectionLost, match="BadCertificateTimeInvalid"):
+                await expired.connect()
             # the same refusal for a bare asyncua client with a self-signed certificate
             client = Client(server.endpoint, timeout=5.0)
             client.application_uri = CLIENT_APPLICATION_URI

@@ -85,3 +85,12 @@ def test_exposure_only_loopback_without_security() -> None:
     for transport in ("opcua", "modbus"):
         with pytest.raises(ConfigError, match="--insecure"):
             check_exposure("0.0.0.0", transport, secured=False, insecure=False)
+
+
+def test_a_server_nobody_could_log_in_to_is_a_config_error() -> None:
+    from opcua_fixtures import FakeMachine
+
+    from cnctwin.virtual.opcua_server import OpcUaMachineServer
+
+    with pytest.raises(ConfigError, match="nobody could connect"):
+        OpcUaMachineServer(FakeMachine(), users=UserTable(anonymous=None))

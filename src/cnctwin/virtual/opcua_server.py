@@ -228,6 +228,11 @@ class OpcUaMachineServer:
         self.users = users or UserTable()
         self.security = security or OpcUaServerSecurity()
         _check_complete(self.security)
+        if not self.users.accounts and self.users.anonymous is None:
+            raise ConfigError(
+                "the OPC UA server has no users and refuses anonymous sessions: nobody could "
+                "connect; add [users.NAME] tables to the users file or set anonymous"
+            )
         check_exposure(host, "opcua", secured=self.security.mode != "None", insecure=insecure)
         self.host = host
         self.port = port or free_port(host)
@@ -253,11 +258,6 @@ class OpcUaMachineServer:
         tokens: list[type] = [ua.UserNameIdentityToken] if self.users.accounts else []
         if self.users.anonymous is not None:
             tokens.append(ua.AnonymousIdentityToken)
-        if not tokens:
-            raise ConfigError(
-                "the OPC UA server has no users and refuses anonymous sessions: nobody could "
-                "connect; add [users.NAME] tables to the users file or set anonymous"
-            )
         server = Server(user_manager=_TableUsers(self.users))
         server.allow_remote_admin(False)
         await server.init()
