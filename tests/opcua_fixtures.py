@@ -11,12 +11,15 @@ import asyncio
 import threading
 from collections.abc import Awaitable, Callable
 
+from timeouts import BODY_S, SERVER_START_S
+
 from cnctwin.errors import ConfigError
 from cnctwin.thread.signals import SIGNALS
 from cnctwin.virtual.opcua_server import OpcUaMachineServer
 from cnctwin.virtual.users import UserTable
 
-TIMEOUT_S = 20.0
+#: Limit of a test's body and of each wait on the shared server, s (tests/timeouts.py: why).
+TIMEOUT_S = BODY_S
 
 
 class FakeMachine:
@@ -80,7 +83,7 @@ class Shared:
             target=self.loop.run_until_complete, args=(serve(),), daemon=True
         )
         self.thread.start()
-        assert started.wait(TIMEOUT_S)
+        assert started.wait(SERVER_START_S), f"OPC UA server not started in {SERVER_START_S} s"
 
     def publish(self) -> None:
         """Publish the machine's snapshot from the server's own loop and wait for it."""

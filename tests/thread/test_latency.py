@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import asyncio
 import math
+import random
 import time
 
 import pytest
+from timeouts import BODY_S
 
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.thread.config import ConnectionConfig
@@ -20,8 +22,6 @@ from cnctwin.thread.opcua import OpcUaConnection
 from cnctwin.thread.signals import SIGNALS
 from cnctwin.virtual.opcua_server import OpcUaMachineServer
 from cnctwin.virtual.users import UserTable
-
-TIMEOUT_S = 30.0
 
 
 class Machine:
@@ -50,7 +50,7 @@ class Machine:
 
 
 def run(coro: object) -> None:
-    asyncio.run(asyncio.wait_for(coro, TIMEOUT_S))  # type: ignore[arg-type]
+    asyncio.run(asyncio.wait_for(coro, BODY_S))  # type: ignore[arg-type]
 
 
 def test_stats_match_closed_forms() -> None:
@@ -94,24 +94,40 @@ def test_poll_waits_for_the_feedback_to_change() -> None:
     async def body() -> None:
         machine = Machine(lagging=True)
         async with OpcUaMachineServer(machine, users=UserTable(anonymous="operator")) as server:
+            async with OpcUaConnection(ConnectionConfig(endpoint=server.endpoint)) as conn:
+                polled = 0
+                read_signal = conn.read_signal
 
-            async def clock() -> None:  # the machine applies commands every 20 ms
-                while True:
-                    await asyncio.sleep(0.02)
-                    machine.tick()
-                    server.publish()
+                async def counted(name: str) -> float:
+                    nonlocal polled
+                    polled += 1
+                    return await read_signal(name)
 
-            ticking = asyncio.get_running_loop().create_task(clock())
-            try:
-                async with OpcUaConnection(ConnectionConfig(endpoint=server.endpoint)) as conn:
+                conn.read_signal = counted  # type: ignore[method-assign]
+
+                async def clock() -> None:
+                    # the machine applies a command on its tick, which comes after the poll has
+                    # read the old value twice, however slow the machine running the test
+                    while True:
+                        while not machine.pending:
+                            await asyncio.sleep(0.001)
+                        seen = polled
+                        while polled < seen + 2:
+                            await asyncio.sleep(0.001)
+                        machine.tick()
+                        server.publish()
+
+                ticking = asyncio.get_running_loop().create_task(clock())
+                try:
+                    # timeout: a feedback that never changes, not speed (that is benchmarked)
                     result = await measure_latency(
-                        conn, n=8, interval_s=0.0, signal="spindle_override_pct"
+                        conn, n=8, interval_s=0.0, signal="spindle_override_pct", timeout_s=60.0
                     )
-            finally:
-                ticking.cancel()
-        assert result.polls_mean > 1.0
-        # A command waits up to one 20 ms tick: the mean round trip is a good part of it.
-        assert 3.0 < result.round_trip_ms.mean < 60.0
+                finally:
+                    ticking.cancel()
+        # two reads of the old value, then at least one of the new: the poll waited every time
+        assert result.polls_mean >= 3.0
+        assert result.round_trip_ms.min >= result.write_ms.min + result.read_ms.min
         assert all(50.0 <= v <= 120.0 for _, v in machine.commands)
 
     run(body())
@@ -164,12 +180,13 @@ def test_jitter_proxy_delays_one_way_uniformly_and_keeps_order() -> None:
             writer.close()
         echo.close()
         await echo.wait_closed()
-        # U(0, 2J): mean J, none below 0 or (beyond scheduling slack) above 2J.
-        mean = sum(delays) / len(delays)
-        assert 0.7 * jitter_ms < mean < 1.5 * jitter_ms
-        assert min(delays) >= 0.0
-        assert sorted(delays)[len(delays) // 2] < 2 * jitter_ms
-        assert max(delays) > jitter_ms  # the spread reaches above the mean
+        # Each message draws its own delay, U(0, 2J) from the proxy's seed, in order: every round
+        # trip waits at least its draw (a loaded machine only adds, so no upper bound here; how
+        # closely the delays follow the draws is benchmarked in bench_opcua_latency.py).
+        draws = random.Random(1)
+        drawn = [draws.uniform(0.0, 2.0 * jitter_ms) for _ in delays]
+        assert all(d >= e - 1e-3 for d, e in zip(delays, drawn, strict=True))
+        assert min(drawn) < 0.5 * jitter_ms and max(drawn) > 1.5 * jitter_ms
 
     run(body())
     with pytest.raises(ConfigError):
