@@ -8,7 +8,6 @@ back 1) but ignore it, as a control with a broken interlock or a wrong mapping w
 from __future__ import annotations
 
 import asyncio
-import math
 import sqlite3
 
 import pytest
@@ -155,19 +154,33 @@ def test_rest_is_judged_from_positions_and_feed_not_from_a_repeated_sample() -> 
     config = StopConfirmationConfig(rest_speed_mm_min=6.0, rest_readings=2, timeout_s=1.0)
     watch = StopWatch("feed_hold", 0.0, config)
     rest = {"t_s": 1.0, "x_mm": 10.0, "y_mm": 20.0, "z_mm": -5.0, "feed_mm_min": 0.3}
-    assert watch.update(rest, 0.0).verdict == "watching"
-    # the same machine sample read again is no new evidence
-    again = watch.update(rest, 0.01)
-    assert again.verdict == "watching" and math.isnan(again.speed_mm_min)
+    assert watch.update(rest, 0.0).verdict == "watching"  # one reading at rest
+    # the same machine sample read again is no second reading at rest
+    assert watch.update(rest, 0.01).verdict == "watching"
     # a creeping axis (0.01 mm in 25 ms = 24 mm/min) with a feed signal that reads 0
     creep = dict(rest, t_s=1.025, x_mm=10.01, feed_mm_min=0.0)
     status = watch.update(creep, 0.02)
     assert status.verdict == "watching" and status.speed_mm_min == pytest.approx(24.0)
-    # sensor noise of half a micrometre is rest
+    # sensor noise of half a micrometre is rest; two such readings confirm
     still = dict(creep, t_s=1.05, x_mm=10.0105)
     assert watch.update(still, 0.03).verdict == "watching"
     still2 = dict(still, t_s=1.075, x_mm=10.0100)
     assert watch.update(still2, 0.04).verdict == "confirmed"
+
+
+def test_axes_last_seen_at_rest_get_twice_the_timeout_for_their_confirming_samples() -> None:
+    config = StopConfirmationConfig(rest_speed_mm_min=6.0, rest_readings=2, timeout_s=0.5)
+    offered = {"emergency_stop": 0.0, "y_mm": 0.0, "z_mm": 0.0, "feed_mm_min": 0.0}
+    watch = StopWatch("stop", 0.0, config)
+    assert watch.update({**offered, "t_s": 1.0, "x_mm": 0.0}, 0.0).verdict == "watching"
+    # the machine publishes nothing new (starved): the same sample until past the timeout
+    assert watch.update({**offered, "t_s": 1.0, "x_mm": 0.0}, 0.6).verdict == "watching"
+    assert watch.update({**offered, "t_s": 1.0, "x_mm": 0.0}, 1.0).verdict == "escalate"
+    # axes last seen moving: the plain timeout
+    moving = StopWatch("stop", 0.0, config)
+    moving.update({**offered, "t_s": 1.0, "x_mm": 0.0}, 0.0)
+    status = moving.update({**offered, "t_s": 1.1, "x_mm": 1.0, "feed_mm_min": 600.0}, 0.6)
+    assert (status.verdict, status.next_step) == ("escalate", "emergency_stop")
 
 
 def test_emergency_stop_latches_a_fault_and_brings_the_axes_to_rest(

@@ -10,7 +10,9 @@ from successive positions (``x_mm``, ``y_mm``, ``z_mm``) over the machine clock 
 ladder (:data:`LADDER`: feed hold, stop, emergency stop) has ``timeout_s`` of the twin's
 clock to bring the axes to rest; when it does not, :meth:`StopWatch.update` names the next
 step to write, where the machine offers it (its reading carries the command's read-back).
-It never releases anything: a step adds to the ones before it.
+A step whose axes were last seen at rest, short of ``rest_readings`` new samples (a starved
+machine publishes slowly), gets up to twice ``timeout_s`` before it counts as failed. It
+never releases anything: a step adds to the ones before it.
 """
 
 from __future__ import annotations
@@ -48,7 +50,8 @@ class StopStatus:
     next_step
         The step to write now with ``"escalate"``, else ``None``.
     speed_mm_min
-        The fastest axis speed or path feed of the reading, mm/min (NaN when unknown).
+        The fastest axis speed or path feed last seen since the step was written, mm/min
+        (NaN when none was).
     waited_s
         Time since the step in force was written, s.
     """
@@ -83,6 +86,7 @@ class StopWatch:
         self.steps = [step]
         self._last: tuple[float, tuple[float, ...]] | None = None
         self._rest = 0
+        self._seen_mm_min = math.nan
 
     def escalated(self, step: str, now_s: float) -> None:
         """The step ``step`` was written at ``now_s`` (s): its timeout starts."""
@@ -94,14 +98,18 @@ class StopWatch:
         """Judge one reading (canonical names) taken at the twin's time ``now_s`` (s)."""
         speed = self._speed(values, now_s)
         waited = now_s - self.step_s
-        if math.isfinite(speed) and speed <= self.config.rest_speed_mm_min:
-            self._rest += 1
-        elif math.isfinite(speed):
-            self._rest = 0
+        rest = self.config.rest_speed_mm_min
+        if math.isfinite(speed):
+            self._seen_mm_min = speed
+            self._rest = self._rest + 1 if speed <= rest else 0
         if self._rest >= self.config.rest_readings:
             return StopStatus("confirmed", self.step, None, speed, waited)
-        if waited < self.config.timeout_s:
-            return StopStatus("watching", self.step, None, speed, waited)
+        timeout = self.config.timeout_s
+        if self._seen_mm_min <= rest:  # last seen at rest: wait for the confirming samples
+            timeout *= 2.0
+        if waited < timeout:
+            return StopStatus("watching", self.step, None, self._seen_mm_min, waited)
+        speed = self._seen_mm_min
         following = self._next(values)
         if following is None or not self.config.escalate:
             return StopStatus("failed", self.step, None, speed, waited)
