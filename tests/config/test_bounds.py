@@ -304,3 +304,23 @@ def test_sampling_into_one_chunk_stops_at_the_limit(monkeypatch: pytest.MonkeyPa
         sample_program(_segments(), rapid_mm_min=6000.0, cycle_s=1e-4)
     samples, duration = sample_program(_segments(), rapid_mm_min=6000.0, cycle_s=0.0125)
     assert samples.t_s.size == math.ceil(duration / 0.0125)
+
+
+@pytest.mark.parametrize(
+    ("tools", "bounds", "expected"),
+    [
+        ('{"1": {"diameter": 1e308}}', '{"min": [0, 0, 0], "max": [1, 1, 1]}', "<= 1000"),
+        ('{"1": {"diameter": 6, "length": NaN}}', '{"min": [0, 0, 0], "max": [1, 1, 1]}', "finite"),
+        ("{}", '{"min": [0, 0, "x"], "max": [1, 1, 1]}', "bounds.min[2]: 'x' is not a number"),
+        ("{}", '{"min": 0, "max": [1, 1, 1]}', "give three numbers"),
+        ("{}", '{"min": [0, 0, 0], "max": [1e6, 1, 1]}', "stock.max_mm[0]: must be >= -100000"),
+    ],
+)
+def test_camotics_projects_are_bounded_too(
+    tmp_path: Path, tools: str, bounds: str, expected: str
+) -> None:
+    path = tmp_path / "p.camotics"
+    path.write_text(f'{{"units": "metric", "tools": {tools}, "workpiece": {{"bounds": {bounds}}}}}')
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert expected in str(err.value) and "\n" not in str(err.value)

@@ -36,6 +36,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from cnctwin.config.loading import _describe_validation_error
 from cnctwin.config.twin import TwinConfig
 from cnctwin.errors import ConfigError
 
@@ -222,16 +223,21 @@ def load_camotics_project(path: str | os.PathLike[str]) -> TwinConfig:
     bounds = (project.get("workpiece") or {}).get("bounds") or {}
     if "min" not in bounds or "max" not in bounds:
         raise ConfigError("workpiece.bounds: needs 'min' and 'max' corners", source)
-    stock = {
-        "kind": "box",
-        "min_mm": [float(v) * scale for v in bounds["min"]],
-        "max_mm": [float(v) * scale for v in bounds["max"]],
-    }
+    corners = {}
+    for corner in ("min", "max"):
+        values = bounds[corner]
+        if not isinstance(values, list) or len(values) != 3:
+            raise ConfigError(
+                f"workpiece.bounds.{corner}: {values!r}; give three numbers [x, y, z]", source
+            )
+        corners[corner] = [
+            _number(v, f"workpiece.bounds.{corner}[{i}]", source) * scale
+            for i, v in enumerate(values)
+        ]
+    stock = {"kind": "box", "min_mm": corners["min"], "max_mm": corners["max"]}
     try:
         return TwinConfig.model_validate(
             {"tools": tools, "stock": stock, "machine": {"tool_change_on_t": True}}
         )
     except ValidationError as err:
-        first = err.errors()[0]
-        key = ".".join(str(p) for p in first["loc"])
-        raise ConfigError(f"{key}: {first['msg']}; got {first.get('input')!r}", source) from err
+        raise ConfigError(_describe_validation_error(err, TwinConfig), source) from err
