@@ -133,7 +133,10 @@ def test_overloaded_twin_reports_sheds_and_still_stops_at_the_hole(tmp_path) -> 
         rows = conn.execute(
             "SELECT kind, message FROM hist_events WHERE kind LIKE 'overload%'"
         ).fetchall()
+        kept = [k for (k,) in conn.execute("SELECT kind FROM hist_events")]
     assert rows and rows[0][0] == "overload" and "overruns in" in rows[0][1]
+    # thinning drops samples only: every event is in the historian
+    assert kept.count("stop_confirmed") == 1 and kept.count("overload_shed") == 2
     assert summary.samples_recorded < summary.cycles
 
 

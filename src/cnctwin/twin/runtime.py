@@ -424,9 +424,12 @@ class TwinRuntime:
                 self.feed_override_min is None or override < self.feed_override_min
             ):
                 self.feed_override_min = override
-        thinned = "historian_detail" in self._shed and state.index % self.overload.sample_every
-        if self.recorder is not None and not thinned:
-            self.recorder.cycle(state)
+        if self.recorder is not None:
+            # overloaded with the historian's detail shed: every sample_every-th cycle's samples
+            # (events and decisions are always kept)
+            thinned = "historian_detail" in self._shed and state.index % self.overload.sample_every
+            if not thinned:
+                self.recorder.cycle(state)
             for event in state.events:
                 if event.kind not in ("connection_lost", "connection_restored", "connected"):
                     self.recorder.event(event)
