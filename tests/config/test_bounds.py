@@ -324,3 +324,36 @@ def test_camotics_projects_are_bounded_too(
     with pytest.raises(ConfigError) as err:
         load_config(path)
     assert expected in str(err.value) and "\n" not in str(err.value)
+
+
+SLOT = Path(__file__).resolve().parents[2] / "examples" / "stability" / "insperger_slot.toml"
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (
+            "forces --diameter-mm 10 --teeth 1000000000 --helix-deg 30 --ae-mm 5 --ap-mm 2 "
+            "--fz-mm 0.1 --rpm 8000 --material AA6060-T6",
+            "--teeth 1000000000; give an integer from 1 to 100",
+        ),
+        (
+            "forces --diameter-mm 10 --teeth 3 --helix-deg 30 --ae-mm 5 --ap-mm 2 "
+            "--fz-mm 0.1 --rpm 1e308 --material AA6060-T6",
+            "--rpm 1e+308; give a value > 0 and <= 200000",
+        ),
+        (
+            f"vibration simulate --config {SLOT} --rpm 1e-300 --depth-mm 1 --feed-mm 0.05",
+            "--rpm 1e-300; give a finite value > 1 and <= 200000",
+        ),
+        (
+            f"vibration simulate --config {SLOT} --rpm 9000 --depth-mm 1e308 --feed-mm 0.05",
+            "--depth-mm 1e+308; give a finite value > 0 and <= 1000",
+        ),
+    ],
+)
+def test_physics_options_are_bounded(
+    capsys: pytest.CaptureFixture[str], args: str, message: str
+) -> None:
+    code, err = _run(capsys, *args.split(), "--json")
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1

@@ -25,6 +25,8 @@ from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.cli.chatter_detect import detect
+from cnctwin.config.machine import MAX_SPINDLE_RPM
+from cnctwin.config.tools import MAX_TOOL_DIAMETER_MM
 from cnctwin.errors import ConfigError, DataError
 
 if TYPE_CHECKING:
@@ -100,9 +102,10 @@ def _milling(config: StabilityConfig) -> MillingProcess:
     return process
 
 
-def _positive(option: str, value: float) -> float:
-    if not (math.isfinite(value) and value > 0.0):
-        raise ConfigError(f"{option} {value!r}; give a finite value > 0")
+def _positive(option: str, value: float, high: float = math.inf, least: float = 0.0) -> float:
+    if not (math.isfinite(value) and least < value <= high):
+        bound = f" and <= {high:g}" if math.isfinite(high) else ""
+        raise ConfigError(f"{option} {value!r}; give a finite value > {least:g}{bound}")
     return value
 
 
@@ -118,7 +121,7 @@ def _edges(config: StabilityConfig, kte: float | None, kre: float | None) -> tup
 def _diameter(config: StabilityConfig, given: float | None) -> float | None:
     """Cutter diameter in m from the option (mm) or the ``[process_damping]`` table."""
     if given is not None:
-        return _positive("--diameter-mm", given) * 1e-3
+        return _positive("--diameter-mm", given, MAX_TOOL_DIAMETER_MM) * 1e-3
     if config.process_damping is not None:
         return config.process_damping.diameter_mm * 1e-3
     return None
@@ -227,14 +230,14 @@ def simulation_report(
     from cnctwin.dynamics.time_domain import simulate_milling
 
     process = _milling(config)
-    speed = _positive("--rpm", rpm) * _RPM
-    depth = _positive("--depth-mm", depth_mm) * 1e-3
+    speed = _positive("--rpm", rpm, MAX_SPINDLE_RPM, least=1.0) * _RPM
+    depth = _positive("--depth-mm", depth_mm, 1000.0) * 1e-3
     section = config.process_damping
     if feed_mm is None:
         if section is None:
             raise ConfigError("give --feed-mm (feed per tooth, mm)")
         feed_mm = section.chip_thickness_mm
-    feed = _positive("--feed-mm", feed_mm) * 1e-3
+    feed = _positive("--feed-mm", feed_mm, 100.0) * 1e-3
     _positive("--seconds", seconds)
     diameter = _diameter(config, diameter_mm)
     cutter = _cutter(process.teeth, diameter, helix_deg)

@@ -72,6 +72,8 @@ def forces_report(
     ConfigError
         For a value out of range, an unknown material, or both or neither coefficient sources.
     """
+    from cnctwin.config.machine import MAX_SPINDLE_RPM
+    from cnctwin.config.tools import MAX_TOOL_DIAMETER_MM, MAX_TOOL_LENGTH_MM
     from cnctwin.mechanics import (
         CuttingCoefficients,
         EndMill,
@@ -82,14 +84,14 @@ def forces_report(
     )
     from cnctwin.mechanics.materials import milling_material
 
-    _check_positive("--diameter-mm", diameter_mm)
-    _check_positive("--ap-mm", ap_mm)
-    _check_positive("--fz-mm", fz_mm)
-    _check_positive("--rpm", rpm)
+    _check_positive("--diameter-mm", diameter_mm, MAX_TOOL_DIAMETER_MM)
+    _check_positive("--ap-mm", ap_mm, MAX_TOOL_LENGTH_MM)
+    _check_positive("--fz-mm", fz_mm, 100.0)
+    _check_positive("--rpm", rpm, MAX_SPINDLE_RPM)
     if not (math.isfinite(ae_mm) and 0.0 < ae_mm <= diameter_mm):
         raise ConfigError(f"--ae-mm {ae_mm!r}; give 0 < ae <= the diameter ({diameter_mm!r} mm)")
-    if teeth < 1:
-        raise ConfigError(f"--teeth {teeth!r}; give an integer >= 1")
+    if not 1 <= teeth <= 100:
+        raise ConfigError(f"--teeth {teeth!r}; give an integer from 1 to 100")
     if not (math.isfinite(helix_deg) and 0.0 <= helix_deg < 90.0):
         raise ConfigError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
     if material is not None and coefficients_n_mm is None:
@@ -121,9 +123,9 @@ def forces_report(
     }
 
 
-def _check_positive(option: str, value: float) -> None:
-    if not (math.isfinite(value) and value > 0.0):
-        raise ConfigError(f"{option} {value!r}; give a finite value > 0")
+def _check_positive(option: str, value: float, high: float) -> None:
+    if not (math.isfinite(value) and 0.0 < value <= high):
+        raise ConfigError(f"{option} {value!r}; give a value > 0 and <= {high:g}")
 
 
 def _coefficient(name: str, unit: str) -> Any:
