@@ -17,6 +17,7 @@ from importlib.resources import files
 from pathlib import Path
 
 import pytest
+from timeouts import CHILD_START_S
 
 from cnctwin.cli import run
 from cnctwin.twin.config import load_run_config
@@ -39,38 +40,37 @@ def test_run_mirrors_the_machine_and_records_the_run(twin_toml: Path, tmp_path: 
     clean = config.model_copy(update={"virtual": config.virtual.model_copy(update={"faults": []})})
     db = tmp_path / "run.sqlite"
     with MachineProcess(clean, "opcua", speed=2.0) as machine:
-        started = time.monotonic()
         twin = subprocess.Popen(
             [sys.executable, "-m", "cnctwin", "run", "--config", str(twin_toml),
-             "--endpoint", machine.endpoint, "--db", str(db), "--duration", "4", "--json"],
+             "--endpoint", machine.endpoint, "--db", str(db), "--duration", "4", "--json",
+             "--connect-timeout", str(CHILD_START_S)],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
         )  # fmt: skip
         try:
             # the program starts once the twin is connected, so the twin sees the whole blank
             # (a twin attached mid-program would not know what was already cut)
-            _wait_for_event(db, "connected", timeout_s=60)
+            _wait_for_event(db, "connected", twin)
             machine.go()
-            out, err = twin.communicate(timeout=60)
+            out, err = twin.communicate(timeout=CHILD_START_S)
         finally:
             if twin.poll() is None:
                 twin.kill()
                 twin.wait()
-        elapsed = time.monotonic() - started
         state = machine.state()
     assert twin.returncode == 0, err
     report = json.loads(out)
     assert report["ended"] == "duration"
-    assert report["cycles"] > 150  # 4 s at 12.5 ms is 320; a loaded 2-core box reaches fewer
-    assert report["samples_recorded"] == report["cycles"]
+    # 4 s at 12.5 ms is 320 cycles on a quiet machine, fewer on a loaded one (cycle figures are
+    # benchmarked in bench_twin_cycle.py); a cycle records only a new sample of the machine
+    assert 0 < report["samples_recorded"] <= report["cycles"]
     assert report["stop_reaction_ms"] is None
-    assert elapsed < 60
     assert state is not None and state["run_state"] == 1  # the machine still runs
     with sqlite3.connect(db) as conn:
         meta, status = conn.execute("SELECT meta, status FROM hist_runs").fetchone()
         (x_max,) = conn.execute("SELECT COUNT(*) FROM hist_frames WHERE kind = 1").fetchone()
     assert json.loads(meta)["command"] == "cnctwin run"
     assert status == "duration"
-    assert x_max == report["cycles"]  # predictions recorded every cycle too
+    assert x_max == report["samples_recorded"]  # predictions recorded with every sample
 
 
 def test_unreachable_machine_is_one_line_and_exit_2(capsys, twin_toml: Path, tmp_path) -> None:
@@ -97,9 +97,13 @@ def test_bad_config_is_one_line_and_exit_2(capsys, tmp_path: Path) -> None:
     assert "twin.speedy: unknown key" in err
 
 
-def _wait_for_event(db: Path, kind: str, timeout_s: float) -> None:
-    deadline = time.monotonic() + timeout_s
+def _wait_for_event(db: Path, kind: str, process: subprocess.Popen[str]) -> None:
+    """Wait until ``process`` records an event of ``kind`` in ``db``; fail at once if it ends."""
+    deadline = time.monotonic() + CHILD_START_S
     while time.monotonic() < deadline:
+        if process.poll() is not None:
+            _, err = process.communicate()
+            raise AssertionError(f"exit {process.returncode} before a {kind!r} event: {err}")
         if db.exists():
             try:
                 with sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=1.0) as conn:
@@ -111,4 +115,4 @@ def _wait_for_event(db: Path, kind: str, timeout_s: float) -> None:
             except sqlite3.Error:
                 pass
         time.sleep(0.05)
-    raise AssertionError(f"no {kind!r} event in {db} within {timeout_s} s")
+    raise AssertionError(f"no {kind!r} event in {db} within {CHILD_START_S} s")

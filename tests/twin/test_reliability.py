@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 import pytest
+from timeouts import BODY_S, CHILD_START_S
 
 from cnctwin.store.historian import Historian
 from cnctwin.thread.signals import SIGNALS, RunState
@@ -56,23 +57,38 @@ def test_server_restart_mid_run_reconnects_and_records_the_gap(
 
             with Historian.open(db) as historian:
                 task = None
+                stop = asyncio.Event()
+                restored: list[int] = []
 
                 def go(_twin) -> None:
                     nonlocal task
                     machine.go()
                     task = asyncio.get_running_loop().create_task(outage())
 
+                def watch(state: CycleState) -> None:
+                    # end 80 cycles after the reconnection (a count, not a time: a server
+                    # restart takes about 1 s on a quiet machine, many more on a loaded one)
+                    if any(e.kind == "connection_restored" for e in state.events):
+                        restored.append(state.index)
+                    if restored and state.index >= restored[0] + 80:
+                        stop.set()
+
                 summary = await run_session(
-                    config, historian=historian, duration_s=8.0, on_start=go
+                    config,
+                    historian=historian,
+                    duration_s=BODY_S,
+                    stop_event=stop,
+                    on_cycle=watch,
+                    on_start=go,
                 )
                 await task
             return summary, machine.vm.run_state
 
-    summary, run_state = asyncio.run(asyncio.wait_for(main(), 60))
+    summary, run_state = asyncio.run(asyncio.wait_for(main(), 2 * BODY_S))
     assert summary.reconnects == 1
-    # the server was away 1 s; its restart (about 1 s) and the backoff come on top
-    assert 0.9 <= summary.gaps_s[0] < 6.0
-    assert summary.ended == "duration"  # went on to the end, and did not stop the machine
+    # the server was away 1 s; its restart and the backoff come on top (how much depends on load)
+    assert summary.gaps_s[0] >= 0.9
+    assert summary.ended == "interrupted"  # went on after the gap, and did not stop the machine
     assert run_state == RunState.RUNNING
     with sqlite3.connect(db) as conn:
         kinds = [k for (k,) in conn.execute("SELECT kind FROM hist_events ORDER BY seq")]
@@ -82,7 +98,7 @@ def test_server_restart_mid_run_reconnects_and_records_the_gap(
         (samples,) = conn.execute("SELECT COUNT(*) FROM hist_frames WHERE kind = 0").fetchone()
     assert kinds[:3] == ["connected", "connection_lost", "connection_restored"]
     assert json.loads(gap[0])["gap_s"] == pytest.approx(summary.gaps_s[0])
-    assert samples == summary.samples_recorded > 100
+    assert samples == summary.samples_recorded > 80
 
 
 class GarbageMachine:
@@ -294,12 +310,12 @@ def test_sigkill_leaves_a_sound_database_missing_at_most_the_last_second(
         command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=REPO
     )
     try:
-        deadline = time.monotonic() + 60.0
+        deadline = time.monotonic() + CHILD_START_S
         recorded = 0.0
         while time.monotonic() < deadline and recorded < 4.0:
             time.sleep(0.25)
             recorded = _last_sample_s(db)
-        assert recorded >= 4.0, "the demo did not record 4 s of samples within 60 s"
+        assert recorded >= 4.0, f"the demo did not record 4 s of samples in {CHILD_START_S} s"
         time.sleep(1.3)
         os.kill(process.pid, signal.SIGKILL)
         killed_at = time.time()

@@ -227,7 +227,10 @@ class MachineProcess:
     host, port
         Where to listen; port 0 picks a free one.
     start_timeout_s
-        How long the child may take to start listening, s.
+        How long the child may take to start listening, s. It imports numba, compiles or
+        loads the machine's kernels and starts the server: 5-10 s on a quiet 2-core computer,
+        10-20x that on an oversubscribed one, hence the generous default; a child that exits
+        is reported at once.
     log
         File for the child's log (its stderr); ``None`` shares this process's stderr.
     """
@@ -239,7 +242,7 @@ class MachineProcess:
         speed: float | None = None,
         host: str = "127.0.0.1",
         port: int = 0,
-        start_timeout_s: float = 60.0,
+        start_timeout_s: float = 300.0,
         log: Path | None = None,
     ) -> None:
         if config.virtual is None:
