@@ -4,7 +4,8 @@ Configurations are a small valid one with one to three numeric keys replaced by 
 careless or hostile user would write: nan, infinities, 1e308, -0, 1e-308, integers far
 beyond 64 bits, negative numbers, strings, booleans, arrays, and random floats. Each goes
 through the loader and through ``cnctwin simulate --json`` and ``cnctwin signals --json``
-(in process) on a tiny program. The property: the loader returns a configuration or raises a
+(in process) on a tiny program; the running twin's tables (``[twin]``, ``[connection]``,
+``[historian]``, ``[control]``, ``[virtual]``) through the twin's loader. The property: the loader returns a configuration or raises a
 one-line :class:`~cnctwin.errors.ConfigError`; the commands exit 0 with valid JSON or 2 with
 one line, never 1; and no example allocates more than the work limit allows: the limit is
 set to 50 MB (``CNCTWIN_MEMORY_LIMIT_GB``) and the peak of traced allocations checked
@@ -251,3 +252,48 @@ def test_commands_exit_0_or_2_within_the_work_limit(
     else:
         assert len(err.strip().splitlines()) == 1, err
     assert peak <= LIMIT_GB * 1e9 + SLACK_BYTES
+
+
+#: Numeric keys of the running twin's tables, for the loader of twin configurations.
+RUN_KEYS: list[tuple[Any, ...]] = [
+    ("twin", "cycle_s"),
+    ("twin", "watchdog_s"),
+    ("twin", "density_per_mm"),
+    ("twin", "position_deadband_mm"),
+    ("twin", "force_band", "k"),
+    ("twin", "force_band", "scatter_window"),
+    ("twin", "form_error", "overhang_mm"),
+    ("connection", "timeout_s"),
+    ("connection", "unit_id"),
+    ("historian", "max_pending"),
+    ("historian", "flush_interval_s"),
+    ("control", "max_commands_per_s"),
+    ("control", "feed_override", "max_pct"),
+    ("virtual", "tick_ms"),
+    ("virtual", "seed"),
+    ("virtual", "noise", "force_n"),
+]
+
+
+@settings(FUZZ, max_examples=200)
+@given(mutations=st.lists(st.tuples(st.sampled_from(RUN_KEYS), VALUE), min_size=1, max_size=3))
+def test_twin_loader_returns_a_config_or_one_line_error(
+    files: tuple[Path, Path], mutations: list[tuple[tuple[Any, ...], Any]]
+) -> None:
+    from cnctwin.twin.config import load_run_config
+
+    config, _ = files
+    data: dict[str, Any] = {}
+    for path, value in mutations:
+        table = data
+        for part in path[:-1]:
+            table = table.setdefault(part, {})
+        table[path[-1]] = value
+    config.write_text(_toml(data))
+    try:
+        loaded = load_run_config(config)
+    except ConfigError as err:
+        assert "\n" not in str(err)
+        return
+    assert 0.001 <= loaded.twin.cycle_s <= 1.0
+    assert 1 <= loaded.historian.max_pending <= 10_000_000
