@@ -1,12 +1,17 @@
 """The runtime: fixed-period cycle with absolute deadlines, stage timing, overruns, watchdog,
-and the lost-connection policy (docs/twin.md)."""
+and the lost-connection policy (docs/twin.md).
+
+The period and overrun tests run the runtime on virtual time (tests/virtual_time.py), so their
+counts are exact on a loaded machine too; the watchdog and outage tests stage their faults by
+cycle count, never by wall time. Cycle timing figures are measured in benchmarks/.
+"""
 
 from __future__ import annotations
 
 import asyncio
-import time
 
 import pytest
+from virtual_time import VirtualClock, run
 
 from cnctwin.thread.signals import SIGNALS, RunState
 from cnctwin.twin.config import RunConfig
@@ -57,20 +62,21 @@ def test_cycles_keep_the_period_and_time_every_stage(demo_config: RunConfig) -> 
     machine = FakeMachine()
     conn = LocalConnection(machine, step_s=0.005)
     cfg = config(demo_config, [])
+    clock = VirtualClock()
 
     async def main() -> tuple[int, float]:
         await conn.connect()
-        twin = build_twin(cfg, conn)
-        started = time.monotonic()
-        summary = await twin.runtime.run(duration_s=0.5)
-        return summary.cycles, time.monotonic() - started
+        twin = build_twin(cfg, conn, clock=clock.monotonic)
+        started = clock.monotonic()
+        summary = await twin.runtime.run(duration_s=0.4975)  # half a period short of 0.5 s
+        return summary.cycles, clock.monotonic() - started
 
-    cycles, elapsed = asyncio.run(main())
+    cycles, elapsed = run(main(), clock)
     twin_stages = {"read", "kinematics", "cut", "process", "rules", "actions"}
-    # absolute deadlines: the count follows the wall clock (0.5 s / 5 ms = 100), a late wake-up
-    # does not push later cycles back; a loaded 2-core box may drop a few
-    assert 0.5 <= elapsed < 0.7
-    assert 80 <= cycles <= 101
+    # absolute deadlines: the first cycle at 0 and one every 5 ms up to the first at or past
+    # the duration, 0.5 s: 101 cycles
+    assert elapsed == pytest.approx(0.5)
+    assert cycles == 101
     assert twin_stages <= set(build_twin(cfg, conn).runtime.timings)
 
 
@@ -78,6 +84,7 @@ def test_overruns_are_counted_and_missed_deadlines_skipped(demo_config: RunConfi
     machine = FakeMachine()
     conn = LocalConnection(machine, step_s=0.01)
     cfg = config(demo_config, [])
+    clock = VirtualClock()
 
     class Slow:
         name = "slow"
@@ -87,7 +94,7 @@ def test_overruns_are_counted_and_missed_deadlines_skipped(demo_config: RunConfi
 
         def process(self, state: CycleState) -> CycleState:
             if state.index % 10 == 5:
-                time.sleep(0.025)  # 2.5 periods
+                clock.sleep(0.025)  # 2.5 periods
                 self.slow_cycles += 1
             return state
 
@@ -95,19 +102,21 @@ def test_overruns_are_counted_and_missed_deadlines_skipped(demo_config: RunConfi
 
     async def main():
         await conn.connect()
-        twin = build_twin(cfg, conn)
+        twin = build_twin(cfg, conn, clock=clock.monotonic)
         twin.runtime.cycle_s = 0.01
         twin.runtime.stages.append(slow)
         twin.runtime.timings["slow"] = type(twin.runtime.cycle_times)()
-        return await twin.runtime.run(duration_s=1.0)
+        return await twin.runtime.run(duration_s=0.955)
 
-    summary = asyncio.run(main())
-    assert summary.overruns >= slow.slow_cycles >= 5
-    assert summary.overruns <= slow.slow_cycles + 10  # a loaded machine adds a few
-    # skipped deadlines: 1 s at 10 ms is 100 deadlines; each slow cycle eats about 3
-    assert summary.cycles <= 100 - 2 * slow.slow_cycles + 5
-    assert summary.stages_ms["slow"]["max_ms"] >= 25.0
-    assert summary.cycle_max_ms >= 25.0
+    summary = run(main(), clock)
+    # every slow cycle, and only those, overruns: the run ends at the 96th period (0.96 s, the
+    # first at or past 0.955 s), between two slow cycles (every 12th period from the 5th), and
+    # each slow cycle skips two deadlines (it ends 25 ms after its start, past the next two)
+    assert slow.slow_cycles == 8
+    assert summary.overruns == slow.slow_cycles
+    assert summary.cycles == 97 - 2 * slow.slow_cycles
+    assert summary.stages_ms["slow"]["max_ms"] == pytest.approx(25.0)
+    assert summary.cycle_max_ms == pytest.approx(25.0)
 
 
 def test_stale_heartbeat_is_a_lost_machine_and_its_return_a_gap(demo_config: RunConfig) -> None:
@@ -119,6 +128,7 @@ def test_stale_heartbeat_is_a_lost_machine_and_its_return_a_gap(demo_config: Run
         await conn.connect()
         twin = build_twin(cfg, conn)
         events = []
+        stop = asyncio.Event()
 
         def watch(state: CycleState) -> None:
             events.extend(state.events)
@@ -126,18 +136,21 @@ def test_stale_heartbeat_is_a_lost_machine_and_its_return_a_gap(demo_config: Run
                 machine.beating = False  # frozen control: answers, but nothing moves
             if state.index == 60:
                 machine.beating = True
+            if state.index == 120:
+                stop.set()
 
         twin.runtime.on_cycle = watch
-        summary = await twin.runtime.run(duration_s=0.6)
+        summary = await twin.runtime.run(stop_event=stop)
         return summary, events
 
     summary, events = asyncio.run(main())
     kinds = [e.kind for e in events]
     assert kinds[:3] == ["connected", "connection_lost", "connection_restored"]
     assert "heartbeat stale" in events[1].message
-    # frozen from cycle 20 to 60 at 5 ms: lost after 50 ms of staleness, back at cycle 60;
-    # the gap runs from the last moving heartbeat (cycle 20), not from the detection
-    assert summary.gaps_s[0] == pytest.approx(0.2, abs=0.08)
+    # frozen from cycle 20 to 60, 40 periods of 5 ms apart at least (a loaded machine only
+    # stretches them): the watchdog (50 ms) trips, and the gap is at least the frozen time
+    # less one watchdog period and the slack of a late cycle 20
+    assert summary.gaps_s[0] >= 0.2 - 0.05 - 0.01
     assert summary.reconnects == 1
 
 
@@ -148,18 +161,21 @@ def _run_with_gap(cfg: RunConfig, machine: FakeMachine, during_gap) -> tuple[lis
         await conn.connect()
         twin = build_twin(cfg, conn)
         events = []
+        stop = asyncio.Event()
 
-        async def outage() -> None:
-            await asyncio.sleep(0.2)
-            conn.drop()
-            await asyncio.sleep(0.1)
-            during_gap(machine)
-            conn.restore()
+        def outage(state: CycleState) -> None:
+            # by cycle count, so every run sees the same outage however loaded the machine
+            events.extend(state.events)
+            if state.index == 40:
+                conn.drop()
+            if state.index == 60:
+                during_gap(machine)
+                conn.restore()
+            if state.index == 160:
+                stop.set()
 
-        task = asyncio.get_running_loop().create_task(outage())
-        twin.runtime.on_cycle = lambda s: events.extend(s.events)
-        await twin.runtime.run(duration_s=0.8)
-        await task
+        twin.runtime.on_cycle = outage
+        await twin.runtime.run(stop_event=stop)
         return events, twin.actions.results
 
     return asyncio.run(main())
