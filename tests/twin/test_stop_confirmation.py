@@ -28,16 +28,21 @@ from cnctwin.virtual import VirtualMachine
 
 class Ignores:
     """A virtual machine whose control acknowledges the ``ignored`` commands but does not
-    act on them: the flag reads back 1, the axes go on along the program."""
+    act on them: the flag reads back 1, the axes go on along the program. With ``claims``
+    its run state says STOPPED too while the program runs on."""
 
-    def __init__(self, vm: VirtualMachine, ignored: tuple[str, ...]) -> None:
+    def __init__(self, vm: VirtualMachine, ignored: tuple[str, ...], claims: bool) -> None:
         self.vm = vm
         self.ignored = ignored
+        self.claims = claims
         self.flags: dict[str, float] = {}
 
     def snapshot(self) -> dict[str, float]:
         values = self.vm.snapshot()
         values.update(self.flags)
+        running = values["run_state"] == RunState.RUNNING
+        if self.claims and self.flags.get("stop") == 1.0 and running:
+            values["run_state"] = float(RunState.STOPPED)
         return values
 
     def command(self, name: str, value: float) -> None:
@@ -51,11 +56,11 @@ class Ignores:
 
 
 def _run(
-    config: RunConfig, ignored: tuple[str, ...], db
+    config: RunConfig, ignored: tuple[str, ...], db, *, claims: bool = False
 ) -> tuple[RunSummary, list[TwinEvent], VirtualMachine]:
     assert config.virtual is not None
     vm = VirtualMachine(config.virtual, config)
-    machine = Ignores(vm, ignored)
+    machine = Ignores(vm, ignored, claims)
     conn = LocalConnection(machine, step_s=STEP_S, tick_s=vm.tick_s)
 
     async def main() -> tuple[RunSummary, list[TwinEvent]]:
@@ -120,7 +125,9 @@ def test_a_machine_that_ignores_every_step_is_reported_not_stopped(
     demo_config: RunConfig, tmp_path
 ) -> None:
     db = tmp_path / "h.sqlite"
-    summary, events, vm = _run(demo_config, ("feed_hold", "stop", "emergency_stop"), db)
+    # its run state even says STOPPED: neither that nor the flags make a stop
+    ignored = ("feed_hold", "stop", "emergency_stop")
+    summary, events, vm = _run(demo_config, ignored, db, claims=True)
     kinds = _kinds(events)
     assert kinds.count("stop_not_confirmed") == 1
     assert "stop_confirmed" not in kinds

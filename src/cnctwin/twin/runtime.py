@@ -442,9 +442,10 @@ class TwinRuntime:
         if run_state == RunState.FINISHED:
             return "finished"
         # a stop the twin sent ends the run only once the axes are seen at rest
-        # (docs/control.md, "Stop confirmation"): the flag alone is no stop
+        # (docs/control.md, "Stop confirmation"): the flag alone is no stop, and a machine
+        # that did not stop stays watched
         actions = self.actions
-        if actions is not None and actions.stopping:
+        if actions is not None and (actions.stopping or actions.stop_outcome == "failed"):
             return None
         confirmed = actions is not None and actions.stop_outcome == "confirmed"
         if run_state == RunState.STOPPED or (run_state == RunState.FAULT and confirmed):
