@@ -13,6 +13,7 @@ from collections.abc import Awaitable, Callable
 
 import numpy as np
 import pytest
+from timeouts import BODY_S
 
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.thread import ConnectionLost, ConnectionState
@@ -289,7 +290,10 @@ def test_server_restart_mid_run_reconnects_and_reads_go_on() -> None:
         server = ModbusMachineServer(machine)
         await server.start()
         port = server.port
-        connection = ModbusConnection(config(server.endpoint))
+        # a request timeout far beyond any delay of a loaded machine: "at once" below is then
+        # told from "after the timeout" by a wide margin
+        cfg = config(server.endpoint).model_copy(update={"timeout_s": 60.0})
+        connection = ModbusConnection(cfg)
         async with connection:
             machine.values["heartbeat"] = 1.0
             server.publish()
@@ -298,7 +302,7 @@ def test_server_restart_mid_run_reconnects_and_reads_go_on() -> None:
             lost_at = time.perf_counter()
             with pytest.raises(ConnectionLost, match="closed by the device"):
                 await connection.read()
-            assert time.perf_counter() - lost_at < 0.5  # seen at once, not after timeout_s
+            assert time.perf_counter() - lost_at < 30.0  # seen at once, not after timeout_s
             seen.append(connection.state)
             await asyncio.sleep(0.3)  # several failed attempts against a closed port
             assert connection.state is ConnectionState.RECONNECTING
@@ -308,7 +312,9 @@ def test_server_restart_mid_run_reconnects_and_reads_go_on() -> None:
             async with restarted:
                 machine.values["heartbeat"] = 2.0
                 restarted.publish()
-                await asyncio.wait_for(wait_for_state(connection, ConnectionState.CONNECTED), 5)
+                await asyncio.wait_for(
+                    wait_for_state(connection, ConnectionState.CONNECTED), BODY_S
+                )
                 seen.append(connection.state)
                 assert (await connection.read()).values["heartbeat"] == 2.0
                 await connection.write("feed_override_pct", 60.0)
@@ -317,7 +323,7 @@ def test_server_restart_mid_run_reconnects_and_reads_go_on() -> None:
         assert connection.state is ConnectionState.CLOSED
         return seen
 
-    seen = asyncio.run(asyncio.wait_for(main(), 20.0))
+    seen = asyncio.run(asyncio.wait_for(main(), BODY_S))
     assert seen == [ConnectionState.RECONNECTING, ConnectionState.CONNECTED]
 
 
@@ -380,10 +386,12 @@ def test_a_device_that_accepts_but_never_answers_times_out() -> None:
             started = time.perf_counter()
             with pytest.raises(ConnectionLost, match="read failed"):
                 await connection.read()
-            assert 0.15 < time.perf_counter() - started < 1.0
+            # not before the timeout (0.2 s, less the clock's slack); how soon after it depends
+            # on the load, and the body's limit ends a read that never times out
+            assert time.perf_counter() - started > 0.15
             assert connection.state is ConnectionState.RECONNECTING
         for writer in accepted:
             writer.close()
             await writer.wait_closed()
 
-    asyncio.run(asyncio.wait_for(main(), 10.0))
+    asyncio.run(asyncio.wait_for(main(), BODY_S))
