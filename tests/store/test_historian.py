@@ -86,7 +86,9 @@ def test_writer_commits_without_flush(db: Path) -> None:
         for i in range(100):
             h.record_samples(run, i, {"a": i})
         reader = sqlite3.connect(db)
-        deadline = time.monotonic() + 5.0
+        # 0.1 s intervals: the records are there within a few; 60 s only ends a writer that
+        # never commits (the loop leaves as soon as all 100 are in)
+        deadline = time.monotonic() + 60.0
         n = 0
         while time.monotonic() < deadline and n < 100:
             time.sleep(0.05)
