@@ -10,6 +10,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 import pytest
+from timeouts import SERVER_START_S
 
 from cnctwin.cli import run
 from cnctwin.thread.signals import SIGNALS
@@ -58,7 +59,7 @@ def serving(kind: str) -> Iterator[tuple[str, Machine]]:
 
     thread = threading.Thread(target=loop.run_until_complete, args=(serve(),), daemon=True)
     thread.start()
-    assert started.wait(30.0)
+    assert started.wait(SERVER_START_S), f"{kind} server not started in {SERVER_START_S} s"
     try:
         yield endpoint[0], machine
     finally:
