@@ -114,6 +114,8 @@ def test_overloaded_twin_reports_sheds_and_still_stops_at_the_hole(tmp_path) -> 
     overload = next(e for e in events if e.kind == "overload")
     assert overload.data["overrun_fraction"] >= config.twin.overload.enter_fraction
     assert "protection" in overload.message and "shedding historian_detail" in overload.message
+    # the live view (on_cycle) sees it with the cycle it belongs to
+    assert any(e.kind == "overload" for state in seen for e in state.events)
     # optional stages went, in the documented order; the protective chain never did
     assert summary.shed == list(SHED_ORDER)
     assert summary.overload_episodes == 1 and summary.overloaded_cycles > 40

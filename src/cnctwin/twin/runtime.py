@@ -261,6 +261,8 @@ class TwinRuntime:
                 self.cycle_times.add(self._clock() - started)
                 self.cycles += 1
                 await self._watch(state)
+                if self.realtime:
+                    self._judge_load(state, self._clock() > deadline + self.cycle_s)
                 self._bookkeep(state)
                 self.last_state = state
                 if self.on_cycle is not None:
@@ -278,12 +280,10 @@ class TwinRuntime:
                     deadline = now
                     continue
                 deadline += self.cycle_s
-                overran = now > deadline
-                if overran:
+                if now > deadline:
                     self.overruns += 1
                     missed = math.ceil((now - deadline) / self.cycle_s)
                     deadline += missed * self.cycle_s
-                self._judge_load(state, overran)
                 await self._sleep(max(deadline - self._clock(), 0.0))
         except asyncio.CancelledError:
             ended = "interrupted"
@@ -298,9 +298,9 @@ class TwinRuntime:
     def _judge_load(self, state: CycleState, overran: bool) -> None:
         """Follow the overrun fraction; say when the twin is overloaded, shed, recovered.
 
-        The events go to the historian and the log (a warning: the terminal) at once; the
-        cycle's own bookkeeping is already done. Cycles without the machine do not count:
-        a read that times out is a lost connection (the watchdog's events), not a load.
+        The events join the cycle's (the historian, the live view) and the log (a warning:
+        the terminal line). Cycles without the machine do not count: a read that times out
+        is a lost connection (the watchdog's events), not a load.
         """
         if not (state.connected and self.connected):
             return
@@ -344,9 +344,7 @@ class TwinRuntime:
                 data,
             )
         logger.warning("%s", event.message)
-        self.events.append(event)
-        if self.recorder is not None:
-            self.recorder.event(event)
+        state.events.append(event)
 
     # ------------------------------------------------------------------ watchdog
     async def _watch(self, state: CycleState) -> None:
