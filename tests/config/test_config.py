@@ -187,7 +187,10 @@ def test_unknown_keys_are_named_with_their_path(tmp_path: Path, text: str, expec
             "[machine.axes.x]\nmin_mm = -10.0\nmax_mm = -20.0\n",
             "machine.axes.x.max_mm: must be greater than min_mm (-10.0); got -20.0",
         ),
-        ("[machine]\nrapid_mm_min = 0\n", "machine.rapid_mm_min: must be >= 1 and <= 1000000; got 0"),
+        (
+            "[machine]\nrapid_mm_min = 0\n",
+            "machine.rapid_mm_min: must be >= 1 and <= 1000000; got 0",
+        ),
         ("[machine]\nkind = 'drill'\n", "machine.kind: must be 'mill' or 'lathe'; got 'drill'"),
         (
             "[machine]\nrapid_mm_min = nan\n",

@@ -5,12 +5,14 @@ careless or hostile user would write: nan, infinities, 1e308, -0, 1e-308, intege
 beyond 64 bits, negative numbers, strings, booleans, arrays, and random floats. Each goes
 through the loader and through ``cnctwin simulate --json`` and ``cnctwin signals --json``
 (in process) on a tiny program; the running twin's tables (``[twin]``, ``[connection]``,
-``[historian]``, ``[control]``, ``[virtual]``) through the twin's loader. The property: the loader returns a configuration or raises a
-one-line :class:`~cnctwin.errors.ConfigError`; the commands exit 0 with valid JSON or 2 with
-one line, never 1; and no example allocates more than the work limit allows: the limit is
-set to 50 MB (``CNCTWIN_MEMORY_LIMIT_GB``) and the peak of traced allocations checked
-against it. Derandomized for reproducible CI; the work per example is bounded by the limit,
-not by wall-clock time, so the tests pass on a loaded machine.
+``[historian]``, ``[control]``, ``[virtual]``) go through the twin's loader.
+
+The property: the loader returns a configuration or raises a one-line
+:class:`~cnctwin.errors.ConfigError`; the commands exit 0 with valid JSON or 2 with one line,
+never 1; and no example allocates more than the work limit allows: the limit is set to 50 MB
+(``CNCTWIN_MEMORY_LIMIT_GB``) and the peak of traced allocations checked against it.
+Derandomized for reproducible CI; the work per example is bounded by the limit, not by
+wall-clock time, so the tests pass on a loaded machine.
 """
 
 from __future__ import annotations
