@@ -357,3 +357,17 @@ def test_physics_options_are_bounded(
 ) -> None:
     code, err = _run(capsys, *args.split(), "--json")
     assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_union_key_is_named_without_pydantic_member_names(tmp_path: Path) -> None:
+    from cnctwin.config.stability import load_stability_config
+
+    path = tmp_path / "s.toml"
+    path.write_text(SLOT.read_text().replace("steps = 40", "steps = 100000"))
+    with pytest.raises(ConfigError, match=r": lobes\.steps: must be less than or equal to 10000"):
+        load_stability_config(path)
+
+
+def test_a_speed_list_is_bounded(capsys: pytest.CaptureFixture[str]) -> None:
+    code, err = _run(capsys, "stability", "lobes", "--config", str(SLOT), "--rpm", "1e308,5")
+    assert code == 2 and "each > 0 and <= 200000" in err

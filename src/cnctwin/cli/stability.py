@@ -40,20 +40,25 @@ def _stability() -> None:
 
 
 def parse_rpm_list(text: str, option: str = "--rpm") -> np.ndarray:
-    """Spindle speeds from ``"8000,9000,10500"`` (rpm, each finite and > 0).
+    """Spindle speeds from ``"8000,9000,10500"`` (rpm, each > 0 and <= 200,000).
 
     Raises
     ------
     ConfigError
-        Naming the option and the text, for an empty list or a value that is not > 0.
+        Naming the option and the text, for an empty list, more than 100,000 speeds or a
+        value out of range.
     """
+    from cnctwin.config.machine import MAX_SPINDLE_RPM
+    from cnctwin.config.stability import MAX_POINTS
+
     try:
         values = np.array([float(v) for v in text.split(",") if v.strip()])
     except ValueError:
         values = np.array([math.nan])
-    if values.size == 0 or not np.all(np.isfinite(values) & (values > 0.0)):
+    if not (0 < values.size <= MAX_POINTS and np.all((values > 0.0) & (values <= MAX_SPINDLE_RPM))):
         raise ConfigError(
-            f"{option} {text!r}; give spindle speeds in rpm separated by commas, each > 0"
+            f"{option} {text!r}; give up to {MAX_POINTS} spindle speeds in rpm separated by "
+            f"commas, each > 0 and <= {MAX_SPINDLE_RPM:g}"
         )
     return values
 
@@ -73,11 +78,7 @@ def parse_rpm_range(text: str, option: str = "--rpm-range") -> np.ndarray:
     parts = text.split(":")
     try:
         low, high, count = float(parts[0]), float(parts[1]), int(parts[2])
-        valid = (
-            len(parts) == 3
-            and 0.0 < low < high <= MAX_SPINDLE_RPM
-            and 2 <= count <= MAX_POINTS
-        )
+        valid = len(parts) == 3 and 0.0 < low < high <= MAX_SPINDLE_RPM and 2 <= count <= MAX_POINTS
     except (ValueError, IndexError):
         valid = False
     if not valid:

@@ -101,20 +101,36 @@ def _describe_validation_error(error: ValidationError, root: type[BaseModel]) ->
     """
     details = error.errors(include_url=False)
     first = details[0]
-    text = f"{_key_path(first['loc'])}: {_problem(first, root)}"
+    text = f"{_key_path(first['loc'], root)}: {_problem(first, root)}"
     if len(details) > 1:
         text += f" (and {len(details) - 1} more problem{'s' if len(details) > 2 else ''})"
     return text
 
 
-def _key_path(loc: tuple[int | str, ...]) -> str:
+def _key_path(loc: tuple[int | str, ...], root: type[BaseModel]) -> str:
+    """The TOML key path of an error's location, without pydantic's names of the members of
+    a union (``lobes.steps``, not ``lobes.steps.constrained-int``)."""
     path = ""
+    annotation: Any = root
     for part in loc:
+        if _is_union(annotation) and isinstance(part, str) and _is_member_tag(part):
+            continue
+        annotation = _model_or_item(annotation, part) if annotation is not None else None
         if isinstance(part, int):
             path += f"[{part}]"
         else:
             path += f".{part}" if path else str(part)
     return path or "(top level)"
+
+
+def _is_union(annotation: Any) -> bool:
+    return typing.get_origin(annotation) in (typing.Union, types.UnionType)
+
+
+def _is_member_tag(part: str) -> bool:
+    """Whether ``part`` is pydantic's name of a union member (``int``, ``constrained-float``,
+    ``literal['auto']``) rather than a key."""
+    return part in ("int", "float", "str", "bool") or part.startswith(("constrained-", "literal["))
 
 
 def _problem(detail: ErrorDetails, root: type[BaseModel]) -> str:
