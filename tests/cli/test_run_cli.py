@@ -49,7 +49,7 @@ def test_run_mirrors_the_machine_and_records_the_run(twin_toml: Path, tmp_path: 
         try:
             # the program starts once the twin is connected, so the twin sees the whole blank
             # (a twin attached mid-program would not know what was already cut)
-            _wait_for_event(db, "connected", twin)
+            _wait_for_event(db, "reached", twin)
             machine.go()
             out, err = twin.communicate(timeout=CHILD_START_S)
         finally:

@@ -96,7 +96,7 @@ def test_server_restart_mid_run_reconnects_and_records_the_gap(
             "SELECT data FROM hist_events WHERE kind = 'connection_restored'"
         ).fetchone()
         (samples,) = conn.execute("SELECT COUNT(*) FROM hist_frames WHERE kind = 0").fetchone()
-    assert kinds[:3] == ["connected", "connection_lost", "connection_restored"]
+    assert kinds[:4] == ["reached", "connected", "connection_lost", "connection_restored"]
     assert json.loads(gap[0])["gap_s"] == pytest.approx(summary.gaps_s[0])
     assert samples == summary.samples_recorded > 80
 

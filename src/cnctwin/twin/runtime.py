@@ -44,6 +44,9 @@ __all__ = ["RunSummary", "TwinRuntime"]
 
 logger = logging.getLogger(__name__)
 
+# events the watchdog records itself (:meth:`TwinRuntime._emit`) as it raises them
+_RECORDED_BY_WATCH = ("reached", "connected", "connection_lost", "connection_restored")
+
 
 @dataclass
 class RunSummary:
@@ -198,6 +201,7 @@ class TwinRuntime:
         self._gaps: list[float] = []
         self._reconnects = 0
         self._ever_connected = False
+        self._reached = False
         self._stopped_since: float | None = None
         self._prepared = False
 
@@ -354,6 +358,11 @@ class TwinRuntime:
             self._last_beat = beat
             self._beat_s = now
             self._beat_received_s = state.received_s
+        if state.connected and not self._reached:
+            # the machine answered: the twin watches it from here, and counts it connected
+            # (alive) from its first fresh sample on, which a paused machine does not send
+            self._reached = True
+            self._emit(state, TwinEvent("reached", "machine answered its first read", now))
         stale = now - self._beat_s > self.watchdog_s
         alive = state.connected and not stale and not state.stale
         if self.connected and not alive:
@@ -429,7 +438,7 @@ class TwinRuntime:
             if not thinned:
                 self.recorder.cycle(state)
             for event in state.events:
-                if event.kind not in ("connection_lost", "connection_restored", "connected"):
+                if event.kind not in _RECORDED_BY_WATCH:
                     self.recorder.event(event)
         self.events.extend(state.events)
 
