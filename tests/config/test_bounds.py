@@ -371,3 +371,26 @@ def test_a_union_key_is_named_without_pydantic_member_names(tmp_path: Path) -> N
 def test_a_speed_list_is_bounded(capsys: pytest.CaptureFixture[str]) -> None:
     code, err = _run(capsys, "stability", "lobes", "--config", str(SLOT), "--rpm", "1e308,5")
     assert code == 2 and "each > 0 and <= 200000" in err
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--window-s", "1e308"], "--window-s 1e+308; give a value > 0 and <= 3600"),
+        (["--rpm", "1e308"], "--rpm 1e+308; give a value > 1 and <= 200000"),
+        (["--teeth", "1000000000"], "--teeth 1000000000; give an integer from 1 to 100"),
+    ],
+)
+def test_chatter_detection_options_are_bounded(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str
+) -> None:
+    signal = tmp_path / "s.csv"
+    t = np.arange(0.0, 0.2, 1e-4)
+    np.savetxt(signal, np.column_stack((t, np.sin(600 * np.pi * t))), delimiter=",",
+               header="t_s,force_n", comments="")  # fmt: skip
+    options = {"--rpm": "9000", "--teeth": "2"}
+    for name, value in zip(extra[::2], extra[1::2], strict=True):
+        options[name] = value
+    args = [item for pair in options.items() for item in pair]
+    code, err = _run(capsys, "chatter", "detect", str(signal), *args, "--json")
+    assert code == 2 and message in err

@@ -20,6 +20,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.config.machine import MAX_SPINDLE_RPM
 from cnctwin.dynamics.chatter_detection import (
     DEFAULT_THRESHOLD,
     ChatterDetection,
@@ -197,13 +198,17 @@ def detect(
     ratio), the dominant remaining peak (the chatter frequency) and the verdict
     (ratio > threshold, default 0.2).
     """
-    for option, value in (("--rpm", rpm), ("--window-s", window_s)):
-        if not (math.isfinite(value) and value > 0.0):
-            raise ConfigError(f"{option} {value!r}; give a finite value > 0")
-    if teeth < 1:
-        raise ConfigError(f"--teeth {teeth!r}; give an integer >= 1")
-    if hop_s is not None and not (math.isfinite(hop_s) and hop_s > 0.0):
-        raise ConfigError(f"--hop-s {hop_s!r}; give a finite value > 0")
+    # Ranges: a spindle speed as [machine] max_spindle_rpm, teeth as [[tools]] flutes, a
+    # window or hop of at most an hour (a longer one overflows the sample count's arithmetic).
+    for option, value, least, high in (
+        ("--rpm", rpm, 1.0, MAX_SPINDLE_RPM),
+        ("--window-s", window_s, 0.0, 3600.0),
+        ("--hop-s", hop_s, 0.0, 3600.0),
+    ):
+        if value is not None and not (math.isfinite(value) and least < value <= high):
+            raise ConfigError(f"{option} {value!r}; give a value > {least:g} and <= {high:g}")
+    if not 1 <= teeth <= 100:
+        raise ConfigError(f"--teeth {teeth!r}; give an integer from 1 to 100")
     if not (0.0 < threshold < 1.0):
         raise ConfigError(f"--threshold {threshold!r}; give 0 < threshold < 1")
     samples, rate, name = read_signal(signal, column, time_column)
