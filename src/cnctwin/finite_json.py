@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from typing import Any
 
 __all__ = ["dumps", "finite"]
@@ -33,7 +34,9 @@ def finite(value: Any) -> Any:
     return value
 
 
-def dumps(value: Any, *, indent: int | None = None) -> str:
+def dumps(
+    value: Any, *, indent: int | None = None, default: Callable[[Any], Any] | None = None
+) -> str:
     """Serialize ``value`` as strict JSON, non-finite floats as ``null``.
 
     Parameters
@@ -42,10 +45,13 @@ def dumps(value: Any, *, indent: int | None = None) -> str:
         Dicts, lists, tuples, strings, numbers, booleans and ``None``.
     indent
         Indentation as in :func:`json.dumps`; ``None`` writes one line.
+    default
+        As in :func:`json.dumps`: what an object of another type is written as (e.g.
+        ``str``); ``None`` refuses such objects with :class:`TypeError`.
 
     Raises
     ------
     ValueError
         Only if a non-finite number hides in a type :func:`finite` does not walk.
     """
-    return json.dumps(finite(value), indent=indent, allow_nan=False)
+    return json.dumps(finite(value), indent=indent, default=default, allow_nan=False)

@@ -9,12 +9,12 @@ Parquet files carry the run's summary as JSON under the schema metadata key ``cn
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from cnctwin import finite_json
 from cnctwin.store._records import RunDetail
 
 __all__ = ["write_run"]
@@ -69,7 +69,7 @@ def write_run(
                 "t_s": pa.array([e.t_s for e in events], pa.float64()),
                 "kind": pa.array([e.kind for e in events], pa.string()),
                 "message": pa.array([e.message for e in events], pa.string()),
-                "data": pa.array([json.dumps(e.data) for e in events], pa.string()),
+                "data": pa.array([finite_json.dumps(e.data) for e in events], pa.string()),
             }
         ),
         ".decisions": pa.table(
@@ -85,7 +85,7 @@ def write_run(
             }
         ),
     }
-    metadata = {"cnctwin.run": json.dumps(detail.summary.to_dict())}
+    metadata = {"cnctwin.run": finite_json.dumps(detail.summary.to_dict())}
     written = []
     for infix, table in tables.items():
         target = path if not infix else path.with_name(f"{path.stem}{infix}.{fmt}")

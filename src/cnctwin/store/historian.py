@@ -30,6 +30,7 @@ import numpy as np
 import platformdirs
 from pydantic import ValidationError
 
+from cnctwin import finite_json
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.store._backend import Backend, FrameRow
 from cnctwin.store._export import write_run
@@ -125,7 +126,7 @@ def _finite(value: object, what: str) -> float:
 
 def _json(value: Mapping[str, object] | None, what: str) -> str:
     try:
-        return json.dumps(dict(value or {}), default=str)
+        return finite_json.dumps(dict(value or {}), default=str)
     except (TypeError, ValueError) as err:
         raise DataError(f"{what} must be a JSON-serialisable mapping: {err}") from None
 

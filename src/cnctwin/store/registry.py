@@ -18,6 +18,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from cnctwin import finite_json
 from cnctwin.errors import DataError
 from cnctwin.wear.compensation import LatheTwin, ManufacturingParameters, Observation, ToolTwin
 
@@ -222,7 +223,7 @@ class TwinRegistry:
             now = time.time()
             db.execute(
                 "INSERT INTO tools VALUES (?, ?, 'active', ?, ?, ?, ?, NULL, ?)",
-                (lathe, tool_id, target_m, low, high, now, json.dumps(twin.to_dict())),
+                (lathe, tool_id, target_m, low, high, now, finite_json.dumps(twin.to_dict())),
             )
         return ToolRecord(lathe, tool_id, "active", target_m, low, high, now, None, twin)
 
@@ -285,7 +286,7 @@ class TwinRegistry:
             db.execute(
                 "UPDATE tools SET twin_json = ? WHERE lathe = ? AND tool_id = ? "
                 "AND state = 'active'",
-                (json.dumps(twin.to_dict()), lathe, tool_id),
+                (finite_json.dumps(twin.to_dict()), lathe, tool_id),
             )
             db.execute(
                 "INSERT INTO measurements (lathe, tool_id, mounted_at, part, measured_m, "

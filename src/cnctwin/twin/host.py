@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, Protocol
 
+from cnctwin import finite_json
 from cnctwin.errors import CnctwinError, ConfigError
 from cnctwin.twin.config import RunConfig
 from cnctwin.virtual import MachineClock, VirtualMachine
@@ -209,7 +210,7 @@ def _warm_up(config: RunConfig) -> None:
 
 
 def _answer(message: dict[str, Any]) -> None:
-    sys.stdout.write(json.dumps(message) + "\n")
+    sys.stdout.write(finite_json.dumps(message) + "\n")
     sys.stdout.flush()
 
 
