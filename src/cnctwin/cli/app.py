@@ -7,48 +7,175 @@ Errors reach the user as one line on stderr and an exit code: 2 for bad input (a
 
 from __future__ import annotations
 
+import importlib
 import logging
 import sys
 import traceback
-from collections.abc import Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
+from typer.core import TyperCommand, TyperGroup
 
 from cnctwin import __version__
-from cnctwin.cli import (
-    bench,
-    chatter,
-    demo,
-    dynamics,
-    forces,
-    modal,
-    nc,
-    roadmap,
-    roughness,
-    runs,
-    signals,
-    simulate,
-    stability,
-    study,
-    vibration,
-    virtual,
-    wear,
-    wear_ekf,
-    wear_registry,
-)
-from cnctwin.cli import run as run_cli
 from cnctwin.errors import CnctwinError
 
-__all__ = ["app", "main", "run"]
+__all__ = ["COMMANDS", "app", "load_command", "main", "run"]
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 1
 EXIT_INTERRUPTED = 130
 
+
+@dataclass(frozen=True)
+class _Lazy:
+    """A command imported only when it runs or shows its own help.
+
+    ``module`` is a module of :mod:`cnctwin.cli`; ``attribute`` is either its
+    :class:`typer.Typer` (a command group) or a command function. ``summary`` is the line
+    ``cnctwin --help`` lists (the command's first sentence; a test keeps them equal).
+    ``extra`` adds commands defined in other modules to a group: (name, module, function).
+    """
+
+    module: str
+    attribute: str
+    summary: str
+    extra: tuple[tuple[str, str, str], ...] = ()
+
+
+#: Every command of ``cnctwin``, in the order ``--help`` lists them. Nothing here is
+#: imported until a command is used, so ``--version`` and ``--help`` stay light.
+COMMANDS: dict[str, _Lazy] = {
+    "demo": _Lazy(
+        "demo",
+        "demo",
+        "Run the twin against a virtual machine on loopback: feed adaptation, then a stop.",
+    ),
+    "run": _Lazy("run", "run", "Run the twin against a machine until its program ends or Ctrl-C."),
+    "forces": _Lazy(
+        "forces",
+        "forces",
+        "Mean forces, torque and power of a flat end mill in a straight cut.",
+    ),
+    "simulate": _Lazy(
+        "simulate",
+        "simulate",
+        "Cut the stock along a program: engagement per step, removed volume, final stock.",
+    ),
+    "signals": _Lazy(
+        "signals",
+        "signals",
+        "Predicted forces, spindle torque, power and current, and feed-drive loads over time.",
+    ),
+    "nc": _Lazy("nc", "app", "Read NC programs: summarize, trace, plot."),
+    "bench": _Lazy(
+        "bench", "app", "Measurements of the digital thread.", (("latency", "bench", "latency"),)
+    ),
+    "wear": _Lazy(
+        "wear",
+        "app",
+        "Tool wear twins: monitoring and compensation.",
+        (
+            ("ekf", "wear_ekf", "ekf"),
+            ("mount", "wear_registry", "mount"),
+            ("compensate", "wear_registry", "compensate"),
+            ("retire", "wear_registry", "retire"),
+            ("history", "wear_registry", "history"),
+        ),
+    ),
+    "study": _Lazy("study", "app", "Parameter studies of the simulation."),
+    "roughness": _Lazy(
+        "roughness",
+        "app",
+        "Surface roughness: fit the power-law model to cuts, predict with it.",
+    ),
+    "dynamics": _Lazy(
+        "dynamics", "app", "Structural dynamics: FRFs and modal fits from tap tests."
+    ),
+    "stability": _Lazy(
+        "stability",
+        "app",
+        "Chatter stability of milling and turning.",
+        (("roadmap", "roadmap", "roadmap"),),
+    ),
+    "chatter": _Lazy(
+        "chatter",
+        "app",
+        "Time-domain milling vibration, chatter detection, process-damping calibration.",
+    ),
+    "vibration": _Lazy("vibration", "app", "Milling vibration over time (time-domain model)."),
+    "modal": _Lazy("modal", "app", "Modal parameters from tap tests."),
+    "runs": _Lazy("runs", "app", "Recorded runs of the twin: list, show, export."),
+    "virtual": _Lazy("virtual", "app", "The virtual machine: serve it over OPC UA or Modbus TCP."),
+}
+
+
+def load_command(name: str) -> Any:
+    """Import the command ``name`` of :data:`COMMANDS` and build its click command."""
+    entry = COMMANDS[name]
+    target = getattr(importlib.import_module(f"cnctwin.cli.{entry.module}"), entry.attribute)
+    if isinstance(target, typer.Typer):
+        registered = {info.name for info in target.registered_commands}
+        for command, module, function in entry.extra:
+            if command not in registered:
+                target.command(command)(
+                    getattr(importlib.import_module(f"cnctwin.cli.{module}"), function)
+                )
+    # Built under a root like the real one, so help renders alike (plain text, no
+    # completion options).
+    holder = typer.Typer(add_completion=False, rich_markup_mode=None)
+    if isinstance(target, typer.Typer):
+        holder.add_typer(target, name=name)
+    else:
+        holder.command(name)(target)
+    built = typer.main.get_command(holder)
+    return built.commands[name] if isinstance(built, TyperGroup) else built
+
+
+class _LazyCommands(Mapping[str, Any]):
+    """The root group's commands: names known up front, each command built on first use."""
+
+    def __init__(self) -> None:
+        self._loaded: dict[str, Any] = {}
+
+    def __getitem__(self, name: str) -> Any:
+        if name not in self._loaded:
+            if name not in COMMANDS:
+                raise KeyError(name)
+            self._loaded[name] = load_command(name)
+        return self._loaded[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(COMMANDS)
+
+    def __len__(self) -> int:
+        return len(COMMANDS)
+
+    def __contains__(self, name: object) -> bool:
+        return name in COMMANDS
+
+
+class _LazyGroup(TyperGroup):
+    """The root group: lists its commands from :data:`COMMANDS` without importing them."""
+
+    def __init__(self, **attrs: Any) -> None:
+        super().__init__(**attrs)
+        self.commands = _LazyCommands()  # type: ignore[assignment]
+
+    def format_commands(self, ctx: Any, formatter: Any) -> None:
+        limit = formatter.width - 6 - max(len(name) for name in COMMANDS)
+        rows = [
+            (name, TyperCommand(name, help=entry.summary).get_short_help_str(limit))
+            for name, entry in COMMANDS.items()
+        ]
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
+
 app = typer.Typer(
     name="cnctwin",
+    cls=_LazyGroup,
     help="cnctwin: a digital twin for CNC machining.",
     no_args_is_help=True,
     add_completion=False,
@@ -57,28 +184,6 @@ app = typer.Typer(
     # [[modes]], which rich markup would swallow.
     rich_markup_mode=None,
 )
-app.add_typer(nc.app, name="nc")
-bench.app.command("latency")(bench.latency)
-app.add_typer(bench.app, name="bench")
-wear.app.command("ekf")(wear_ekf.ekf)
-for _name in ("mount", "compensate", "retire", "history"):
-    wear.app.command(_name)(getattr(wear_registry, _name))
-app.add_typer(wear.app, name="wear")
-app.add_typer(study.app, name="study")
-app.add_typer(roughness.app, name="roughness")
-app.add_typer(dynamics.app, name="dynamics")
-stability.app.command("roadmap")(roadmap.roadmap)
-app.add_typer(stability.app, name="stability")
-app.add_typer(chatter.app, name="chatter")
-app.add_typer(vibration.app, name="vibration")
-app.add_typer(modal.app, name="modal")
-app.add_typer(runs.app, name="runs")
-app.add_typer(virtual.app, name="virtual")
-app.command("demo")(demo.demo)
-app.command("run")(run_cli.run)
-app.command("forces")(forces.forces)
-app.command("simulate")(simulate.simulate)
-app.command("signals")(signals.signals)
 
 
 @dataclass
