@@ -19,8 +19,11 @@ from cnctwin.thread.opcua import CLIENT_APPLICATION_URI
 from cnctwin.virtual.opcua_server import SERVER_APPLICATION_URI
 
 
-def certificate(folder: Path, name: str, role: str, expired: bool = False) -> tuple[Path, Path]:
-    """Write ``NAME-cert.pem`` and ``NAME-key.pem`` into ``folder``; (cert, key) paths.
+def certificate(
+    folder: Path, name: str, role: str, expired: bool = False, der: bool = False
+) -> tuple[Path, Path]:
+    """Write ``NAME-cert.pem`` (``NAME-cert.der`` with ``der``) and ``NAME-key.pem`` into
+    ``folder``; (cert, key) paths.
 
     ``role`` is ``"server"`` (the virtual machine's URI, serverAuth) or ``"client"`` (the
     twin's URI, clientAuth); ``expired``: valid from two days ago until yesterday.
@@ -66,8 +69,10 @@ def certificate(folder: Path, name: str, role: str, expired: bool = False) -> tu
         .sign(key, hashes.SHA256())
     )
     folder.mkdir(parents=True, exist_ok=True)
-    cert_path, key_path = folder / f"{name}-cert.pem", folder / f"{name}-key.pem"
-    cert_path.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+    encoding = serialization.Encoding.DER if der else serialization.Encoding.PEM
+    cert_path = folder / f"{name}-cert.{'der' if der else 'pem'}"
+    key_path = folder / f"{name}-key.pem"
+    cert_path.write_bytes(cert.public_bytes(encoding))
     key_path.write_bytes(
         key.private_bytes(
             serialization.Encoding.PEM,

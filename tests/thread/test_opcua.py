@@ -8,7 +8,6 @@ Security runs with self-signed certificates generated here into ``tmp_path``.
 from __future__ import annotations
 
 import asyncio
-import datetime as dt
 import math
 from collections.abc import Awaitable, Callable, Iterator
 from pathlib import Path
@@ -16,11 +15,8 @@ from typing import Any
 
 import pytest
 from asyncua import ua
-from cryptography import x509
-from cryptography.hazmat.primitives import hashes, serialization
-from cryptography.hazmat.primitives.asymmetric import rsa
-from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 from opcua_fixtures import TIMEOUT_S, FakeMachine, Shared
+from pki import certificate
 
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.thread.config import ConnectionConfig, OpcUaSecurityConfig
@@ -31,14 +27,12 @@ from cnctwin.thread.connection import (
     Reading,
 )
 from cnctwin.thread.opcua import (
-    CLIENT_APPLICATION_URI,
     DEFAULT_SUBSCRIPTION_MS,
     NODE_MAP,
     OpcUaConnection,
 )
 from cnctwin.thread.signals import SIGNALS
 from cnctwin.virtual.opcua_server import (
-    SERVER_APPLICATION_URI,
     OpcUaMachineServer,
     OpcUaServerSecurity,
 )
@@ -270,59 +264,12 @@ def test_server_restart_mid_run_reconnects_and_reads_go_on(
 # Security ------------------------------------------------------------------------------
 
 
-def _certificate(folder: Path, name: str, uri: str, usage: x509.ObjectIdentifier) -> Path:
-    """Write a self-signed certificate (DER) and key (PEM) as OPC UA wants them; cert path."""
-    key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
-    subject = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, name)])
-    now = dt.datetime.now(dt.UTC)
-    cert = (
-        x509.CertificateBuilder()
-        .subject_name(subject)
-        .issuer_name(subject)
-        .public_key(key.public_key())
-        .serial_number(x509.random_serial_number())
-        .not_valid_before(now - dt.timedelta(minutes=1))
-        .not_valid_after(now + dt.timedelta(days=1))
-        .add_extension(
-            x509.SubjectAlternativeName(
-                [x509.UniformResourceIdentifier(uri), x509.DNSName("localhost")]
-            ),
-            critical=False,
-        )
-        .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
-        .add_extension(
-            x509.KeyUsage(
-                digital_signature=True,
-                content_commitment=True,
-                key_encipherment=True,
-                data_encipherment=True,
-                key_agreement=False,
-                key_cert_sign=False,
-                crl_sign=False,
-                encipher_only=False,
-                decipher_only=False,
-            ),
-            critical=True,
-        )
-        .add_extension(x509.ExtendedKeyUsage([usage]), critical=False)
-        .sign(key, hashes.SHA256())
-    )
-    (folder / f"{name}.der").write_bytes(cert.public_bytes(serialization.Encoding.DER))
-    (folder / f"{name}.pem").write_bytes(
-        key.private_bytes(
-            serialization.Encoding.PEM,
-            serialization.PrivateFormat.PKCS8,
-            serialization.NoEncryption(),
-        )
-    )
-    return folder / f"{name}.der"
-
-
 @pytest.fixture(scope="module")
 def certificates(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("pki")
-    _certificate(folder, "server", SERVER_APPLICATION_URI, ExtendedKeyUsageOID.SERVER_AUTH)
-    _certificate(folder, "twin", CLIENT_APPLICATION_URI, ExtendedKeyUsageOID.CLIENT_AUTH)
+    # DER certificates here (the PEM form is what tests/virtual/test_opcua_security.py uses)
+    certificate(folder, "server", "server", der=True)
+    certificate(folder, "twin", "client", der=True)
     return folder
 
 
@@ -330,11 +277,11 @@ def certificates(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_secure_session_with_certificates_and_password(certificates: Path, mode: str) -> None:
     trusted = certificates / "trusted"  # the clients the server accepts: the twin
     trusted.mkdir(exist_ok=True)
-    (trusted / "twin.der").write_bytes((certificates / "twin.der").read_bytes())
+    (trusted / "twin-cert.der").write_bytes((certificates / "twin-cert.der").read_bytes())
     server_security = OpcUaServerSecurity(
         mode=mode,  # type: ignore[arg-type]
-        certificate=certificates / "server.der",
-        private_key=certificates / "server.pem",
+        certificate=certificates / "server-cert.der",
+        private_key=certificates / "server-key.pem",
         trust_folder=trusted,
     )
     users = UserTable({"operator": Account("operator", hash_password("s3cret"))}, anonymous=None)
@@ -345,9 +292,9 @@ def test_secure_session_with_certificates_and_password(certificates: Path, mode:
         security = OpcUaSecurityConfig(
             policy="Basic256Sha256",
             mode=mode,  # type: ignore[arg-type]
-            certificate="twin.der",
-            private_key="twin.pem",
-            server_certificate="server.der",
+            certificate="twin-cert.der",
+            private_key="twin-key.pem",
+            server_certificate="server-cert.der",
             username=username,
             password=password,
         )
