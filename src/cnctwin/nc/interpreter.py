@@ -192,7 +192,8 @@ class Interpreter(OWordControl):
         self._tool_offset = [0.0, 0.0, 0.0]
         self._tools: dict[int, ToolEntry] = dict(self.setup.tools)
         self._selected_tool = 0
-        self._retract_r = False
+        # Retract to the R plane until G98 (LinuxCNC's and RS274/NGC's initial mode).
+        self._retract_r = True
         self._cycle_r: float | None = None
         self._cycle_bottom: float | None = None
         self._cycle_q = 0.0
