@@ -11,11 +11,15 @@ from __future__ import annotations
 
 import fcntl
 import re
+import shutil
 import subprocess
 import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import pytest
+from conftest import _missing
 
 from cnctwin.nc.interpreter import Interpreter
 from cnctwin.nc.segments import FeedMode
@@ -37,6 +41,18 @@ _LOCK = Path(tempfile.gettempdir()) / "cnctwin-rs274.lock"
 #: The tool table both interpreters use unless a test gives its own: T1-T99 in pockets
 #: 1-99, zero length and diameter (rs274 refuses a T word missing from its table).
 DEFAULT_TOOLS = "".join(f"T{n} P{n} D0 Z0\n" for n in range(1, 100))
+
+
+@pytest.fixture(scope="session", name="rs274")
+def rs274_fixture() -> str:
+    """Path of LinuxCNC's ``rs274``; skip (fail in CI) when it is not installed."""
+    found = shutil.which("rs274")
+    if found is None:
+        _missing(
+            "LinuxCNC's rs274 is not installed (apt-get install linuxcnc-uspace)",
+            "CNCTWIN_REQUIRE_SERVICES",
+        )
+    return str(found)
 
 
 @dataclass

@@ -10,12 +10,12 @@ departures is in docs/nc.md. Without rs274 the tests skip, and fail in CI
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import pytest
-from conftest import _missing
-from rs274_oracle import first_difference, run_cnctwin, run_rs274
+from rs274_oracle import first_difference, rs274_fixture, run_cnctwin, run_rs274
+
+__all__ = ["rs274_fixture"]  # the fixture, used by name
 
 pytestmark = pytest.mark.validation
 
@@ -53,18 +53,6 @@ STOPS_AT_END = {
 }
 
 _SUFFIXES = {".nc", ".ngc", ".gcode", ".mpf"}
-
-
-@pytest.fixture(scope="session")
-def rs274() -> str:
-    """Path of LinuxCNC's ``rs274``; skip (fail in CI) when it is not installed."""
-    found = shutil.which("rs274")
-    if found is None:
-        _missing(
-            "LinuxCNC's rs274 is not installed (apt-get install linuxcnc-uspace)",
-            "CNCTWIN_REQUIRE_SERVICES",
-        )
-    return str(found)
 
 
 def _programs(root: Path) -> list[str]:

@@ -51,10 +51,17 @@ __all__ = ["Interpreter", "interpret_file", "interpret_text"]
 logger = logging.getLogger(__name__)
 
 MM_PER_INCH = 25.4
-#: Largest allowed difference between an arc's start and end radius: absolute, in mm,
-#: and relative to the radius (LinuxCNC uses comparable tolerances).
+#: Largest amount by which an R-format arc's radius may fall short of half its chord, mm.
 ARC_RADIUS_TOLERANCE_MM = 0.005
+#: LinuxCNC's test of an I/J/K arc's end radius (measured with its rs274): refused when the
+#: end radius differs from the start radius by more than the absolute tolerance and by more
+#: than ARC_RADIUS_TOLERANCE_REL of the larger radius, or by more than
+#: ARC_RADIUS_LIMIT_FACTOR times the absolute tolerance. The absolute tolerance is in program
+#: units: 0.028284 mm under G21, 0.0028284 in (0.0718 mm) under G20.
+ARC_END_TOLERANCE_MM = 0.028284
+ARC_END_TOLERANCE_INCH = 0.0028284
 ARC_RADIUS_TOLERANCE_REL = 0.001
+ARC_RADIUS_LIMIT_FACTOR = 100.0
 #: Chord tolerance of the line segments that approximate G5.1 splines, mm.
 SPLINE_TOLERANCE_MM = 0.001
 
@@ -1183,7 +1190,7 @@ class Interpreter(OWordControl):
             center[normal] = start[normal]
             r0 = math.hypot(start[i0] - center[i0], start[i1] - center[i1])
             r1 = math.hypot(target[i0] - center[i0], target[i1] - center[i1])
-            if abs(r1 - r0) > max(ARC_RADIUS_TOLERANCE_MM, ARC_RADIUS_TOLERANCE_REL * r0):
+            if _arc_end_refused(r0, r1, self._state.units):
                 raise self._error(
                     f"arc end is {r1:.4f} mm from the centre but the start is {r0:.4f} mm: "
                     "the radii must agree (check I/J/K, incremental vs absolute G90.1/G91.1)"
@@ -1630,3 +1637,15 @@ def interpret_text(
 ) -> Iterator[Segment]:
     """Interpret NC program text lazily; see :class:`Interpreter`."""
     return Interpreter(setup).run_text(text, name)
+
+
+def _arc_end_refused(r0_mm: float, r1_mm: float, units: str) -> bool:
+    """Whether LinuxCNC refuses an arc whose start and end radii (mm) are ``r0_mm``, ``r1_mm``.
+
+    ``units``: the program's units (``"mm"`` or ``"inch"``), which set the absolute tolerance.
+    """
+    tolerance = ARC_END_TOLERANCE_INCH * MM_PER_INCH if units == "inch" else ARC_END_TOLERANCE_MM
+    error = abs(r1_mm - r0_mm)
+    if error > ARC_RADIUS_LIMIT_FACTOR * tolerance:
+        return True
+    return error > tolerance and error > ARC_RADIUS_TOLERANCE_REL * max(r0_mm, r1_mm)

@@ -1,0 +1,96 @@
+"""Small programs, one construct each, run through cnctwin and LinuxCNC's ``rs274``.
+
+Each program either runs in both with the same moves, arc centres and feeds, or is refused
+by both (cnctwin with an :class:`~cnctwin.errors.NCError` naming the line). Where rs274
+cannot show a behaviour (a warning, a time estimate) the test checks cnctwin alone against
+the LinuxCNC documentation.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from rs274_oracle import DEFAULT_TOOLS, first_difference, rs274_fixture, run_cnctwin, run_rs274
+
+__all__ = ["rs274_fixture"]  # the fixture, used by name
+
+pytestmark = pytest.mark.validation
+
+
+def _both(rs274: str, tmp_path: Path, text: str, tools: str = DEFAULT_TOOLS) -> tuple[str, str]:
+    """Run ``text`` in both; return (cnctwin's error, rs274's error) after checking moves."""
+    program = tmp_path / "p.ngc"
+    program.write_text(text)
+    ours, theirs = run_cnctwin(program, tools), run_rs274(rs274, program, tools)
+    if not ours.error and not theirs.error:
+        assert first_difference(ours, theirs) == ""
+        assert ours.moves
+    return ours.error, theirs.error
+
+
+def _agree(rs274: str, tmp_path: Path, text: str, tools: str = DEFAULT_TOOLS) -> None:
+    ours, theirs = _both(rs274, tmp_path, text, tools)
+    assert (ours, theirs) == ("", "")
+
+
+def _both_refuse(rs274: str, tmp_path: Path, text: str, tools: str = DEFAULT_TOOLS) -> str:
+    ours, theirs = _both(rs274, tmp_path, text, tools)
+    assert ours and theirs, (ours, theirs)
+    return ours
+
+
+# ----------------------------------------------------------------- canned cycles
+@pytest.mark.parametrize("mode", ["", "G98", "G99"])
+def test_canned_cycle_retract_modes(rs274: str, tmp_path: Path, mode: str) -> None:
+    # Without G98 or G99 LinuxCNC retracts to the R plane (its initial mode is G99's).
+    _agree(
+        rs274,
+        tmp_path,
+        f"G21 G17 G90 G0 X0 Y0 Z10\n{mode} G81 X5 Y5 R2 Z-3 F100\nX10\nY10 R1\nG80\nG0 Z10\nM2\n",
+    )
+
+
+def test_canned_cycle_retract_mode_after_g98_then_g99(rs274: str, tmp_path: Path) -> None:
+    _agree(
+        rs274,
+        tmp_path,
+        "G21 G90 G0 X0 Y0 Z10\nG98 G83 X5 Y5 R2 Z-6 Q2 F100\nG99 X10\nG80\nM2\n",
+    )
+
+
+# ----------------------------------------------------------------- arc end radius
+def _arc(units: str, radius: float, error: float) -> str:
+    """A half circle from X0 whose end lies ``error`` beyond the start radius."""
+    return f"{units} G17 G90 G0 X0 Y0 Z0\nG2 X{2 * radius + error:.6f} Y0 I{radius} J0 F100\nM2\n"
+
+
+@pytest.mark.parametrize(
+    ("units", "radius", "error"),
+    [
+        ("G21", 10.0, 0.028),  # within 0.028284 mm (a CAM centre rounded to 3 decimals)
+        ("G21", 0.5, -0.028),
+        ("G21", 1000.0, 0.99),  # over 0.028284 mm but within 0.1 % of the radius
+        ("G20", 1.0, 0.0028),  # within 0.0028284 in
+        ("G20", 100.0, 0.099),
+    ],
+)
+def test_arc_end_radius_within_linuxcnc_tolerance_runs(
+    rs274: str, tmp_path: Path, units: str, radius: float, error: float
+) -> None:
+    _agree(rs274, tmp_path, _arc(units, radius, error))
+
+
+@pytest.mark.parametrize(
+    ("units", "radius", "error"),
+    [
+        ("G21", 10.0, 0.029),
+        ("G21", 1000.0, 1.02),  # over 0.1 % of the radius
+        ("G21", 5000.0, 2.9),  # within 0.1 % but over 100 x 0.028284 mm
+        ("G20", 1.0, 0.0029),
+    ],
+)
+def test_arc_end_radius_beyond_linuxcnc_tolerance_is_refused(
+    rs274: str, tmp_path: Path, units: str, radius: float, error: float
+) -> None:
+    assert "radii must agree" in _both_refuse(rs274, tmp_path, _arc(units, radius, error))
