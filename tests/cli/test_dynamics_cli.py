@@ -142,7 +142,7 @@ def test_bad_input_exits_2_with_one_line(tmp_path: Path, capsys) -> None:
         ((str(path), "--band", "900", "100"), "--band 900 100: give 0 <= LO < HI, in Hz"),
         ((str(path), "--quantity", "force"), "--quantity 'force'; valid:"),
         ((str(path), "--modes", "4", "--band", "1000", "1100"), "peak(s) in the band"),
-        ((str(path), "--tau-ms", "0"), "--tau-ms 0.0: give a time constant > 0 ms"),
+        ((str(path), "--tau-ms", "0"), "--tau-ms 0.0: give a value > 0 and <= 60000 ms"),
     ]
     for args, message in cases:
         code, out, err = _run(capsys, *args)

@@ -22,6 +22,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.cli._options import MAX_SEED, check_count, check_number
 from cnctwin.errors import CnctwinError, ConfigError
 from cnctwin.thread.config import ConnectionConfig
 from cnctwin.thread.connection import MachineConnection
@@ -34,6 +35,10 @@ logger = logging.getLogger(__name__)
 app = typer.Typer(help="Measurements of the digital thread.", no_args_is_help=True)
 
 TRANSPORTS = ("opcua", "modbus")
+#: Most round trips of one run: 100,000 at the default 500 ms pause is 14 hours.
+MAX_ROUND_TRIPS = 100_000
+#: Longest pause between round trips and largest jitter, ms (one minute).
+MAX_PAUSE_MS = 60_000.0
 _START_TIMEOUT_S = 120.0
 
 
@@ -218,6 +223,10 @@ def latency(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
 ) -> None:
     """Write-to-read-back latency of the feed override (Heide 2025, section 2.5)."""
+    check_count("--n", n, 1, MAX_ROUND_TRIPS)
+    check_number("--interval-ms", interval_ms, 0.0, MAX_PAUSE_MS, unit="ms")
+    check_number("--jitter-ms", jitter_ms, 0.0, MAX_PAUSE_MS, unit="ms")
+    check_count("--seed", seed, 0, MAX_SEED)
     result, url = asyncio.run(
         run_latency(
             transport,

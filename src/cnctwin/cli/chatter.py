@@ -24,6 +24,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.cli._options import check_count, check_number
 from cnctwin.cli.chatter_detect import detect
 from cnctwin.config.machine import MAX_SPINDLE_RPM
 from cnctwin.config.tools import MAX_TOOL_DIAMETER_MM
@@ -54,6 +55,15 @@ _RPM = math.pi / 30.0  # rad/s per rpm
 _G = 9.80665  # m/s^2 per g
 #: The CSV columns of ``calibrate-damping`` (those of ``cnctwin roughness fit``).
 CUT_COLUMNS = ("ap_mm", "spindle_rpm", "fz_mm", "vibration_g")
+#: Shortest simulated time, s: one tooth period at 6,000 rpm and two teeth is 5 ms.
+MIN_SIMULATED_S = 1e-3
+#: Longest simulated time, s: the solver's 10 million steps end far sooner at usual speeds.
+MAX_SIMULATED_S = 60.0
+#: Largest edge coefficient in magnitude, N/mm: ten times those of hard steels.
+MAX_EDGE_N_MM = 1_000.0
+#: Steps per tooth period: the solver's least (accuracy) and a cap far above its default.
+MIN_STEPS_PER_TOOTH = 20
+MAX_STEPS_PER_TOOTH = 100_000
 
 ConfigOption = Annotated[
     Path, typer.Option("--config", help="Stability file: modes, cut (docs/stability.md).")
@@ -107,6 +117,31 @@ def _positive(option: str, value: float, high: float = math.inf, least: float = 
         bound = f" and <= {high:g}" if math.isfinite(high) else ""
         raise ConfigError(f"{option} {value!r}; give a finite value > {least:g}{bound}")
     return value
+
+
+def check_time_options(
+    seconds: float,
+    transient_s: float | None,
+    kte_n_mm: float | None,
+    kre_n_mm: float | None,
+    steps: int | None,
+    diameter_mm: float | None,
+    helix_deg: float,
+) -> None:
+    """Range checks of the time-domain options (s, N/mm, steps per tooth period, mm, degrees)
+    before any file is read; one-line :class:`ConfigError` naming the option."""
+    if diameter_mm is not None:
+        _positive("--diameter-mm", diameter_mm, MAX_TOOL_DIAMETER_MM)
+    if not (math.isfinite(helix_deg) and 0.0 <= helix_deg < 90.0):
+        raise ConfigError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
+    check_number("--seconds", seconds, MIN_SIMULATED_S, MAX_SIMULATED_S, unit="s")
+    if transient_s is not None:
+        check_number("--transient-s", transient_s, 0.0, MAX_SIMULATED_S, unit="s")
+    for option, value in (("--kte-n-mm", kte_n_mm), ("--kre-n-mm", kre_n_mm)):
+        if value is not None:
+            check_number(option, value, -MAX_EDGE_N_MM, MAX_EDGE_N_MM, unit="N/mm")
+    if steps is not None:
+        check_count("--steps", steps, MIN_STEPS_PER_TOOTH, MAX_STEPS_PER_TOOTH)
 
 
 def _edges(config: StabilityConfig, kte: float | None, kre: float | None) -> tuple[float, float]:
@@ -357,6 +392,7 @@ def simulate(
     """Simulate one milling cut in time: vibration RMS, chatter, and the SDM's verdict."""
     from cnctwin.config.stability import load_stability_config
 
+    check_time_options(seconds, transient_s, kte_n_mm, kre_n_mm, steps, diameter_mm, helix_deg)
     settings = load_stability_config(config)
     model = load_damping_model(damping_model) if damping_model is not None else None
     report, result = simulation_report(
@@ -550,6 +586,7 @@ def calibrate_damping(
     from cnctwin.cli.roughness import read_columns
     from cnctwin.config.stability import load_stability_config
 
+    check_time_options(seconds, None, kte_n_mm, kre_n_mm, steps, diameter_mm, helix_deg)
     settings = load_stability_config(config)
     columns = read_columns(cuts, list(CUT_COLUMNS))
     report = calibration_report(

@@ -29,6 +29,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.cli._options import check_number
 from cnctwin.dynamics.frf import FRF, FRFQuantity, impact_frf
 from cnctwin.errors import ConfigError, DataError
 
@@ -52,6 +53,10 @@ app = typer.Typer(help="Structural dynamics: FRFs and modal fits from tap tests.
 
 TWO_PI = 2.0 * math.pi
 DEFAULT_LOW_HZ = 100.0
+MAX_BAND_HZ = 1.0e6
+"""Highest edge of the fitted band, Hz: above any structural mode and impact hammer."""
+MAX_TAU_MS = 60_000.0
+"""Longest exponential window time constant, ms: longer than any tap record."""
 """Default low edge of the fitted band, Hz: below it an accelerometer's receptance is noise."""
 IMPACT_STEP_LIMIT = 0.01
 """A text file whose first column steps by less than this is an impact record (s), else an FRF."""
@@ -293,8 +298,11 @@ def fit_frf_report(
     """
     from cnctwin.dynamics.modal import fit_modes
 
-    if tau_ms is not None and not tau_ms > 0.0:
-        raise ConfigError(f"--tau-ms {tau_ms}: give a time constant > 0 ms")
+    if tau_ms is not None:
+        check_number("--tau-ms", tau_ms, 0.0, MAX_TAU_MS, low_open=True, unit="ms")
+    if band_hz is not None:
+        for value in band_hz:
+            check_number("--band", value, 0.0, MAX_BAND_HZ, unit="Hz")
     test = load_tap_test(
         path, kind=kind, variable=variable, quantity=quantity,
         tau_s=None if tau_ms is None else tau_ms * 1e-3,

@@ -73,7 +73,11 @@ def forces_report(
         For a value out of range, an unknown material, or both or neither coefficient sources.
     """
     from cnctwin.config.machine import MAX_SPINDLE_RPM
-    from cnctwin.config.tools import MAX_TOOL_DIAMETER_MM, MAX_TOOL_LENGTH_MM
+    from cnctwin.config.tools import (
+        MAX_TOOL_DIAMETER_MM,
+        MAX_TOOL_LENGTH_MM,
+        MIN_TOOL_DIAMETER_MM,
+    )
     from cnctwin.mechanics import (
         CuttingCoefficients,
         EndMill,
@@ -84,7 +88,11 @@ def forces_report(
     )
     from cnctwin.mechanics.materials import milling_material
 
-    _check_positive("--diameter-mm", diameter_mm, MAX_TOOL_DIAMETER_MM)
+    if not (MIN_TOOL_DIAMETER_MM <= diameter_mm <= MAX_TOOL_DIAMETER_MM):
+        raise ConfigError(
+            f"--diameter-mm {diameter_mm!r}; give {MIN_TOOL_DIAMETER_MM:g} <= diameter <= "
+            f"{MAX_TOOL_DIAMETER_MM:g} mm"
+        )
     _check_positive("--ap-mm", ap_mm, MAX_TOOL_LENGTH_MM)
     _check_positive("--fz-mm", fz_mm, 100.0)
     _check_positive("--rpm", rpm, MAX_SPINDLE_RPM)

@@ -33,23 +33,34 @@ ConfigOpt = Annotated[
 ]
 
 
+#: The work guards (--max-*) may be raised up to this factor above their defaults, no further:
+#: a guard is only a guard while it is bounded.
+GUARD_FACTOR = 10
+
 MaxSegmentsOpt = Annotated[
     int,
     typer.Option(
         "--max-segments",
         min=1,
+        max=GUARD_FACTOR * limits.MAX_SEGMENTS,
         help="Stop with an error after this many motion segments (work guard).",
     ),
 ]
 MaxBytesOpt = Annotated[
     int,
-    typer.Option("--max-bytes", min=1, help="Refuse program files larger than this (bytes)."),
+    typer.Option(
+        "--max-bytes",
+        min=1,
+        max=GUARD_FACTOR * limits.MAX_PROGRAM_BYTES,
+        help="Refuse program files larger than this (bytes).",
+    ),
 ]
 MaxRepeatedOpt = Annotated[
     int,
     typer.Option(
         "--max-repeated-lines",
         min=0,
+        max=GUARD_FACTOR * limits.MAX_REPEATED_LINES,
         help="Stop with an error after O-word loops and calls execute this many lines again.",
     ),
 ]

@@ -37,6 +37,10 @@ __all__ = ["roadmap", "roadmap_report"]
 
 RPM_STEP = 10.0
 """Default spacing of the speed grid, rpm (the schedule's resolution)."""
+MAX_STEP_MM = 100.0
+"""Longest map step along the path, mm: longer steps skip whole features of a part."""
+MAX_MARGIN = 100.0
+"""Largest safety factor on the critical depth: beyond it no speed of any lobe qualifies."""
 
 
 def _recording(segments: Iterable[Segment], speeds: dict[int, float]) -> Iterator[Segment]:
@@ -138,8 +142,11 @@ def roadmap_report(
             f"{MAX_DENSITY_PER_MM:g} dexels per mm"
         )
     step = 1.0 / rho if step_mm is None else step_mm
-    if not (math.isfinite(step) and step > 0.0):
-        raise ConfigError(f"--step-mm {step!r}; give a finite length > 0 mm")
+    if not (math.isfinite(step) and 0.1 / rho <= step <= MAX_STEP_MM):
+        raise ConfigError(
+            f"--step-mm {step!r}; give {0.1 / rho:g} (a tenth of the dexel spacing) <= step "
+            f"<= {MAX_STEP_MM:g} mm"
+        )
     grid = _grid(stability, config, rpm_range)
     coefficients = _coefficients(stability, config)
     cutters = {tool.number: Cutter.from_tool_config(tool) for tool in config.tools}
@@ -249,8 +256,8 @@ def roadmap(
     from cnctwin.config import load_config
     from cnctwin.config.stability import load_stability_config
 
-    if not (math.isfinite(margin) and margin >= 1.0):
-        raise ConfigError(f"--margin {margin!r}; give a factor >= 1")
+    if not (math.isfinite(margin) and 1.0 <= margin <= MAX_MARGIN):
+        raise ConfigError(f"--margin {margin!r}; give a factor >= 1 and <= {MAX_MARGIN:g}")
     overrides: dict[str, dict[str, Any]] = {}
     if method is not None:
         if method not in ("zoa", "sdm"):

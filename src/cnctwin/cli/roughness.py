@@ -32,6 +32,9 @@ app = typer.Typer(
 #: The columns ``fit`` uses unless told otherwise (Royandi 2026's model and units).
 DEFAULT_TARGET = "ra_um"
 DEFAULT_FEATURES = ("ap_mm", "spindle_rpm", "fz_mm", "vibration_g")
+#: Largest value of a feature (any unit): the power law takes positive values; beyond 1e9 in
+#: mm, rpm or g a value is a typing error.
+MAX_FEATURE = 1e9
 _OPTIONS = dict(zip(DEFAULT_FEATURES, ("--ap-mm", "--rpm", "--fz-mm", "--vib-g"), strict=True))
 
 
@@ -240,20 +243,28 @@ def predict(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
 ) -> None:
     """Predict roughness at one cutting condition with a fitted model."""
-    model = load_model(model_file)
     given: dict[str, float] = {
         name: value
         for name, value in zip(DEFAULT_FEATURES, (ap_mm, rpm, fz_mm, vib_g), strict=True)
         if value is not None
     }
+    for name, value in given.items():
+        if not 0.0 < value <= MAX_FEATURE:  # False for NaN too
+            raise DataError(
+                f"{_OPTIONS[name]}: {name!r} is {value!r}; give 0 < value <= {MAX_FEATURE:g}"
+            )
+    model = load_model(model_file)
     for item in values or []:
         name, sep, text = item.partition("=")
         try:
             number = float(text)
         except ValueError:
             number = math.nan
-        if not (sep and name.strip() and math.isfinite(number)):
-            raise DataError(f"--value {item!r}; give NAME=NUMBER, e.g. --value vibration_g=2.5")
+        if not (sep and name.strip() and 0.0 < number <= MAX_FEATURE):
+            raise DataError(
+                f"--value {item!r}; give NAME=NUMBER with 0 < NUMBER <= {MAX_FEATURE:g}, "
+                "e.g. --value vibration_g=2.5"
+            )
         given[name.strip()] = number
     missing = [name for name in model.features if name not in given]
     if missing:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import math
 import signal
 import sys
 import time
@@ -25,6 +24,7 @@ from rich.table import Table
 from rich.text import Text
 
 from cnctwin import finite_json
+from cnctwin.cli._options import MAX_RUN_S, MAX_WAIT_S, check_number
 from cnctwin.errors import ConfigError
 from cnctwin.thread.signals import RunState
 
@@ -100,10 +100,9 @@ def run(
     from cnctwin.store.historian import Historian
     from cnctwin.twin.config import load_run_config
 
-    if duration is not None and not (math.isfinite(duration) and duration > 0):
-        raise ConfigError(f"--duration {duration}: give a number of seconds > 0")
-    if not (math.isfinite(connect_timeout) and connect_timeout > 0):
-        raise ConfigError(f"--connect-timeout {connect_timeout}: give a number of seconds > 0")
+    if duration is not None:
+        check_number("--duration", duration, 0.0, MAX_RUN_S, low_open=True, unit="s")
+    check_number("--connect-timeout", connect_timeout, 0.0, MAX_WAIT_S, low_open=True, unit="s")
     settings = load_run_config(config)
     quiet_protocol_logs()
     if endpoint is not None:

@@ -29,6 +29,9 @@ __all__ = ["app", "lobes", "lobes_report", "parse_rpm_list", "parse_rpm_range"]
 
 logger = logging.getLogger(__name__)
 
+#: Least radial immersion ae/D: below 0.1 % the cut's arc of engagement vanishes numerically.
+MIN_IMMERSION = 1e-3
+
 app = typer.Typer(help="Chatter stability of milling and turning.", no_args_is_help=True)
 
 _RPM = math.pi / 30.0  # rad/s per rpm
@@ -296,8 +299,8 @@ def _overrides(**given: Any) -> dict[str, dict[str, Any]]:
     spec: dict[str, Any] = {}
     if given["immersion"] is not None:
         value = given["immersion"]
-        if not (math.isfinite(value) and 0.0 < value <= 1.0):
-            raise ConfigError(f"--immersion {value!r}; give 0 < ae/D <= 1")
+        if not (math.isfinite(value) and MIN_IMMERSION <= value <= 1.0):
+            raise ConfigError(f"--immersion {value!r}; give {MIN_IMMERSION:g} <= ae/D <= 1")
         cut["radial_immersion"] = value
     if given["down"] is not None:
         cut["milling"] = "down" if given["down"] else "up"

@@ -14,9 +14,13 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.cli._options import check_count
 from cnctwin.errors import ConfigError
 
 __all__ = ["app", "dexel", "dexel_report"]
+
+#: Most worker processes: the paper's study has 240 runs, so more would idle.
+MAX_WORKERS = 256
 
 app = typer.Typer(help="Parameter studies of the simulation.", no_args_is_help=True)
 
@@ -52,8 +56,9 @@ def dexel_report(
     from cnctwin.studies.report import write_outputs
 
     n = default_workers() if workers is None else workers
-    if n < 1:
-        raise ConfigError(f"--workers {n}: give a number of processes >= 1")
+    check_count("--workers", n, 1, MAX_WORKERS, unit="processes")
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out}: not a folder; give a folder for the results")
     study = DexelStudy.quick() if quick else DexelStudy.paper()
     started = time.perf_counter()
     if progress:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import math
 import signal
 import sys
 from importlib.resources import as_file, files
@@ -21,6 +20,7 @@ from typing import TYPE_CHECKING, Annotated, Literal, cast
 
 import typer
 
+from cnctwin.cli._options import MAX_SPEED_FACTOR, MAX_WAIT_S, check_number
 from cnctwin.cli.run import note, quiet_protocol_logs
 from cnctwin.errors import ConfigError
 from cnctwin.virtual.exposure import check_exposure
@@ -117,10 +117,9 @@ def serve(
     )
     if not 0 <= port <= 65535:
         raise ConfigError(f"--port {port}; give 0 (a free port) to 65535")
-    if speed is not None and not (math.isfinite(speed) and 0 < speed <= 20):
-        raise ConfigError(f"--speed {speed}: give 0 < speed <= 20 machine seconds per second")
-    if not (math.isfinite(delay) and delay >= 0):
-        raise ConfigError(f"--delay {delay}: give a number of seconds >= 0")
+    if speed is not None:
+        check_number("--speed", speed, 0.0, MAX_SPEED_FACTOR, low_open=True, unit="x real time")
+    check_number("--delay", delay, 0.0, MAX_WAIT_S, unit="s")
     protocol: Literal["opcua", "modbus"] = "opcua" if transport == "opcua" else "modbus"
     quiet_protocol_logs()
     if config is None:

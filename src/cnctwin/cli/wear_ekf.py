@@ -14,6 +14,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.cli._options import MAX_SEED, check_count, check_number
 from cnctwin.errors import DataError
 from cnctwin.wear.ekf import CHRISTIAND2024, EKFPreset
 from cnctwin.wear.stages import StageMonitor
@@ -29,6 +30,11 @@ __all__ = ["ekf", "read_torque_csv", "PRESETS"]
 
 #: Filter presets by name.
 PRESETS: dict[str, EKFPreset] = {"christiand2024": CHRISTIAND2024}
+#: Largest flank wear VB accepted, mm: far beyond the ISO 3685 end-of-life criterion (0.3 mm);
+#: no insert survives to it.
+MAX_WEAR_MM = 5.0
+#: Largest idle torque accepted, N*m: above the spindles of the largest machining centres.
+MAX_TORQUE_NM = 1.0e4
 _REQUIRED = ("time_s", "torque_nm", "material_removed_mm3")
 
 
@@ -187,6 +193,13 @@ def ekf(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
 ) -> None:
     """Estimate flank wear from spindle torque with the EKF of Christiand 2024."""
+    check_count("--seed", seed, 0, MAX_SEED)
+    check_number("--vb0-mm", vb0_mm, 0.0, MAX_WEAR_MM, low_open=True, unit="mm")
+    for value in stages_mm:
+        check_number("--stages-mm", value, 0.0, MAX_WEAR_MM, low_open=True, unit="mm")
+    if not stages_mm[0] < stages_mm[1] < stages_mm[2]:
+        raise DataError(f"--stages-mm {stages_mm}: give three increasing wear values, mm")
+    check_number("--base-torque-nm", base_torque_nm, 0.0, MAX_TORQUE_NM, unit="N*m")
     if preset not in PRESETS:
         raise DataError(f"unknown preset {preset!r}; available: {', '.join(sorted(PRESETS))}")
     chosen = PRESETS[preset]

@@ -13,6 +13,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.cli._options import check_number
 from cnctwin.errors import DataError
 from cnctwin.store import TwinRegistry
 from cnctwin.wear.compensation import ManufacturingParameters
@@ -21,6 +22,16 @@ __all__ = ["compensate", "history", "mount", "retire"]
 
 _MM = 1e-3
 _UM = 1e-6
+#: Largest part dimension, mm: the swing of large lathes.
+MAX_DIMENSION_MM = 10_000.0
+#: Largest tolerance bound and offset resolution, um (10 mm).
+MAX_TOLERANCE_UM = 10_000.0
+#: Largest cutting speed, m/min: above high-speed machining of aluminium.
+MAX_CUTTING_SPEED_M_MIN = 10_000.0
+#: Largest feed per revolution, mm.
+MAX_FEED_MM_REV = 10.0
+#: Largest depth of cut, mm.
+MAX_DEPTH_MM = 100.0
 
 DbOpt = Annotated[Path, typer.Option("--db", help="Registry database (SQLite file).")]
 ToolOpt = Annotated[str, typer.Option("--tool", help="Tool id, e.g. T0101-insert-42.")]
@@ -61,6 +72,19 @@ def mount(
     as_json: JsonOpt = False,
 ) -> None:
     """Mount a new tool: its twin inherits the drift of the most similar retired tool."""
+    check_number("--target-mm", target_mm, 0.0, MAX_DIMENSION_MM, low_open=True, unit="mm")
+    for value in tolerance_um:
+        check_number("--tolerance-um", value, -MAX_TOLERANCE_UM, MAX_TOLERANCE_UM, unit="um")
+    if not tolerance_um[0] < tolerance_um[1]:
+        raise DataError(f"--tolerance-um {tolerance_um}: give LOW HIGH with LOW < HIGH, um")
+    check_number("--resolution-um", resolution_um, 0.0, MAX_TOLERANCE_UM, unit="um")
+    for option, value, high, unit in (
+        ("--vc-m-min", vc_m_min, MAX_CUTTING_SPEED_M_MIN, "m/min"),
+        ("--f-mm-rev", f_mm_rev, MAX_FEED_MM_REV, "mm"),
+        ("--ap-mm", ap_mm, MAX_DEPTH_MM, "mm"),
+    ):
+        if value is not None:
+            check_number(option, value, 0.0, high, low_open=True, unit=unit)
     given = [material, tool_ref, vc_m_min, f_mm_rev, ap_mm]
     parameters = None
     if any(v is not None for v in given):
@@ -114,8 +138,9 @@ def compensate(
         measured = float(measurement_mm)
     except ValueError:
         raise DataError(
-            f"measurement {measurement_mm!r} is not a number; give the dimension in mm"
+            f"--measurement {measurement_mm!r} is not a number; give the dimension in mm"
         ) from None
+    check_number("--measurement", measured, 0.0, MAX_DIMENSION_MM, low_open=True, unit="mm")
     with TwinRegistry(db) as registry:
         obs = registry.record(lathe, tool, measured * _MM)
     _emit(

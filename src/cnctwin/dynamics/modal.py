@@ -43,6 +43,8 @@ __all__ = ["ModalFit", "Mode", "fit_modes", "modal_frf"]
 
 _log = logging.getLogger(__name__)
 
+#: Most modes one fit takes: each mode adds parameters, beyond 20 the fit is ill-posed.
+MAX_MODES = 20
 _ZETA_MIN = 1e-5
 _ZETA_MAX = 0.7
 _ZETA_FALLBACK = 0.02
@@ -246,14 +248,16 @@ def fit_modes(
         When the band holds fewer frequencies than the model has parameters, or fewer than
         ``n_modes`` peaks.
     """
-    if not (isinstance(n_modes, int) and n_modes >= 1):
-        raise DataError(f"fit_modes: n_modes {n_modes!r}; give an integer >= 1")
+    if not (isinstance(n_modes, int) and 1 <= n_modes <= MAX_MODES):
+        raise DataError(f"fit_modes: n_modes {n_modes!r}; give an integer from 1 to {MAX_MODES}")
     x = frf.to_receptance()
     x = x.band(x.omega[0] if x.omega[0] > 0.0 else x.omega[1], x.omega[-1])
     if omega_band is not None:
         low, high = omega_band
-        if not (0.0 <= low < high):
-            raise DataError(f"fit_modes: band {low:g}..{high:g} rad/s; give 0 <= low < high")
+        if not (0.0 <= low < high < math.inf):
+            raise DataError(
+                f"fit_modes: band {low:g}..{high:g} rad/s; give finite 0 <= low < high"
+            )
         x = x.band(max(low, x.omega[0]), high)
     omega, h = x.omega, x.h
     n_linear = n_modes + (2 if residuals else 0)

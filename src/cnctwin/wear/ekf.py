@@ -13,6 +13,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from cnctwin.errors import ConfigError
+
 __all__ = [
     "CHRISTIAND2024",
     "EKFPreset",
@@ -43,9 +45,9 @@ class LogisticWear:
 
     def __post_init__(self) -> None:
         if not (self.q_per_mm3 > 0 and math.isfinite(self.q_per_mm3)):
-            raise ValueError(f"q_per_mm3 must be a positive number; got {self.q_per_mm3!r}")
+            raise ConfigError(f"q_per_mm3 must be a positive number; got {self.q_per_mm3!r}")
         if not (self.vb_max_mm > 0 and math.isfinite(self.vb_max_mm)):
-            raise ValueError(f"vb_max_mm must be a positive number; got {self.vb_max_mm!r}")
+            raise ConfigError(f"vb_max_mm must be a positive number; got {self.vb_max_mm!r}")
 
     def propagate(self, vb_mm: float, dmr_mm3: float) -> float:
         """Wear after removing ``dmr_mm3`` of material (Eq. 32), mm."""
@@ -219,9 +221,9 @@ class WearEKF:
             ("var0_mm2", var0_mm2),
         ):
             if not (value >= 0 and math.isfinite(value)):
-                raise ValueError(f"{name} must be a finite number >= 0; got {value!r}")
+                raise ConfigError(f"{name} must be a finite number >= 0; got {value!r}")
         if not (0 < vb0_mm < propagation.vb_max_mm):
-            raise ValueError(
+            raise ConfigError(
                 f"vb0_mm must lie in (0, vb_max_mm={propagation.vb_max_mm}); got {vb0_mm!r}"
             )
         self.propagation = propagation
@@ -250,7 +252,7 @@ class WearEKF:
         EKFStep
         """
         if not (dmr_mm3 >= 0.0):
-            raise ValueError(f"dmr_mm3 must be >= 0; got {dmr_mm3!r}")
+            raise ConfigError(f"dmr_mm3 must be >= 0; got {dmr_mm3!r}")
         law = self.propagation
         vb = self.vb_mm
         prior = law.propagate(vb, dmr_mm3)

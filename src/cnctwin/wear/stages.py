@@ -14,6 +14,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from cnctwin.errors import ConfigError
 from cnctwin.wear.ekf import LogisticWear
 
 __all__ = ["RemainingLife", "StageEvent", "StageMonitor", "remaining_life"]
@@ -78,7 +79,7 @@ class StageMonitor:
     ) -> None:
         bounds = tuple(float(b) for b in boundaries_mm)
         if len(bounds) != 3 or not (0 < bounds[0] < bounds[1] < bounds[2]):
-            raise ValueError(
+            raise ConfigError(
                 "boundaries_mm must be three increasing positive wear values (entry of "
                 f"stages II, III, IV); got {tuple(boundaries_mm)!r}"
             )
@@ -88,7 +89,7 @@ class StageMonitor:
             else tuple(float(t) for t in expected_entry_s)
         )
         if len(expected) != 3:
-            raise ValueError(f"expected_entry_s needs 3 times; got {expected_entry_s!r}")
+            raise ConfigError(f"expected_entry_s needs 3 times; got {expected_entry_s!r}")
         self.boundaries_mm = bounds
         self.expected_entry_s = expected
         self.stage = 1
@@ -154,7 +155,7 @@ def remaining_life(
         Width of the band in standard deviations.
     """
     if not (0 < limit_mm < law.vb_max_mm):
-        raise ValueError(f"limit_mm must lie in (0, vb_max_mm={law.vb_max_mm}); got {limit_mm!r}")
+        raise ConfigError(f"limit_mm must lie in (0, vb_max_mm={law.vb_max_mm}); got {limit_mm!r}")
     spread = sigmas * math.sqrt(max(var_mm2, 0.0))
     floor = 1e-6 * law.vb_max_mm
     mid = law.material_to_reach_mm3(max(vb_mm, floor), limit_mm)

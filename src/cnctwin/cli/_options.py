@@ -1,0 +1,77 @@
+"""Range checks of numeric command-line options, shared by the commands.
+
+Each check raises a one-line :class:`~cnctwin.errors.ConfigError` that names the option, the
+value given and the valid range; the CLI turns it into exit status 2. The checks run before a
+command does any work, so a bad value never starts a machine, a server or a long computation.
+The ranges and their reasons are listed in docs/cli.md ("Ranges of the options").
+"""
+
+from __future__ import annotations
+
+import math
+
+from cnctwin.errors import ConfigError
+
+__all__ = ["MAX_SEED", "check_count", "check_number"]
+
+#: Largest random seed accepted: the 32-bit seeds every generator of the project takes.
+MAX_SEED = 2**32 - 1
+#: Longest run of the twin (``cnctwin run --duration``), s: 30 days; beyond, omit the option.
+MAX_RUN_S = 30 * 86_400.0
+#: Longest wait for a machine or a start (``--connect-timeout``, ``virtual serve --delay``), s.
+MAX_WAIT_S = 3_600.0
+#: Fastest virtual machine, machine seconds per wall-clock second: its kernels keep up to it.
+MAX_SPEED_FACTOR = 20.0
+
+
+def check_number(
+    option: str,
+    value: float,
+    low: float,
+    high: float,
+    *,
+    low_open: bool = False,
+    unit: str = "",
+) -> float:
+    """``value`` if it is finite and within ``[low, high]`` (``(low, high]`` with ``low_open``).
+
+    Parameters
+    ----------
+    option
+        The option as typed, e.g. ``--rpm``.
+    value
+        The value given, in ``unit``.
+    low, high
+        The valid range, in ``unit``.
+    low_open
+        Exclude ``low`` itself (for quantities that must be > 0).
+    unit
+        Unit named in the error message, e.g. ``mm``.
+
+    Raises
+    ------
+    ConfigError
+        For a non-finite value or one outside the range.
+    """
+    above = value > low if low_open else value >= low
+    if not (math.isfinite(value) and above and value <= high):
+        least = ">" if low_open else ">="
+        suffix = f" {unit}" if unit else ""
+        raise ConfigError(
+            f"{option} {value!r}: give a value {least} {low:g} and <= {high:g}{suffix}"
+        )
+    return float(value)
+
+
+def check_count(option: str, value: int, low: int, high: int, *, unit: str = "") -> int:
+    """``value`` if ``low <= value <= high`` (integers: counts, seeds, ports).
+
+    Raises
+    ------
+    ConfigError
+        For a value outside the range, naming the option and the range.
+    """
+    if not (low <= value <= high):
+        suffix = f" {unit}" if unit else ""
+        raise ConfigError(f"{option} {value}: give an integer from {low:,} to {high:,}{suffix}")
+    return int(value)

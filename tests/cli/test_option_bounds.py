@@ -1,0 +1,349 @@
+"""Every numeric option of the whole CLI, walked from the command tree, with extreme values.
+
+For each command an explicit, valid base invocation is kept in :data:`BASES`; a command
+without one fails :func:`test_every_command_has_a_base_invocation`, so no command joins the CLI
+unchecked. Each numeric option (an int or float option or argument, a tuple of them, or a
+string option that carries numbers, listed in the base's ``numbers``) is then replaced in turn
+by nan, inf, -inf, -1, 0, 1e308, -1e308, 1e-300 (and 10**12 for integers). The property: exit
+0 or 2, never 1 (an internal error) or an exception; on exit 2, stderr is one line that names
+the option. Non-finite values are always refused.
+
+Commands that would run long (demo, run, bench, virtual serve, study) get a base invocation that
+ends with exit 2 at once *after* option validation (an unknown transport, a missing file):
+their options are validated before any work, so a bad value is still named.
+"""
+
+from __future__ import annotations
+
+import json
+import signal
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import FrameType
+from typing import Any, get_args
+
+import numpy as np
+import pytest
+import typer
+from typer.core import TyperArgument, TyperGroup
+
+from cnctwin.cli.app import app, run
+
+REPO = Path(__file__).resolve().parents[2]
+EXAMPLES = REPO / "examples"
+PACKAGED = REPO / "src" / "cnctwin" / "examples"
+STABILITY = EXAMPLES / "stability" / "insperger_slot.toml"
+#: Values each numeric option is replaced by.
+EXTREMES = ("nan", "inf", "-inf", "-1", "0", "1e308", "-1e308", "1e-300")
+NON_FINITE = ("nan", "inf", "-inf")
+#: One invocation must not run longer than this (s): far above the slowest valid case
+#: (a fraction of a second), low enough that an unbounded loop is reported, not waited for.
+CASE_LIMIT_S = 60
+
+
+def _cut_csv(path: Path) -> Path:
+    """Turning cuts of a power law Ra = 0.5 ap^0.4 S^0.05 fz^0.55 V^0.17 (roughness fit)."""
+    rng = np.random.default_rng(3)
+    rows = ["ap_mm,spindle_rpm,fz_mm,vibration_g,ra_um"]
+    for _ in range(12):
+        ap, s, fz, v = (rng.uniform(lo, hi) for lo, hi in ((1, 4), (3e3, 9e3), (0.05, 0.1), (1, 5)))
+        rows.append(f"{ap},{s},{fz},{v},{0.5 * ap**0.4 * s**0.05 * fz**0.55 * v**0.17}")
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def _model(path: Path) -> Path:
+    exponents = {"ap_mm": 0.4, "spindle_rpm": 0.05, "fz_mm": 0.55, "vibration_g": 0.17}
+    path.write_text(json.dumps({"target": "ra_um", "b0": 0.5, "exponents": exponents}))
+    return path
+
+
+def _frf_csv(path: Path) -> Path:
+    """A one-mode FRF table (f in Hz, Re and Im in m/N): 150 Hz, zeta 0.03, k 2e7 N/m."""
+    f = np.arange(1.0, 600.0, 1.0)
+    r = f / 150.0
+    h = 1.0 / (2.0e7 * (1.0 - r**2 + 2j * 0.03 * r))
+    rows = (f"{a:.6e},{b.real:.9e},{b.imag:.9e}\n" for a, b in zip(f, h, strict=True))
+    path.write_text("".join(rows))
+    return path
+
+
+def _signal_csv(path: Path) -> Path:
+    t = np.arange(0.0, 0.5, 1e-4)
+    y = np.sin(2 * np.pi * 100.0 * t)
+    path.write_text("t_s,a\n" + "".join(f"{a:.6f},{b:.6f}\n" for a, b in zip(t, y, strict=True)))
+    return path
+
+
+def _ekf_csv(path: Path) -> Path:
+    rows = ["time_s,torque_nm,material_removed_mm3"]
+    rows += [f"{k * 0.01:.2f},0.0035,0.0004" for k in range(1, 51)]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def _program(path: Path) -> Path:
+    path.write_text("G21 G90 G17\nT1 M6\nS6000 M3\nG0 X-10 Y5 Z5\nG1 Z-1 F600\nG1 X10\nM30\n")
+    return path
+
+
+@dataclass(frozen=True)
+class Base:
+    """A valid invocation of one command (after the command path)."""
+
+    argv: Callable[[Path], list[str]]
+    #: String options that carry numbers: option -> template with {v} for the value.
+    numbers: dict[str, str] = field(default_factory=dict)
+    #: Substring of the one-line error the base ends with on purpose (exit 2), if any.
+    ends_with: str | None = None
+    #: Each case in a fresh folder (the command changes its files, e.g. a registry).
+    fresh: bool = False
+    #: Another valid base for options that exclude one of the base's (option -> argv).
+    instead: dict[str, Callable[[Path], list[str]]] = field(default_factory=dict)
+
+
+def _registry(tmp: Path) -> Path:
+    db = tmp / "wear.db"
+    if not db.exists():
+        code = run(["wear", "mount", "--db", str(db), "--tool", "T1", "--target-mm", "20",
+                    "--json"])  # fmt: skip
+        assert code == 0
+    return db
+
+
+def _historian(tmp: Path) -> str:
+    """An empty historian database (SQLite), created once."""
+    from cnctwin.store.historian import Historian
+
+    db = tmp / "h.db"
+    if not db.exists():
+        with Historian.open(db):
+            pass
+    return str(db)
+
+
+BASES: dict[tuple[str, ...], Base] = {
+    ("demo",): Base(lambda t: ["--transport", "none", "--json"], ends_with="--transport"),
+    ("run",): Base(
+        lambda t: ["--config", str(t / "missing.toml"), "--duration", "1"],
+        ends_with="missing.toml",
+    ),
+    ("forces",): Base(
+        lambda t: ("--diameter-mm 10 --teeth 4 --helix-deg 30 --ae-mm 5 --ap-mm 2 --fz-mm 0.1 "
+                   "--rpm 6000 --material AA6060-T6 --json").split(),  # fmt: skip
+        instead=dict.fromkeys(
+            ("--ktc", "--krc", "--kac", "--kte", "--kre", "--kae"),
+            lambda t: ("--diameter-mm 10 --teeth 4 --helix-deg 30 --ae-mm 5 --ap-mm 2 "
+                       "--fz-mm 0.1 --rpm 6000 --ktc 800 --krc 300 --kac 200 --kte 20 --kre 25 "
+                       "--kae 2 --json").split(),  # fmt: skip
+        ),
+    ),
+    ("simulate",): Base(
+        lambda t: [str(PACKAGED / "demo.ngc"), "-c", str(PACKAGED / "demo.toml"), "--density",
+                   "2", "--cycle-ms", "100", "--json"]  # fmt: skip
+    ),
+    ("signals",): Base(
+        lambda t: [str(PACKAGED / "demo.ngc"), "-c", str(PACKAGED / "demo.toml"), "--density",
+                   "2", "--cycle-ms", "100", "--json"]  # fmt: skip
+    ),
+    ("nc", "inspect"): Base(lambda t: [str(PACKAGED / "demo.ngc"), "--json"]),
+    ("nc", "trace"): Base(lambda t: [str(PACKAGED / "demo.ngc")]),
+    ("bench", "latency"): Base(lambda t: ["--transport", "none"], ends_with="--transport"),
+    ("wear", "simulate-lathe"): Base(lambda t: ["--test", "1", "--parts", "3", "--json"]),
+    ("wear", "ekf"): Base(lambda t: ["--data", str(_ekf_csv(t / "ekf.csv")), "--json"]),
+    ("wear", "mount"): Base(
+        lambda t: ["--db", str(t / "mount.db"), "--tool", "T2", "--target-mm", "20", "--json"],
+        fresh=True,
+    ),
+    ("wear", "compensate"): Base(
+        lambda t: ["--db", str(_registry(t)), "--tool", "T1", "--measurement", "20.01", "--json"],
+        numbers={"--measurement": "{v}"},
+    ),
+    ("wear", "retire"): Base(lambda t: ["--db", str(_registry(t)), "--tool", "T1"]),
+    ("wear", "history"): Base(lambda t: ["--db", str(_registry(t)), "--json"]),
+    ("study", "dexel"): Base(
+        lambda t: ["--out", str(_program(t / "a_file")), "--quick"], ends_with="--out"
+    ),
+    ("roughness", "fit"): Base(lambda t: [str(_cut_csv(t / "cuts.csv")), "--json"]),
+    ("roughness", "predict"): Base(
+        lambda t: ["--model", str(_model(t / "m.json")), "--ap-mm", "2", "--rpm", "6000",
+                   "--fz-mm", "0.08", "--vib-g", "2", "--json"],  # fmt: skip
+        numbers={"--value": "vibration_g={v}"},
+    ),
+    ("dynamics", "fit-frf"): Base(
+        lambda t: [str(_frf_csv(t / "frf.csv")), "--band", "50", "500", "--json"]
+    ),
+    ("modal", "fit"): Base(
+        lambda t: [str(_frf_csv(t / "frf.csv")), "--band", "50", "500", "--json"]
+    ),
+    ("stability", "lobes"): Base(
+        lambda t: ["--config", str(STABILITY), "--rpm-range", "5000:6000:5", "--json"],
+        numbers={"--rpm": "{v}", "--rpm-range": "5000:{v}:5", "--steps": "{v}"},
+    ),
+    ("stability", "roadmap"): Base(
+        lambda t: [str(PACKAGED / "demo.ngc"), "-c", str(PACKAGED / "demo.toml"), "--stability",
+                   str(STABILITY), "--rpm-range", "5000:6000:3", "--density", "1", "--json"],
+        numbers={"--rpm-range": "5000:{v}:3"},
+    ),
+    ("chatter", "simulate"): Base(
+        lambda t: ["--config", str(STABILITY), "--rpm", "6000", "--depth-mm", "0.5",
+                   "--feed-mm", "0.05", "--seconds", "0.02", "--diameter-mm", "10",
+                   "--json"]  # fmt: skip
+    ),
+    ("chatter", "calibrate-damping"): Base(
+        lambda t: [str(t / "missing.csv"), "--config", str(STABILITY)], ends_with="missing.csv"
+    ),
+    ("chatter", "detect"): Base(
+        lambda t: [str(_signal_csv(t / "sig.csv")), "--rpm", "6000", "--teeth", "2", "--json"]
+    ),
+    ("vibration", "simulate"): Base(
+        lambda t: ["--config", str(STABILITY), "--rpm", "6000", "--depth-mm", "0.5",
+                   "--feed-mm", "0.05", "--seconds", "0.02", "--diameter-mm", "10",
+                   "--json"]  # fmt: skip
+    ),
+    ("runs", "list"): Base(lambda t: ["--db", _historian(t), "--json"]),
+    ("runs", "show"): Base(lambda t: ["1", "--db", _historian(t)], ends_with="run 1"),
+    ("runs", "export"): Base(
+        lambda t: ["1", str(t / "out.csv"), "--db", _historian(t)], ends_with="run 1"
+    ),
+    ("virtual", "serve"): Base(
+        lambda t: ["--config", str(t / "missing.toml"), "--port", "0"], ends_with="missing.toml"
+    ),
+    # no numeric option; the base stops before the password prompt
+    ("virtual", "hash-password"): Base(lambda t: ["--role", "admin"], ends_with="--role"),
+}
+
+
+def _commands(
+    command: Any = None, path: tuple[str, ...] = ()
+) -> Iterator[tuple[tuple[str, ...], Any]]:
+    command = command or typer.main.get_command(app)
+    if isinstance(command, TyperGroup):
+        for name, sub in command.commands.items():
+            yield from _commands(sub, (*path, name))
+    else:
+        yield path, command
+
+
+COMMANDS = dict(_commands())
+
+
+def _numeric(annotation: Any) -> str | None:
+    """'int' or 'float' for a numeric annotation (also inside Optional, tuple, list)."""
+    if annotation in (int, float):
+        return annotation.__name__
+    inner = {a for a in get_args(annotation) if a is not type(None)}
+    kinds = {_numeric(a) for a in inner} - {None}
+    return "float" if "float" in kinds else ("int" if kinds else None)
+
+
+@dataclass(frozen=True)
+class Case:
+    option: str
+    names: tuple[str, ...]
+    value: str
+    argv: tuple[str, ...]
+
+
+def _names(opts: list[str]) -> tuple[str, ...]:
+    """Ways an error line may name an option: ``--vb0-mm``, ``vb0-mm``, ``vb0_mm``."""
+    bare = [o.lstrip("-") for o in opts if o.startswith("--")]
+    return (*opts, *bare, *(b.replace("-", "_") for b in bare))
+
+
+def _cases(path: tuple[str, ...], base: Base, tmp: Path) -> Iterator[Case]:
+    for param in COMMANDS[path].params:
+        if param.name in ("help",):
+            continue
+        annotation = param.type_descriptor.annotation
+        kind = _numeric(annotation)
+        opt = param.opts[0]
+        argv = base.instead.get(opt, base.argv)(tmp)
+        template = base.numbers.get(opt)
+        if kind is None and template is None:
+            continue
+        values = EXTREMES + (("1000000000000",) if kind == "int" else ())
+        for value in values:
+            if isinstance(param, TyperArgument):
+                if param.nargs != 1 or not any(a.lstrip("-").isdigit() for a in argv):
+                    continue
+                index = next(i for i, a in enumerate(argv) if a.isdigit())
+                new = [*argv[:index], value, *argv[index + 1 :]]
+                yield Case(param.name or opt, (param.name or opt, "run"), value, tuple(new))
+                continue
+            text = template.format(v=value) if template else value
+            arity = max(param.nargs, 1)
+            for slot in range(arity):
+                new = list(argv)
+                if opt in new:
+                    at = new.index(opt)
+                    olds = new[at + 1 : at + 1 + arity]
+                else:
+                    default = param.default if arity > 1 else ("1",)
+                    at, olds = len(new), [str(v) for v in default]
+                    new += [opt, *olds]
+                olds = list(olds)
+                olds[slot] = text
+                new[at + 1 : at + 1 + arity] = olds
+                yield Case(opt, _names(param.opts), value, tuple(new))
+
+
+class _Hang(Exception):
+    pass
+
+
+def _alarm(_signum: int, _frame: FrameType | None) -> None:
+    raise _Hang
+
+
+def test_every_command_has_a_base_invocation() -> None:
+    missing = sorted(" ".join(p) for p in COMMANDS if p not in BASES)
+    stale = sorted(" ".join(p) for p in BASES if p not in COMMANDS)
+    assert not missing, f"commands without a base invocation in BASES: {missing}"
+    assert not stale, f"BASES names commands the CLI no longer has: {stale}"
+
+
+@pytest.mark.parametrize("path", sorted(BASES), ids=" ".join)
+def test_numeric_options_take_extremes_without_an_internal_error(
+    path: tuple[str, ...], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    base = BASES[path]
+    code = run([*path, *base.argv(tmp_path)])
+    _, err = capsys.readouterr()
+    assert code == (2 if base.ends_with else 0), err
+    if base.ends_with:
+        assert base.ends_with in err, err
+    failures: list[str] = []
+    previous = signal.signal(signal.SIGALRM, _alarm)
+    try:
+        for n, case in enumerate(_cases(path, base, tmp_path)):
+            argv = list(case.argv)
+            if base.fresh:  # the same argv in a folder of its own
+                folder = tmp_path / f"case{n}"
+                folder.mkdir()
+                argv = [a.replace(str(tmp_path), str(folder)) for a in argv]
+            signal.alarm(CASE_LIMIT_S)
+            try:
+                code = run([*path, *argv])
+            except _Hang:
+                code = -1
+            finally:
+                signal.alarm(0)
+            _, err = capsys.readouterr()
+            lines = err.strip().splitlines()
+            named = bool(lines) and any(n in lines[-1] for n in case.names)
+            if case.value.startswith("-") and case.option not in case.argv:
+                # a negative positional argument reads as an unknown option: refused, exit 2
+                named = named or bool(lines) and "No such option" in lines[-1]
+            where = f"{case.option} {case.value}: exit {code}: {err.strip()[:300]!r}"
+            if code not in (0, 2):
+                failures.append(where)
+            elif code == 2 and (len(lines) != 1 or not (named or base.ends_with and
+                                                        base.ends_with in lines[0])):
+                failures.append(where)
+            elif case.value in NON_FINITE and not (code == 2 and named):
+                failures.append(where)
+    finally:
+        signal.signal(signal.SIGALRM, previous)
+    assert not failures, "\n".join(failures)
