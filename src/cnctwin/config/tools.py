@@ -11,11 +11,19 @@ from pydantic_core import PydanticCustomError
 from cnctwin.config.base import Section
 from cnctwin.nc.setup import ToolEntry
 
-__all__ = ["MAX_TOOL_DIAMETER_MM", "MAX_TOOL_LENGTH_MM", "MIN_TOOL_DIAMETER_MM", "ToolConfig"]
+__all__ = [
+    "MAX_FLUTES",
+    "MAX_TOOL_DIAMETER_MM",
+    "MAX_TOOL_LENGTH_MM",
+    "MIN_TOOL_DIAMETER_MM",
+    "ToolConfig",
+]
 
 #: Smallest and largest cutter diameter, mm: 10 um micro end mills to 1 m face mills.
 MIN_TOOL_DIAMETER_MM = 0.01
 MAX_TOOL_DIAMETER_MM = 1000.0
+#: Most flutes (teeth) of a cutter: above the densest face mills; it bounds per-tooth arrays.
+MAX_FLUTES = 100
 #: Largest fluted length and tool length offset magnitude, mm (long drills, extensions).
 MAX_TOOL_LENGTH_MM = 2000.0
 
@@ -53,7 +61,7 @@ class ToolConfig(Section):
     kind: Literal["flat", "ball", "bull"] = "flat"
     diameter_mm: float = Field(ge=MIN_TOOL_DIAMETER_MM, le=MAX_TOOL_DIAMETER_MM)
     corner_radius_mm: float | None = Field(default=None, ge=0, validate_default=True)
-    flutes: int = Field(default=2, ge=1, le=100)
+    flutes: int = Field(default=2, ge=1, le=MAX_FLUTES)
     helix_deg: float = Field(default=30.0, ge=0, le=89)
     flute_length_mm: float | None = Field(default=None, ge=0.01, le=MAX_TOOL_LENGTH_MM)
     length_mm: float = Field(default=0.0, ge=-MAX_TOOL_LENGTH_MM, le=MAX_TOOL_LENGTH_MM)

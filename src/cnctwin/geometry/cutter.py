@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
+from cnctwin.config.tools import MAX_FLUTES
 from cnctwin.errors import ConfigError
 
 if TYPE_CHECKING:
@@ -73,7 +74,7 @@ class Cutter:
         Corner radius ``rc`` in mm: 0 for ``flat``, ``conical`` and ``snub``, ``D / 2`` for
         ``ball``, strictly between for ``bull``.
     flutes
-        Number of flutes (teeth), >= 1.
+        Number of flutes (teeth), 1 to 100 (:data:`~cnctwin.config.tools.MAX_FLUTES`).
     helix_rad
         Helix angle in rad, in [0, pi/2). The envelope does not depend on it; force models do.
     tip_diameter_mm
@@ -146,8 +147,12 @@ class Cutter:
                     f" tool is {height:g} mm high: give a flute length at least that, or a "
                     "wider tip angle"
                 )
-        if isinstance(self.flutes, bool) or not isinstance(self.flutes, int) or self.flutes < 1:
-            raise ConfigError(f"flutes={self.flutes!r}; give an integer >= 1")
+        if (
+            isinstance(self.flutes, bool)
+            or not isinstance(self.flutes, int)
+            or not 1 <= self.flutes <= MAX_FLUTES
+        ):
+            raise ConfigError(f"flutes={self.flutes!r}; give an integer from 1 to {MAX_FLUTES}")
         if not (math.isfinite(self.helix_rad) and 0.0 <= self.helix_rad < 0.5 * math.pi):
             raise ConfigError(f"helix_rad={self.helix_rad!r}; give an angle in [0, pi/2) rad")
 

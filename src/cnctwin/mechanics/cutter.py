@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
+from cnctwin.config.tools import MAX_FLUTES
 from cnctwin.errors import ConfigError
 
 if TYPE_CHECKING:
@@ -68,7 +69,7 @@ class EndMill:
     diameter_m
         Cutter diameter D in m, > 0.
     teeth
-        Number of teeth (flutes) N, >= 1.
+        Number of teeth (flutes) N, 1 to 100 (:data:`~cnctwin.config.tools.MAX_FLUTES`).
     helix_rad
         Helix angle beta in rad, 0 <= beta < pi/2 (right-hand helix for a clockwise spindle).
     kind
@@ -99,9 +100,9 @@ class EndMill:
         if not (isinstance(d, (int, float)) and math.isfinite(d) and d > 0):
             raise ConfigError(f"diameter_m={d!r}; give a finite diameter > 0 m")
         if isinstance(self.teeth, bool) or not isinstance(self.teeth, (int, np.integer)):
-            raise ConfigError(f"teeth={self.teeth!r}; give an integer >= 1")
-        if self.teeth < 1:
-            raise ConfigError(f"teeth={self.teeth!r}; give an integer >= 1")
+            raise ConfigError(f"teeth={self.teeth!r}; give an integer from 1 to {MAX_FLUTES}")
+        if not 1 <= self.teeth <= MAX_FLUTES:
+            raise ConfigError(f"teeth={self.teeth!r}; give an integer from 1 to {MAX_FLUTES}")
         if not (math.isfinite(self.helix_rad) and 0.0 <= self.helix_rad < math.pi / 2):
             raise ConfigError(f"helix_rad={self.helix_rad!r}; give 0 <= helix < pi/2 rad")
         if not (math.isfinite(self.runout_m) and self.runout_m >= 0.0):
