@@ -42,8 +42,10 @@ def _demo(tmp_path: Path, *extra: str) -> tuple[dict, str, Path]:
             "--json",
             "--db",
             str(db),
+            # the demo's own speed (2x): at 4x a loaded computer reads the machine half as
+            # often per mm cut (docs/benchmarks.md, "The twin under CPU load", is measured at 2x)
             "--speed",
-            "4",
+            "2",
             *extra,
         ],
         capture_output=True,
@@ -74,7 +76,8 @@ def test_demo_adapts_the_feed_then_stops_on_the_hole(tmp_path: Path) -> None:
     # a cycle records only a new sample, and an overloaded twin keeps fewer (it sheds the
     # historian's detail; docs/twin.md, "Overload")
     assert 0 < frames == report["samples_recorded"] <= report["cycles"]
-    assert ("force_out_of_band", "stop", 1) == decisions[-1]
+    # one stop, on the hole; cycles until the axes are seen at rest may add feed decisions
+    assert [d for d in decisions if d[1] == "stop"] == [("force_out_of_band", "stop", 1)]
     assert any(r == "form_error" and a == "feed_override_pct" and ok for r, a, ok in decisions)
     assert status == "stopped"
     assert json.loads(summary)["stop_reaction_ms"] == report["stop_reaction_ms"]

@@ -50,10 +50,14 @@ def test_server_restart_mid_run_reconnects_and_records_the_gap(
             config = _with_endpoint(clean, machine.endpoint)
 
             async def outage() -> None:
+                # the machine holds still while the server is away, so the twin's blank stays
+                # true however long a loaded computer takes to restart the server
                 await asyncio.sleep(1.5)
+                await machine.clock.stop()
                 await machine.stop_server()
                 await asyncio.sleep(1.0)
                 await machine.restart_server()
+                machine.go()
 
             with Historian.open(db) as historian:
                 task = None
