@@ -59,7 +59,7 @@ def test_served_machine_is_read_by_a_client_and_ends_with_its_program(transport:
     [
         (["--transport", "mqtt"], "--transport 'mqtt'; valid: opcua, modbus"),
         (["--port", "70000"], "--port 70000; give 0 (a free port) to 65535"),
-        (["--speed", "0"], "--speed 0.0: give 0 < speed <= 20"),
+        (["--speed", "0"], "--speed 0.0: give a value > 0 and <= 20 x real time"),
         (["--config", "no-such.toml"], "no-such.toml: cannot read configuration"),
     ],
 )

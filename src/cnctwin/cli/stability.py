@@ -29,9 +29,6 @@ __all__ = ["app", "lobes", "lobes_report", "parse_rpm_list", "parse_rpm_range"]
 
 logger = logging.getLogger(__name__)
 
-#: Least radial immersion ae/D: below 0.1 % the cut's arc of engagement vanishes numerically.
-MIN_IMMERSION = 1e-3
-
 app = typer.Typer(help="Chatter stability of milling and turning.", no_args_is_help=True)
 
 _RPM = math.pi / 30.0  # rad/s per rpm
@@ -174,7 +171,7 @@ def lobes(
     ] = None,
     immersion: Annotated[
         float | None,
-        typer.Option("--immersion", help="Radial immersion ae/D, 0 < ae/D <= 1 (1: slot)."),
+        typer.Option("--immersion", help="Radial immersion ae/D, 0.001 <= ae/D <= 1 (1: slot)."),
     ] = None,
     down: Annotated[
         bool | None,
@@ -295,6 +292,8 @@ def _speeds(
 
 def _overrides(**given: Any) -> dict[str, dict[str, Any]]:
     """The options as replacements of the file's tables; option values checked here."""
+    from cnctwin.config.stability import MIN_IMMERSION
+
     cut: dict[str, Any] = {}
     spec: dict[str, Any] = {}
     if given["immersion"] is not None:

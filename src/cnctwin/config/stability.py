@@ -46,6 +46,9 @@ __all__ = [
 _DIRECTIONS = {"x": 0.0, "y": 90.0}
 #: Most spindle speeds of a lobe diagram (``[lobes] points``, ``--rpm-range``).
 MAX_POINTS = 100_000
+#: Least radial immersion ae/D (``cut.radial_immersion``, ``--immersion``): below 0.1 % the
+#: arc of engagement vanishes numerically.
+MIN_IMMERSION = 1e-3
 #: A spindle speed of the lobe diagram, rpm (as ``[machine] max_spindle_rpm``).
 _Rpm = Annotated[float, Field(gt=0, le=MAX_SPINDLE_RPM)]
 _Model = TypeVar("_Model", bound=Section)
@@ -128,7 +131,7 @@ class CutSection(Section):
 
     operation: Literal["milling", "orthogonal"] = "milling"
     teeth: int | None = Field(default=None, ge=1, le=100)
-    radial_immersion: float = Field(default=1.0, gt=0, le=1)
+    radial_immersion: float = Field(default=1.0, ge=MIN_IMMERSION, le=1)
     milling: Literal["down", "up"] = "down"
     material: str | None = None
     ktc_n_mm2: float | None = Field(default=None, gt=0, le=1e5)
