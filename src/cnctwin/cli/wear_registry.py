@@ -138,7 +138,7 @@ def compensate(
         measured = float(measurement_mm)
     except ValueError:
         raise DataError(
-            f"--measurement {measurement_mm!r} is not a number; give the dimension in mm"
+            f"measurement {measurement_mm!r} is not a number; give the dimension in mm"
         ) from None
     check_number("--measurement", measured, 0.0, MAX_DIMENSION_MM, low_open=True, unit="mm")
     with TwinRegistry(db) as registry:
