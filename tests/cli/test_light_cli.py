@@ -59,3 +59,10 @@ def test_an_unknown_command_is_bad_input(capsys: pytest.CaptureFixture[str]) -> 
 def test_root_group_knows_every_command_without_importing_it() -> None:
     group = typer.main.get_command(app)
     assert list(group.commands) == list(COMMANDS)  # type: ignore[attr-defined]
+
+
+def test_loading_the_run_command_keeps_the_run_function() -> None:
+    load_command("run")
+    import cnctwin.cli
+
+    assert callable(cnctwin.cli.run) and cnctwin.cli.run is run

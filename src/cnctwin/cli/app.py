@@ -13,6 +13,7 @@ import sys
 import traceback
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Annotated, Any
 
 import typer
@@ -111,17 +112,29 @@ COMMANDS: dict[str, _Lazy] = {
 }
 
 
+def _import(module: str) -> ModuleType:
+    """Import ``cnctwin.cli.<module>``, keeping the names the package itself exports.
+
+    Importing a submodule binds it on its package: the command module ``cnctwin.cli.run``
+    would hide the function ``cnctwin.cli.run`` that callers import.
+    """
+    package = sys.modules[__name__.rpartition(".")[0]]
+    kept = {name: getattr(package, name) for name in package.__all__ if hasattr(package, name)}
+    loaded = importlib.import_module(f"cnctwin.cli.{module}")
+    for exported, value in kept.items():
+        setattr(package, exported, value)
+    return loaded
+
+
 def load_command(name: str) -> Any:
     """Import the command ``name`` of :data:`COMMANDS` and build its click command."""
     entry = COMMANDS[name]
-    target = getattr(importlib.import_module(f"cnctwin.cli.{entry.module}"), entry.attribute)
+    target = getattr(_import(entry.module), entry.attribute)
     if isinstance(target, typer.Typer):
         registered = {info.name for info in target.registered_commands}
         for command, module, function in entry.extra:
             if command not in registered:
-                target.command(command)(
-                    getattr(importlib.import_module(f"cnctwin.cli.{module}"), function)
-                )
+                target.command(command)(getattr(_import(module), function))
     # Built under a root like the real one, so help renders alike (plain text, no
     # completion options).
     holder = typer.Typer(add_completion=False, rich_markup_mode=None)
