@@ -241,18 +241,20 @@ class WearEKF:
         Parameters
         ----------
         dmr_mm3
-            Material removed since the previous step, mm^3 (>= 0).
+            Material removed since the previous step, mm^3 (finite, >= 0).
         torque_nm
             Measured spindle motor torque, N m; ``nan`` for a missed sample.
         torque_base_nm
-            Model torque without wear at this step, N m.
+            Model torque without wear at this step, N m (finite).
 
         Returns
         -------
         EKFStep
         """
-        if not (dmr_mm3 >= 0.0):
-            raise ConfigError(f"dmr_mm3 must be >= 0; got {dmr_mm3!r}")
+        if not (math.isfinite(dmr_mm3) and dmr_mm3 >= 0.0):
+            raise ConfigError(f"dmr_mm3 must be a finite number >= 0; got {dmr_mm3!r}")
+        if not math.isfinite(torque_base_nm):
+            raise ConfigError(f"torque_base_nm must be finite (N m); got {torque_base_nm!r}")
         law = self.propagation
         vb = self.vb_mm
         prior = law.propagate(vb, dmr_mm3)

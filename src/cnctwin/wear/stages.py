@@ -78,7 +78,7 @@ class StageMonitor:
         self, boundaries_mm: Sequence[float], expected_entry_s: Sequence[float] | None = None
     ) -> None:
         bounds = tuple(float(b) for b in boundaries_mm)
-        if len(bounds) != 3 or not (0 < bounds[0] < bounds[1] < bounds[2]):
+        if len(bounds) != 3 or not (0 < bounds[0] < bounds[1] < bounds[2] < math.inf):
             raise ConfigError(
                 "boundaries_mm must be three increasing positive wear values (entry of "
                 f"stages II, III, IV); got {tuple(boundaries_mm)!r}"
