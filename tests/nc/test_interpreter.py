@@ -1157,7 +1157,7 @@ def test_messages_and_warnings() -> None:
 
 
 def test_plain_comments_are_not_messages() -> None:
-    interp, _ = run("G21 (a comment)\n; another\n(message, not a MSG)\nG0 X1")
+    interp, _ = run("G21 (a comment)\n; another\n(message, not a MSG)\nG0 X1\nM2")
     assert interp.messages == []
     assert interp.warnings == []
 

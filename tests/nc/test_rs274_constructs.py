@@ -13,6 +13,11 @@ from pathlib import Path
 import pytest
 from rs274_oracle import DEFAULT_TOOLS, first_difference, rs274_fixture, run_cnctwin, run_rs274
 
+from cnctwin.errors import NCError
+from cnctwin.nc.interpreter import Interpreter
+from cnctwin.nc.setup import NCSetup
+from cnctwin.nc.tool_table import parse_tool_table
+
 __all__ = ["rs274_fixture"]  # the fixture, used by name
 
 pytestmark = pytest.mark.validation
@@ -94,3 +99,86 @@ def test_arc_end_radius_beyond_linuxcnc_tolerance_is_refused(
     rs274: str, tmp_path: Path, units: str, radius: float, error: float
 ) -> None:
     assert "radii must agree" in _both_refuse(rs274, tmp_path, _arc(units, radius, error))
+
+
+# ----------------------------------------------------------------- tools
+def test_m61_sets_the_current_tool_without_a_change(rs274: str, tmp_path: Path) -> None:
+    _agree(rs274, tmp_path, "G21 G0 X1\nM61 Q3\nG0 X2\nM61 Q0\nG0 X3\nM2\n")
+
+
+def test_m61_then_g43_uses_the_new_tool_length() -> None:
+    # LinuxCNC's documentation: G43 without H uses the current tool, which M61 sets. (The
+    # standalone rs274 applies a zero length here: its tool data are not updated by M61.)
+    setup = NCSetup(tools=parse_tool_table("T3 P3 D0.1 Z0.5\n", units="inch"))
+    interp = Interpreter(setup)
+    segments = list(interp.run_text("G21 M61 Q3\nG43\nG0 X1 Z0\nM2"))
+    assert segments[-1].end_mm[2] == pytest.approx(12.7)
+    assert segments[-1].state.tool == 3 and interp.tools_used == [3]
+
+
+@pytest.mark.parametrize("block", ["M61", "M61 Q-1", "M61 Q1.5"])
+def test_m61_without_a_tool_number_is_refused(block: str) -> None:
+    with pytest.raises(NCError, match="M61 needs Q") as caught:
+        list(Interpreter().run_text(f"G21\n{block}\nM2"))
+    assert caught.value.line == 2
+
+
+def test_m61_without_q_is_refused_by_both(rs274: str, tmp_path: Path) -> None:
+    _both_refuse(rs274, tmp_path, "G21 G0 X1\nM61\nM2\n")
+
+
+# ----------------------------------------------------------------- subroutines
+def _nested_calls(depth: int) -> str:
+    return (
+        "o100 sub\n  G0 X#1\n  o101 if [#1 LT {depth}]\n    o100 call [#1 + 1]\n"
+        "  o101 endif\no100 endsub\nG21\no100 call [1]\nM2\n"
+    ).replace("{depth}", str(depth))
+
+
+def test_nine_nested_calls_run(rs274: str, tmp_path: Path) -> None:
+    _agree(rs274, tmp_path, _nested_calls(9))
+
+
+def test_a_tenth_nested_call_is_refused(rs274: str, tmp_path: Path) -> None:
+    assert "nested deeper than 9" in _both_refuse(rs274, tmp_path, _nested_calls(10))
+
+
+# ----------------------------------------------------------------- reading
+@pytest.mark.parametrize(
+    "text",
+    [
+        "G21 G0 X\uff11\uff10\nM2\n",  # full-width digits
+        "G21 G0 X1\nN\uff11 G0 X2\nM2\n",
+        "G21 G0 X[\uff11 + 1]\nM2\n",
+        "G21 G\u0661 X3\nM2\n",  # an Arabic-Indic digit
+    ],
+)
+def test_non_ascii_digits_are_not_digits(rs274: str, tmp_path: Path, text: str) -> None:
+    assert "found" in _both_refuse(rs274, tmp_path, text)
+
+
+@pytest.mark.parametrize(
+    ("text", "warning"),
+    [
+        ("", "the program is empty"),
+        ("(only a comment)\n\n", "the program is empty"),
+        ("G21\nG0 X1\n", "ends without M2, M30 or a closing '%'"),
+    ],
+)
+def test_a_program_without_an_end_warns(
+    rs274: str, tmp_path: Path, text: str, warning: str
+) -> None:
+    program = tmp_path / "p.ngc"
+    program.write_text(text)
+    interp = Interpreter()
+    list(interp.run_file(program))
+    assert len(interp.warnings) == 1 and warning in interp.warnings[0]
+    # LinuxCNC's rs274 stops on them with an error; cnctwin runs them and warns.
+    assert "File ended with no percent sign" in run_rs274(rs274, program).error
+
+
+@pytest.mark.parametrize("end", ["M2", "M30", "%"])
+def test_a_program_with_an_end_does_not_warn(end: str) -> None:
+    interp = Interpreter()
+    list(interp.run_text(f"%\nG21 G0 X1\n{end}\n"))
+    assert interp.warnings == []

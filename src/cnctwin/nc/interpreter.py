@@ -93,11 +93,11 @@ _FAST_WORDS = frozenset("xyzf")
 #: Words that every block may carry (feed, speed, tool, axes).
 _PLAIN_WORDS = frozenset("fstxyzabc@^")
 #: Modal groups of M-codes (RS274NGC): stops, tool change, spindle, coolant, overrides.
-_M_GROUPS = {0: 4, 1: 4, 2: 4, 30: 4, 60: 4, 6: 6, 3: 7, 4: 7, 5: 7, 7: 8, 8: 8, 9: 8, 48: 9, 49: 9}
+_M_GROUPS = {0: 4, 1: 4, 2: 4, 30: 4, 60: 4, 6: 6, 61: 6, 3: 7, 4: 7, 5: 7, 7: 8, 8: 8, 9: 8, 48: 9, 49: 9}
 _READ_ONLY = frozenset(("_x", "_y", "_z", "_abs_x", "_abs_y", "_abs_z"))
-_NUM = r"\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+))\s*"
+_NUM = r"\s*([-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+))\s*"
 #: A raw line of only an optional N word and X, Y, Z words in that order.
-_XYZ_LINE = re.compile(rf"\s*(?:[nN]\d+\s*)?(?:[xX]{_NUM})?(?:[yY]{_NUM})?(?:[zZ]{_NUM})?")
+_XYZ_LINE = re.compile(rf"\s*(?:[nN][0-9]+\s*)?(?:[xX]{_NUM})?(?:[yY]{_NUM})?(?:[zZ]{_NUM})?")
 _NON_MODAL_WITH_AXES = {100, 280, 300, 520, 920}
 _CYCLES = {730, 810, 820, 830, 840, 850, 860, 890}
 _COORD_SYSTEMS = {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8, 593: 9}
@@ -136,7 +136,7 @@ _UNSUPPORTED_M: dict[int, str] = {
     98: "Fanuc subprogram call (M98)",
     99: "Fanuc subprogram return (M99)",
 }
-_KNOWN_M = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 30, 48, 49, 60}
+_KNOWN_M = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 30, 48, 49, 60, 61}
 
 
 class Interpreter(OWordControl):
@@ -330,6 +330,13 @@ class Interpreter(OWordControl):
                             "end of subroutine file reached without 'endsub' or 'return'"
                         )
                     self._sources.pop()
+            if not self._started:
+                self._warn("the program is empty: no block to run")
+            elif not self._ended:
+                self._warn(
+                    "the program ends without M2, M30 or a closing '%' "
+                    "(LinuxCNC stops with an error there)"
+                )
             self._finish_comp()
             if self._out:
                 self._segments_left -= len(self._out)
@@ -395,7 +402,7 @@ class Interpreter(OWordControl):
                 close = text.find("]", end)
                 end = close + 1 if close > 0 else len(text)
             else:
-                while end < len(text) and (text[end].isdigit() or text[end] == "."):
+                while end < len(text) and text[end] in "0123456789.":
                     end += 1
             ref = "".join(text[at:end].split()).lower()
             try:
@@ -586,6 +593,8 @@ class Interpreter(OWordControl):
             self._select_tool(words["t"])
         if 6 in block.mcodes:
             self._change_tool()
+        elif 61 in block.mcodes:
+            self._set_current_tool(words.get("q"))
         # 6: spindle.
         for m in block.mcodes:
             if m in (3, 4, 5):
@@ -737,6 +746,8 @@ class Interpreter(OWordControl):
             allowed.add("h")
         if groups.get(13) == 640:
             allowed |= {"p", "q"}
+        if 61 in block.mcodes:
+            allowed.add("q")
         for letter in words:
             if letter not in allowed:
                 raise self._error(
@@ -819,11 +830,20 @@ class Interpreter(OWordControl):
             self._change_tool()
 
     def _change_tool(self) -> None:
-        tool = self._selected_tool
+        self._make_current(self._selected_tool)
+
+    def _make_current(self, tool: int) -> None:
         if tool not in self.tools_used and tool != 0:
             self.tools_used.append(tool)
         if tool != self._state.tool:
             self._state = replace(self._state, tool=tool)
+
+    def _set_current_tool(self, value: float | None) -> None:
+        """M61 Q: make tool Q the current tool without a tool change (LinuxCNC)."""
+        if value is None or value < 0 or value != int(value):
+            q = "no Q word" if value is None else f"Q{value:g}"
+            raise self._error(f"M61 needs Q<tool number>, a non-negative integer; got {q}")
+        self._make_current(int(value))
 
     def _set_tool_offset(self, code: int, words: dict[str, float]) -> None:
         if code == 490:

@@ -18,11 +18,11 @@ from cnctwin.nc.limits import MAX_NUMBER_CHARS, check_number_text, check_word
 
 __all__ = ["Block", "OWord", "lex_block", "strip_comments", "O_KEYWORDS"]
 
-_NUMBER = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)"
+_NUMBER = r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)"
 _SIMPLE_LINE = re.compile(rf"(?:[a-z@^]{_NUMBER})*")
 _WORD = re.compile(rf"([a-z@^])({_NUMBER})")
 _MESSAGE = re.compile(r"^\s*(msg|debug|print)\s*,(.*)$", re.IGNORECASE | re.DOTALL)
-_PROGRAM_NUMBER = re.compile(r"^[o:]\d+$")
+_PROGRAM_NUMBER = re.compile(r"^[o:][0-9]+$")
 _NO_ASSIGNMENTS: list[tuple[int | str, float]] = []  # shared, never mutated
 
 #: O-word keywords (LinuxCNC subroutines and control flow).
@@ -44,7 +44,7 @@ O_KEYWORDS = (
     "return",
 )
 _O_WORD = re.compile(
-    r"^o(\d+|<[^>]*>)(" + "|".join(sorted(O_KEYWORDS, key=len, reverse=True)) + ")"
+    r"^o([0-9]+|<[^>]*>)(" + "|".join(sorted(O_KEYWORDS, key=len, reverse=True)) + ")"
 )
 
 

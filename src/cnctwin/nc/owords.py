@@ -22,8 +22,9 @@ __all__ = ["OWordControl", "MAX_CALL_DEPTH", "MAX_LOOP_ITERATIONS"]
 #: Upper bound on the iterations of one O-word loop (and on a repeat count), against
 #: runaway programs; a loop of a few lines reaches it in a few seconds.
 MAX_LOOP_ITERATIONS = 100_000
-#: Upper bound on nested subroutine calls.
-MAX_CALL_DEPTH = 100
+#: Most subroutine calls open at once: LinuxCNC refuses a tenth nested call
+#: ("Too many subroutine levels"), so cnctwin does too.
+MAX_CALL_DEPTH = 9
 
 
 class OWordControl:
