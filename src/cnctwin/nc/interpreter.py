@@ -93,7 +93,23 @@ _FAST_WORDS = frozenset("xyzf")
 #: Words that every block may carry (feed, speed, tool, axes).
 _PLAIN_WORDS = frozenset("fstxyzabc@^")
 #: Modal groups of M-codes (RS274NGC): stops, tool change, spindle, coolant, overrides.
-_M_GROUPS = {0: 4, 1: 4, 2: 4, 30: 4, 60: 4, 6: 6, 61: 6, 3: 7, 4: 7, 5: 7, 7: 8, 8: 8, 9: 8, 48: 9, 49: 9}
+_M_GROUPS = {
+    0: 4,
+    1: 4,
+    2: 4,
+    30: 4,
+    60: 4,
+    6: 6,
+    61: 6,
+    3: 7,
+    4: 7,
+    5: 7,
+    7: 8,
+    8: 8,
+    9: 8,
+    48: 9,
+    49: 9,
+}
 _READ_ONLY = frozenset(("_x", "_y", "_z", "_abs_x", "_abs_y", "_abs_z"))
 _NUM = r"\s*([-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+))\s*"
 #: A raw line of only an optional N word and X, Y, Z words in that order.
