@@ -16,6 +16,7 @@ from rs274_oracle import DEFAULT_TOOLS, first_difference, rs274_fixture, run_cnc
 from cnctwin.errors import NCError
 from cnctwin.nc.interpreter import Interpreter
 from cnctwin.nc.setup import NCSetup
+from cnctwin.nc.summary import summarize
 from cnctwin.nc.tool_table import parse_tool_table
 
 __all__ = ["rs274_fixture"]  # the fixture, used by name
@@ -182,3 +183,23 @@ def test_a_program_with_an_end_does_not_warn(end: str) -> None:
     interp = Interpreter()
     list(interp.run_text(f"%\nG21 G0 X1\n{end}\n"))
     assert interp.warnings == []
+
+
+# ----------------------------------------------------------------- rotary feed moves
+@pytest.mark.parametrize(
+    ("text", "seconds"),
+    [
+        ("G21 G94 G1 A90 F360", 15.0),  # F in deg/min on a rotary-only move
+        ("G20 G94 G1 A90 F360", 15.0),  # degrees are not inches
+        ("G21 G93 G1 A90 F4", 15.0),  # inverse time: 1/4 min
+        ("G21 G94 G1 A30 B40 F100", 30.0),  # 50 deg together
+        ("G21 G94 G1 X10 A90 F600", 1.0),  # with a linear axis, F is along X Y Z
+    ],
+)
+def test_rotary_only_feed_moves_take_time(
+    rs274: str, tmp_path: Path, text: str, seconds: float
+) -> None:
+    _agree(rs274, tmp_path, f"{text}\nM2\n")
+    result = summarize(Interpreter().run_text(f"{text}\nM2"), rapid_mm_min=10_000.0)
+    assert result.machining_time_s == pytest.approx(seconds)
+    assert result.zero_feed_moves == 0

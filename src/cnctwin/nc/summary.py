@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from cnctwin.errors import ConfigError, NCError
-from cnctwin.nc.segments import PLANE_AXES, MotionKind, Segment, Vec3, arc_sweep_rad
+from cnctwin.nc.segments import PLANE_AXES, FeedMode, MotionKind, Segment, Vec3, arc_sweep_rad
 
 __all__ = ["ProgramSummary", "arc_extreme_points", "summarize"]
 
@@ -33,7 +33,8 @@ class ProgramSummary:
     feed_length_mm, rapid_length_mm
         Path length of feed moves (linear and arc) and of rapids in mm.
     machining_time_s
-        Sum over feed moves of length / feed, in s (moves with feed 0 add nothing).
+        Sum over feed moves of length / feed, in s (moves with feed 0 add nothing); a move
+        that turns only rotary axes takes its angle / F, F in degrees/min (LinuxCNC).
     rapid_time_s
         Rapid length at the machine's rapid rate, in s.
     dwell_time_s
@@ -133,7 +134,10 @@ def summarize(
             rapid_length += length
         else:
             feed_length += length
-            if seg.feed_mm_min > 0:
+            turn_deg = 0.0 if length > 0.0 else _rotary_distance_deg(seg)
+            if turn_deg > 0.0 and (rotary_feed := _rotary_feed_deg_min(seg, turn_deg)) > 0.0:
+                machining_time += 60.0 * turn_deg / rotary_feed
+            elif turn_deg <= 0.0 and seg.feed_mm_min > 0:
                 machining_time += 60.0 * length / seg.feed_mm_min
             else:
                 zero_feed += 1
@@ -170,6 +174,26 @@ def summarize(
         zero_feed_moves=zero_feed,
         warnings=warnings,
     )
+
+
+def _rotary_distance_deg(seg: Segment) -> float:
+    """How far a move turns its rotary axes A, B, C together, in degrees."""
+    return math.dist(seg.start_abc_deg, seg.end_abc_deg)
+
+
+def _rotary_feed_deg_min(seg: Segment, turn_deg: float) -> float:
+    """Feed rate of a move that turns only rotary axes, deg/min.
+
+    LinuxCNC reads F as degrees per minute on such a move (per minute under G94, per
+    revolution of the spindle under G95; under G93 the move takes 1/F minutes).
+    ``turn_deg``: the move's rotary distance in degrees.
+    """
+    state = seg.state
+    if state.feed_mode == FeedMode.INVERSE_TIME:
+        return turn_deg * state.programmed_feed
+    if state.feed_mode == FeedMode.UNITS_PER_REV:
+        return state.programmed_feed * seg.spindle_rpm
+    return state.programmed_feed
 
 
 def _check_travel(
