@@ -270,10 +270,10 @@ def _cases(path: tuple[str, ...], base: Base, tmp: Path) -> Iterator[Case]:
         values = EXTREMES + (("1000000000000",) if kind == "int" else ())
         for value in values:
             if isinstance(param, TyperArgument):
-                if param.nargs != 1 or not any(a.lstrip("-").isdigit() for a in argv):
-                    continue
-                index = next(i for i, a in enumerate(argv) if a.isdigit())
-                new = [*argv[:index], value, *argv[index + 1 :]]
+                # the base gives a numeric argument as the only all-digit word
+                digits = [i for i, a in enumerate(argv) if a.isdigit()]
+                assert param.nargs == 1 and len(digits) == 1, f"{path}: base lacks {param.name}"
+                new = [*argv[: digits[0]], value, *argv[digits[0] + 1 :]]
                 yield Case(param.name or opt, (param.name or opt,), value, tuple(new))
                 continue
             text = template.format(v=value) if template else value
@@ -299,6 +299,17 @@ class _Hang(Exception):
 
 def _alarm(_signum: int, _frame: FrameType | None) -> None:
     raise _Hang
+
+
+def test_the_walk_finds_the_numeric_options(tmp_path: Path) -> None:
+    """Guards the walk itself: a change of typer's parameter objects must not make every
+    option look non-numeric (and the property hold vacuously)."""
+    found = {case.option for case in _cases(("forces",), BASES[("forces",)], tmp_path)}
+    assert {"--rpm", "--teeth", "--diameter-mm", "--ktc"} <= found
+    found = {case.option for case in _cases(("runs", "show"), BASES[("runs", "show")], tmp_path)}
+    assert found == {"run_id"}
+    found = {case.option for case in _cases(("wear", "ekf"), BASES[("wear", "ekf")], tmp_path)}
+    assert {"--stages-mm", "--seed", "--vb0-mm"} <= found
 
 
 def test_every_command_has_a_base_invocation() -> None:
