@@ -203,3 +203,46 @@ def test_rotary_only_feed_moves_take_time(
     result = summarize(Interpreter().run_text(f"{text}\nM2"), rapid_mm_min=10_000.0)
     assert result.machining_time_s == pytest.approx(seconds)
     assert result.zero_feed_moves == 0
+
+
+# ----------------------------------------------------------------- cutter compensation
+#: A tool of radius 0.25 in (diameter 0.5 in).
+QUARTER_INCH_TOOL = "T1 P1 D0.5 Z0\n"
+
+
+def _entry(length_in: float) -> str:
+    return f"G20 G17 G90 T1 M6\nG0 X0 Y0 Z0\nG41 G1 X{length_in} F10\nY1\nG40 G0 X-1\nM2\n"
+
+
+@pytest.mark.parametrize("length_in", [0.25, 0.26, 1.0])
+def test_cutter_comp_entry_of_at_least_the_tool_radius_runs(
+    rs274: str, tmp_path: Path, length_in: float
+) -> None:
+    _agree(rs274, tmp_path, _entry(length_in), QUARTER_INCH_TOOL)
+
+
+@pytest.mark.parametrize("length_in", [0.1, 0.2499])
+def test_cutter_comp_entry_shorter_than_the_tool_radius_is_refused(
+    rs274: str, tmp_path: Path, length_in: float
+) -> None:
+    error = _both_refuse(rs274, tmp_path, _entry(length_in), QUARTER_INCH_TOOL)
+    assert "shorter than the tool radius" in error and ":3:" in error
+
+
+def _inside_arc(radius_in: float) -> str:
+    return (
+        "G20 G17 G90 T1 M6\nG0 X-1 Y-1 Z0\nG41 G1 X0 Y0 F10\n"
+        f"G3 X{radius_in} Y{radius_in} I0 J{radius_in}\nG1 Y2\nG40 G0 X-1\nM2\n"
+    )
+
+
+@pytest.mark.parametrize("radius_in", [0.25, 0.3, 0.5])
+def test_tool_as_large_as_an_inside_arc_runs(rs274: str, tmp_path: Path, radius_in: float) -> None:
+    # At 0.25 in the offset arc shrinks to its centre; LinuxCNC prints it as an arc of
+    # radius 0 there, and so does cnctwin.
+    _agree(rs274, tmp_path, _inside_arc(radius_in), QUARTER_INCH_TOOL)
+
+
+def test_tool_larger_than_an_inside_arc_is_refused(rs274: str, tmp_path: Path) -> None:
+    error = _both_refuse(rs274, tmp_path, _inside_arc(0.2), QUARTER_INCH_TOOL)
+    assert "larger than the arc radius" in error

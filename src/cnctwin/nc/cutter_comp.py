@@ -322,17 +322,20 @@ class CutterCompensator:
         return self._p3(_add(self._p2(p), self._shift), p[self._axes[2]])
 
     def _offset_radius(self, seg: Segment, radius: float, sense: int, at: str) -> float:
-        """Radius of the offset arc where the programmed arc has radius ``radius`` (mm)."""
+        """Radius of the offset arc where the programmed arc has radius ``radius`` (mm).
+
+        A tool as large as an arc it cuts on the inside is accepted, as LinuxCNC does: the
+        offset arc shrinks to its centre (radius 0).
+        """
         rho = radius - self._side * sense * self._r
-        if rho <= 0.0:
-            relation = "larger than" if rho < 0.0 else "equal to"
+        if rho < -_NO_MOTION_MM:
             raise self._error(
                 seg,
-                f"cutter radius compensation: tool radius {self._r:.6g} mm is {relation} the arc "
-                f"radius {radius:.6g} mm at the arc's {at}; the tool must be smaller than an arc "
-                "it cuts on the inside",
+                f"cutter radius compensation: tool radius {self._r:.6g} mm is larger than the arc "
+                f"radius {radius:.6g} mm at the arc's {at}; the tool must be no larger than an "
+                "arc it cuts on the inside",
             )
-        return rho
+        return max(rho, 0.0)
 
     def _path(self, seg: Segment, start: _Vec2) -> _Path:
         """Geometry and nominal offset of a programmed move starting at ``start``."""
@@ -398,6 +401,14 @@ class CutterCompensator:
                 "the first move after G41/G42 must move in the plane",
             )
         else:
+            length = _norm(_sub(self._p2(seg.end_mm), here))
+            if length < self._r - _NO_MOTION_MM:
+                raise self._error(
+                    seg,
+                    f"cutter radius compensation: the entry move is {length:.6g} mm long, "
+                    f"shorter than the tool radius {self._r:.6g} mm (LinuxCNC refuses it); "
+                    "start the entry at least one tool radius away",
+                )
             path = self._path(seg, here)
         return _Held(seg, path, self._pos, path.comp_end, entry=True)
 
@@ -544,6 +555,8 @@ class CutterCompensator:
     def _check_arc_trim(self, held: _Held, centre: _Vec2) -> None:
         """Raise if trimming an arc at concave corners used it up (gouging)."""
         path = held.path
+        if path.rho_end == 0.0:
+            return  # the offset arc is its centre (tool radius = arc radius): nothing to trim
         lost_start = _wrap(
             _angle(_sub(self._p2(held.start), centre)) - _angle(_sub(path.start, centre))
         )
