@@ -110,8 +110,9 @@ class Base:
 def _registry(tmp: Path) -> Path:
     db = tmp / "wear.db"
     if not db.exists():
-        code = run(["wear", "mount", "--db", str(db), "--tool", "T1", "--target-mm", "20",
-                    "--json"])  # fmt: skip
+        code = run(
+            ["wear", "mount", "--db", str(db), "--tool", "T1", "--target-mm", "20", "--json"]
+        )
         assert code == 0
     return db
 
@@ -134,22 +135,30 @@ BASES: dict[tuple[str, ...], Base] = {
         ends_with="missing.toml",
     ),
     ("forces",): Base(
-        lambda t: ("--diameter-mm 10 --teeth 4 --helix-deg 30 --ae-mm 5 --ap-mm 2 --fz-mm 0.1 "
-                   "--rpm 6000 --material AA6060-T6 --json").split(),  # fmt: skip
+        lambda t: (
+            "--diameter-mm 10 --teeth 4 --helix-deg 30 --ae-mm 5 --ap-mm 2 --fz-mm 0.1 "
+            "--rpm 6000 --material AA6060-T6 --json"
+        ).split(),
         instead=dict.fromkeys(
             ("--ktc", "--krc", "--kac", "--kte", "--kre", "--kae"),
-            lambda t: ("--diameter-mm 10 --teeth 4 --helix-deg 30 --ae-mm 5 --ap-mm 2 "
-                       "--fz-mm 0.1 --rpm 6000 --ktc 800 --krc 300 --kac 200 --kte 20 --kre 25 "
-                       "--kae 2 --json").split(),  # fmt: skip
+            lambda t: (
+                "--diameter-mm 10 --teeth 4 --helix-deg 30 --ae-mm 5 --ap-mm 2 "
+                "--fz-mm 0.1 --rpm 6000 --ktc 800 --krc 300 --kac 200 --kte 20 --kre 25 "
+                "--kae 2 --json"
+            ).split(),
         ),
     ),
     ("simulate",): Base(
-        lambda t: [str(PACKAGED / "demo.ngc"), "-c", str(PACKAGED / "demo.toml"), "--density",
-                   "2", "--cycle-ms", "100", "--json"]  # fmt: skip
+        lambda t: (
+            f"{PACKAGED / 'demo.ngc'} -c {PACKAGED / 'demo.toml'} --density 2 "
+            "--cycle-ms 100 --json".split()
+        )
     ),
     ("signals",): Base(
-        lambda t: [str(PACKAGED / "demo.ngc"), "-c", str(PACKAGED / "demo.toml"), "--density",
-                   "2", "--cycle-ms", "100", "--json"]  # fmt: skip
+        lambda t: (
+            f"{PACKAGED / 'demo.ngc'} -c {PACKAGED / 'demo.toml'} --density 2 "
+            "--cycle-ms 100 --json".split()
+        )
     ),
     ("nc", "inspect"): Base(lambda t: [str(PACKAGED / "demo.ngc"), "--json"]),
     ("nc", "trace"): Base(lambda t: [str(PACKAGED / "demo.ngc")]),
@@ -171,8 +180,10 @@ BASES: dict[tuple[str, ...], Base] = {
     ),
     ("roughness", "fit"): Base(lambda t: [str(_cut_csv(t / "cuts.csv")), "--json"]),
     ("roughness", "predict"): Base(
-        lambda t: ["--model", str(_model(t / "m.json")), "--ap-mm", "2", "--rpm", "6000",
-                   "--fz-mm", "0.08", "--vib-g", "2", "--json"],  # fmt: skip
+        lambda t: (
+            f"--model {_model(t / 'm.json')} --ap-mm 2 --rpm 6000 --fz-mm 0.08 "
+            "--vib-g 2 --json".split()
+        ),
         numbers={"--value": "vibration_g={v}"},
     ),
     ("dynamics", "fit-frf"): Base(
@@ -186,14 +197,17 @@ BASES: dict[tuple[str, ...], Base] = {
         numbers={"--rpm": "{v}", "--rpm-range": "5000:{v}:5", "--steps": "{v}"},
     ),
     ("stability", "roadmap"): Base(
-        lambda t: [str(PACKAGED / "demo.ngc"), "-c", str(PACKAGED / "demo.toml"), "--stability",
-                   str(STABILITY), "--rpm-range", "5000:6000:3", "--density", "1", "--json"],
+        lambda t: (
+            f"{PACKAGED / 'demo.ngc'} -c {PACKAGED / 'demo.toml'} --stability {STABILITY} "
+            "--rpm-range 5000:6000:3 --density 1 --json".split()
+        ),
         numbers={"--rpm-range": "5000:{v}:3"},
     ),
     ("chatter", "simulate"): Base(
-        lambda t: ["--config", str(STABILITY), "--rpm", "6000", "--depth-mm", "0.5",
-                   "--feed-mm", "0.05", "--seconds", "0.02", "--diameter-mm", "10",
-                   "--json"]  # fmt: skip
+        lambda t: (
+            f"--config {STABILITY} --rpm 6000 --depth-mm 0.5 --feed-mm 0.05 "
+            "--seconds 0.02 --diameter-mm 10 --json".split()
+        )
     ),
     ("chatter", "calibrate-damping"): Base(
         lambda t: [str(t / "missing.csv"), "--config", str(STABILITY)], ends_with="missing.csv"
@@ -202,9 +216,10 @@ BASES: dict[tuple[str, ...], Base] = {
         lambda t: [str(_signal_csv(t / "sig.csv")), "--rpm", "6000", "--teeth", "2", "--json"]
     ),
     ("vibration", "simulate"): Base(
-        lambda t: ["--config", str(STABILITY), "--rpm", "6000", "--depth-mm", "0.5",
-                   "--feed-mm", "0.05", "--seconds", "0.02", "--diameter-mm", "10",
-                   "--json"]  # fmt: skip
+        lambda t: (
+            f"--config {STABILITY} --rpm 6000 --depth-mm 0.5 --feed-mm 0.05 "
+            "--seconds 0.02 --diameter-mm 10 --json".split()
+        )
     ),
     ("runs", "list"): Base(lambda t: ["--db", _historian(t), "--json"]),
     ("runs", "show"): Base(lambda t: ["1", "--db", _historian(t)], ends_with="run 1"),
@@ -354,8 +369,9 @@ def test_numeric_options_take_extremes_without_an_internal_error(
             where = f"{case.option} {case.value}: exit {code}: {err.strip()[:300]!r}"
             if code not in (0, 2):
                 failures.append(where)
-            elif code == 2 and (len(lines) != 1 or not (named or base.ends_with and
-                                                        base.ends_with in lines[0])):
+            elif code == 2 and (
+                len(lines) != 1 or not (named or base.ends_with and base.ends_with in lines[0])
+            ):
                 failures.append(where)
             elif case.value in (REFUSED if base.ends_with else NON_FINITE) and not (
                 code == 2 and named
