@@ -65,7 +65,10 @@ def test_demo_adapts_the_feed_then_stops_on_the_hole(tmp_path: Path) -> None:
     assert f"history: {db}" in err  # the history path is printed at the start
     assert report["ended"] == "stopped"
     assert report["stop_reaction_ms"] is not None and report["stop_reaction_ms"] > 0
-    assert report["feed_override_min"] < 90.0
+    # the form-error rule lowers the feed, unless an overloaded twin shed the form-error
+    # prediction (docs/twin.md, "Overload": the last stage shed, the stop is never shed)
+    adapted = "form_error" not in report["shed"]
+    assert report["feed_override_min"] < 90.0 or not adapted
     assert report["database"] == str(db)
     with sqlite3.connect(db) as conn:
         (frames,) = conn.execute("SELECT COUNT(*) FROM hist_frames WHERE kind = 0").fetchone()
@@ -78,7 +81,8 @@ def test_demo_adapts_the_feed_then_stops_on_the_hole(tmp_path: Path) -> None:
     assert 0 < frames == report["samples_recorded"] <= report["cycles"]
     # one stop, on the hole; cycles until the axes are seen at rest may add feed decisions
     assert [d for d in decisions if d[1] == "stop"] == [("force_out_of_band", "stop", 1)]
-    assert any(r == "form_error" and a == "feed_override_pct" and ok for r, a, ok in decisions)
+    fed = any(r == "form_error" and a == "feed_override_pct" and ok for r, a, ok in decisions)
+    assert fed or not adapted
     assert status == "stopped"
     assert json.loads(summary)["stop_reaction_ms"] == report["stop_reaction_ms"]
 
@@ -87,7 +91,7 @@ def test_demo_over_modbus(tmp_path: Path) -> None:
     report, _, _ = _demo(tmp_path, "--transport", "modbus")
     assert report["transport"] == "modbus"
     assert report["ended"] == "stopped"
-    assert report["feed_override_min"] < 90.0
+    assert report["feed_override_min"] < 90.0 or "form_error" in report["shed"]
 
 
 @pytest.mark.parametrize(

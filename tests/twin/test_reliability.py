@@ -57,12 +57,14 @@ def test_server_restart_mid_run_reconnects_and_records_the_gap(
                 await machine.stop_server()
                 await asyncio.sleep(1.0)
                 await machine.restart_server()
+                restarted.append(True)
                 machine.go()
 
             with Historian.open(db) as historian:
                 task = None
                 stop = asyncio.Event()
-                restored: list[int] = []
+                restarted: list[bool] = []
+                restored: list[tuple[int, float]] = []  # (cycle, gap s) after the restart
 
                 def go(_twin) -> None:
                     nonlocal task
@@ -70,11 +72,14 @@ def test_server_restart_mid_run_reconnects_and_records_the_gap(
                     task = asyncio.get_running_loop().create_task(outage())
 
                 def watch(state: CycleState) -> None:
-                    # end 80 cycles after the reconnection (a count, not a time: a server
-                    # restart takes about 1 s on a quiet machine, many more on a loaded one)
-                    if any(e.kind == "connection_restored" for e in state.events):
-                        restored.append(state.index)
-                    if restored and state.index >= restored[0] + 80:
+                    # end 80 cycles after the reconnection that follows the restart (a count,
+                    # not a time: a server restart takes about 1 s on a quiet machine, many
+                    # more on a loaded one, where the heartbeat watchdog may also trip and
+                    # recover before)
+                    for e in state.events:
+                        if restarted and e.kind == "connection_restored":
+                            restored.append((state.index, e.data["gap_s"]))
+                    if restored and state.index >= restored[0][0] + 80:
                         stop.set()
 
                 summary = await run_session(
@@ -86,12 +91,12 @@ def test_server_restart_mid_run_reconnects_and_records_the_gap(
                     on_start=go,
                 )
                 await task
-            return summary, machine.vm.run_state
+            return summary, machine.vm.run_state, restored[0][1]
 
-    summary, run_state = asyncio.run(asyncio.wait_for(main(), 2 * BODY_S))
-    assert summary.reconnects == 1
+    summary, run_state, gap_s = asyncio.run(asyncio.wait_for(main(), 2 * BODY_S))
+    assert summary.reconnects >= 1
     # the server was away 1 s; its restart and the backoff come on top (how much depends on load)
-    assert summary.gaps_s[0] >= 0.9
+    assert gap_s >= 0.9
     assert summary.ended == "interrupted"  # went on after the gap, and did not stop the machine
     assert run_state == RunState.RUNNING
     with sqlite3.connect(db) as conn:
@@ -102,7 +107,8 @@ def test_server_restart_mid_run_reconnects_and_records_the_gap(
         (samples,) = conn.execute("SELECT COUNT(*) FROM hist_frames WHERE kind = 0").fetchone()
     assert kinds[:4] == ["reached", "connected", "connection_lost", "connection_restored"]
     assert json.loads(gap[0])["gap_s"] == pytest.approx(summary.gaps_s[0])
-    assert samples == summary.samples_recorded > 80
+    # a cycle records only a new sample; an overloaded twin keeps fewer (docs/twin.md)
+    assert 0 < samples == summary.samples_recorded <= summary.cycles
 
 
 class GarbageMachine:
