@@ -1,0 +1,198 @@
+"""Benchmark: ``cnctwin nc inspect --json`` against LinuxCNC's ``rs274``, end to end.
+
+Both interpreters run as whole processes on the same generated programs, one after the
+other in one run: ``cnctwin nc inspect --json FILE`` (start-up, imports, interpretation,
+summary, JSON) and ``rs274 -g -t TOOLTABLE FILE`` (start-up, interpretation, one printed
+canonical call per move; its output goes to ``/dev/null``). For each, the CPU time (user +
+system, from ``os.wait4`` of that child alone) and its peak RSS are reported, with lines
+per CPU second and the ratio cnctwin / rs274 of lines/s (above 1: cnctwin is faster).
+CPU time, not wall time, because the benchmark machine is shared and loaded.
+
+Programs (lines are lines of the file; a loop body counts once):
+``lines`` (G1 X Y moves), ``arcs`` (G2/G3 with I J centres), ``expressions`` (``#``
+parameters, functions, an O-word ``if`` and a ``repeat`` loop in every block of 10 lines)
+and, when the shared data folder is present, ``3D_Chips.ngc``.
+
+When ``rs274`` is not installed, cnctwin is measured alone and the report says so.
+Like the test suite, ``rs274`` runs hold an exclusive lock so that two never run at once
+(two at once corrupt each other's tool table in shared memory).
+
+Usage::
+
+    python benchmarks/bench_nc_vs_rs274.py [--quick] [--lines N] [--repeat K]
+"""
+
+from __future__ import annotations
+
+import argparse
+import fcntl
+import os
+import platform
+import random
+import shutil
+import subprocess
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+LOCK = Path(tempfile.gettempdir()) / "cnctwin-rs274.lock"
+#: T1-T9 in pockets 1-9, zero length and diameter (rs274 refuses a T word not in its table).
+TOOLS = "".join(f"T{n} P{n} D0 Z0\n" for n in range(1, 10))
+HEADER = "%\nG21 G90 G17 G94\nT1 M6\nS12000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F1200\n"
+FOOTER = "G0 Z5\nM5\nM30\n%\n"
+
+
+def write_lines(path: Path, lines: int, seed: int = 1) -> None:
+    """Straight feed moves: ``G1 X.. Y..`` (every tenth with a new F)."""
+    rng = random.Random(seed)
+    x = y = 0.0
+    with path.open("w") as out:
+        out.write(HEADER)
+        for i in range(lines - 10):
+            x += rng.uniform(-1.0, 1.0)
+            y += rng.uniform(-1.0, 1.0)
+            feed = f" F{1000 + i % 500}" if i % 10 == 0 else ""
+            out.write(f"G1 X{x:.3f} Y{y:.3f}{feed}\n")
+        out.write(FOOTER)
+
+
+def write_arcs(path: Path, lines: int, seed: int = 2) -> None:
+    """Alternating G2/G3 half circles of radius 1-3 mm, centres given by I J."""
+    rng = random.Random(seed)
+    x = 0.0
+    with path.open("w") as out:
+        out.write(HEADER)
+        for i in range(lines - 10):
+            r = 1.0 + 2.0 * rng.random()
+            code = "G2" if i % 2 else "G3"
+            out.write(f"{code} X{x + 2 * r:.4f} Y0 I{r:.4f} J0\n")
+            x += 2 * r
+        out.write(FOOTER)
+
+
+def write_expressions(path: Path, lines: int) -> None:
+    """Blocks of 10 lines: parameter assignments, functions, an O-word if and a repeat
+    (labels unique: LinuxCNC refuses a label defined twice)."""
+    with path.open("w") as out:
+        out.write(HEADER + "#1 = 0\n#3 = 0\n")
+        for n in range((lines - 12) // 10):
+            out.write(
+                "#1 = [#1 + 0.25]\n"
+                "#2 = [SIN[#1 * 3] * 10 + COS[#1] * 2]\n"
+                "G1 X[#1] Y[#2] F[1000 + #3 * 10]\n"
+                f"o{2 * n + 100} if [#2 GT 5]\n"
+                "  #3 = [#3 + 1]\n"
+                f"o{2 * n + 100} endif\n"
+                f"o{2 * n + 101} repeat [2]\n"
+                "  G1 Y[#2 - ABS[#1 MOD 3]]\n"
+                f"o{2 * n + 101} endrepeat\n"
+                "G0 X[#1 + 0.1] Y[ROUND[#2 * 100] / 100]\n"
+            )
+        out.write(FOOTER)
+
+
+PROGRAMS: dict[str, Callable[[Path, int], None]] = {
+    "lines": write_lines,
+    "arcs": write_arcs,
+    "expressions": write_expressions,
+}
+
+
+def run_measured(command: list[str], cwd: Path) -> tuple[float, float, int]:
+    """(CPU seconds, peak RSS MiB, exit code) of one child process, its output discarded."""
+    proc = subprocess.Popen(
+        command,
+        cwd=cwd,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    return usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0, proc.returncode
+
+
+def best_of(repeat: int, command: list[str], cwd: Path, lock: bool) -> tuple[float, float]:
+    """Lowest CPU seconds and peak RSS MiB of ``repeat`` runs; raises if one fails."""
+    best = (float("inf"), 0.0)
+    for _ in range(repeat):
+        if lock:
+            with LOCK.open("w") as held:
+                fcntl.flock(held, fcntl.LOCK_EX)
+                seconds, peak, code = run_measured(command, cwd)
+        else:
+            seconds, peak, code = run_measured(command, cwd)
+        if code != 0:
+            raise SystemExit(f"{' '.join(command)} exited with {code}")
+        best = min(best, (seconds, peak))
+    return best
+
+
+def cnctwin_command() -> list[str]:
+    """The ``cnctwin`` console script next to this Python, else ``python -m cnctwin``."""
+    script = Path(sys.executable).with_name("cnctwin")
+    return [str(script)] if script.exists() else [sys.executable, "-m", "cnctwin"]
+
+
+def count_lines(path: Path) -> int:
+    with path.open("rb") as stream:
+        return sum(1 for _ in stream)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="20,000-line programs, one run")
+    parser.add_argument("--lines", type=int, default=None, help="lines of each generated program")
+    parser.add_argument("--repeat", type=int, default=None, help="runs of each, best kept")
+    args = parser.parse_args()
+    lines = args.lines or (20_000 if args.quick else 300_000)
+    repeat = args.repeat or (1 if args.quick else 3)
+    rs274 = shutil.which("rs274")
+    cnctwin = cnctwin_command()
+    load = os.getloadavg()
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"Python {platform.python_version()}, load average {load[0]:.2f} {load[1]:.2f} "
+        f"{load[2]:.2f}; CPU time, best of {repeat}"
+    )
+    if rs274 is None:
+        print("rs274 was not found (apt-get install linuxcnc-uspace): cnctwin measured alone")
+    print(
+        "| program | lines | cnctwin CPU s | cnctwin lines/s | cnctwin peak MiB "
+        "| rs274 CPU s | rs274 lines/s | rs274 peak MiB | ratio |"
+    )
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    data = Path(os.environ.get("CNCTWIN_DATA") or REPO.parent / "shared" / "data")
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        (work / "tools.tbl").write_text(TOOLS)
+        files: list[tuple[str, Path]] = []
+        for name, write in PROGRAMS.items():
+            path = work / f"{name}.ngc"
+            write(path, lines)
+            files.append((name, path))
+        chips = data / "gcode" / "linuxcnc" / "3D_Chips.ngc"
+        if chips.exists():
+            files.append(("3D_Chips.ngc", chips))
+        for name, path in files:
+            n = count_lines(path)
+            ours, ours_mib = best_of(
+                repeat, [*cnctwin, "nc", "inspect", "--json", str(path)], work, False
+            )
+            row = f"| {name} | {n:,} | {ours:.2f} | {n / ours:,.0f} | {ours_mib:.0f} "
+            if rs274 is None:
+                row += "| - | - | - | - |"
+            else:
+                theirs, theirs_mib = best_of(
+                    repeat, [rs274, "-g", "-t", "tools.tbl", str(path)], work, True
+                )
+                row += (
+                    f"| {theirs:.2f} | {n / theirs:,.0f} | {theirs_mib:.0f} | {theirs / ours:.2f} |"
+                )
+            print(row, flush=True)
+
+
+if __name__ == "__main__":
+    main()
