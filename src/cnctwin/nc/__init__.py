@@ -11,26 +11,72 @@ Public API::
 Lengths are in mm, feeds in mm/min, spindle speeds in rpm (names say so).
 """
 
-from cnctwin.nc.interpreter import Interpreter, interpret_file, interpret_text
-from cnctwin.nc.sampler import (
-    AxisLimits,
-    FeedOverride,
-    SampleChunk,
-    TrajectorySampler,
-    sample_program,
-)
-from cnctwin.nc.segments import (
-    CutterComp,
-    FeedMode,
-    MachineState,
-    MotionKind,
-    Plane,
-    Segment,
-    arc_sweep_rad,
-    segment_length_mm,
-)
-from cnctwin.nc.setup import NCSetup, ToolEntry
-from cnctwin.nc.trace import CanonicalMove, canonical_moves, format_trace
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run time
+    from cnctwin.nc.interpreter import Interpreter, interpret_file, interpret_text
+    from cnctwin.nc.sampler import (
+        AxisLimits,
+        FeedOverride,
+        SampleChunk,
+        TrajectorySampler,
+        sample_program,
+    )
+    from cnctwin.nc.segments import (
+        CutterComp,
+        FeedMode,
+        MachineState,
+        MotionKind,
+        Plane,
+        Segment,
+        arc_sweep_rad,
+        segment_length_mm,
+    )
+    from cnctwin.nc.setup import NCSetup, ToolEntry
+    from cnctwin.nc.trace import CanonicalMove, canonical_moves, format_trace
+
+#: Where each public name lives. Imported on first use, so that importing one submodule
+#: (the command line reads programs without sampling them) does not import numpy and numba.
+_HOMES = {
+    "AxisLimits": "sampler",
+    "CanonicalMove": "trace",
+    "CutterComp": "segments",
+    "FeedMode": "segments",
+    "FeedOverride": "sampler",
+    "Interpreter": "interpreter",
+    "MachineState": "segments",
+    "MotionKind": "segments",
+    "NCSetup": "setup",
+    "Plane": "segments",
+    "SampleChunk": "sampler",
+    "Segment": "segments",
+    "ToolEntry": "setup",
+    "TrajectorySampler": "sampler",
+    "arc_sweep_rad": "segments",
+    "canonical_moves": "trace",
+    "format_trace": "trace",
+    "interpret_file": "interpreter",
+    "interpret_text": "interpreter",
+    "sample_program": "sampler",
+    "segment_length_mm": "segments",
+}
+
+
+def __getattr__(name: str) -> Any:
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module 'cnctwin.nc' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"cnctwin.nc.{home}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_HOMES])
+
 
 __all__ = [
     "AxisLimits",

@@ -112,8 +112,12 @@ _M_GROUPS = {
 }
 _READ_ONLY = frozenset(("_x", "_y", "_z", "_abs_x", "_abs_y", "_abs_z"))
 _NUM = r"\s*([-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+))\s*"
-#: A raw line of only an optional N word and X, Y, Z words in that order.
-_XYZ_LINE = re.compile(rf"\s*(?:[nN][0-9]+\s*)?(?:[xX]{_NUM})?(?:[yY]{_NUM})?(?:[zZ]{_NUM})?")
+#: A raw line of only an optional N word, an optional G0/G1 (G00, G01, ...) and X, Y, Z
+#: words in that order; group 1 is the G-code's digit.
+_XYZ_LINE = re.compile(
+    rf"\s*(?:[nN][0-9]+\s*)?(?:[gG]0*([01])(?![0-9.])\s*)?"
+    rf"(?:[xX]{_NUM})?(?:[yY]{_NUM})?(?:[zZ]{_NUM})?"
+)
 _NON_MODAL_WITH_AXES = {100, 280, 300, 520, 920}
 _CYCLES = {730, 810, 820, 830, 840, 850, 860, 890}
 _COORD_SYSTEMS = {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8, 593: 9}
@@ -283,14 +287,20 @@ class Interpreter(OWordControl):
                     self._line_start = start
                     if main and lineno > self.lines_read:
                         self.lines_read = lineno
-                    motion = self._motion
-                    if (motion == 10 or motion == 0) and self._comp is None:
-                        # Fastest path: a line of only (N) X Y Z words, in that order.
-                        plain = _XYZ_LINE.fullmatch(raw) if len(raw) <= MAX_NUMBER_CHARS else None
-                        if plain is not None:
-                            gx, gy, gz = plain.groups()
-                            if gx is None and gy is None and gz is None:
-                                continue
+                    plain = (
+                        _XYZ_LINE.fullmatch(raw)
+                        if self._comp is None and len(raw) <= MAX_NUMBER_CHARS
+                        else None
+                    )
+                    if plain is not None:
+                        # Fastest path: a line of only (N) (G0/G1) X Y Z words, in that order.
+                        g, gx, gy, gz = plain.groups()
+                        motion = self._motion if g is None else 10 if g == "1" else 0
+                        moves = not (gx is None and gy is None and gz is None)
+                        if g is None and not moves and (motion == 10 or motion == 0):
+                            continue
+                        if moves and (motion == 10 or motion == 0):
+                            self._motion = motion
                             self._started = True
                             try:
                                 self._xyz_move(
@@ -301,12 +311,16 @@ class Interpreter(OWordControl):
                                     False,
                                 )
                             except NCError as err:
-                                raise self._locate(err) from None
-                            self._segments_left -= 1
-                            if self._segments_left < 0:
-                                raise self._too_many_segments()
-                            yield self._out.pop()
-                            continue
+                                if g is None:
+                                    raise self._locate(err) from None
+                                # A G line is read again below: its words' own checks come
+                                # first there, as for any block.
+                            else:
+                                self._segments_left -= 1
+                                if self._segments_left < 0:
+                                    raise self._too_many_segments()
+                                yield self._out.pop()
+                                continue
                     try:
                         if "#5" in raw or "#<_" in raw:
                             self._sync_parameters()
@@ -1653,6 +1667,13 @@ class Interpreter(OWordControl):
 
 def _check_target(point: list[float] | tuple[float, float, float]) -> None:
     """Refuse a machine position (mm) beyond the bounds of :mod:`cnctwin.nc.limits`."""
+    x, y, z = point[0], point[1], point[2]
+    if (
+        -MAX_POSITION_MM <= x <= MAX_POSITION_MM
+        and -MAX_POSITION_MM <= y <= MAX_POSITION_MM
+        and -MAX_POSITION_MM <= z <= MAX_POSITION_MM
+    ):
+        return  # the common case, without a call per axis (also false for NaN)
     for axis, value in zip("XYZ", point[:3], strict=True):
         check_position(axis, value)
 

@@ -20,6 +20,7 @@ _QUARTER = math.pi / 2.0
 #: cos and sin of k * 90 degrees, exactly.
 _COS = (1.0, 0.0, -1.0, 0.0)
 _SIN = (0.0, 1.0, 0.0, -1.0)
+_ZERO3 = (0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,19 +119,30 @@ def summarize(
         raise ConfigError(f"rapid_mm_min must be a positive number of mm/min; got {rapid_mm_min!r}")
     motion = 0
     feed_length = rapid_length = machining_time = dwell_time = 0.0
-    low = [math.inf] * 3
-    high = [-math.inf] * 3
     tools: set[int] = set()
     zero_feed = 0
     first_zero_feed = ""
     beyond: dict[tuple[int, int], str] = {}
+    low_x = low_y = low_z = math.inf
+    high_x = high_y = high_z = -math.inf
+    dwell, rapid, arc = MotionKind.DWELL, MotionKind.RAPID, MotionKind.ARC
     for seg in segments:
-        if seg.kind == MotionKind.DWELL:
+        kind = seg.kind
+        if kind is dwell:
             dwell_time += seg.dwell_s
             continue
         motion += 1
-        length = seg.length_mm
-        if seg.kind == MotionKind.RAPID:
+        state = seg.state
+        offset = state.tool_offset_mm
+        s, e = seg.start_mm, seg.end_mm
+        sweep_geometry = None
+        if kind is arc and seg.center_mm is not None:
+            sweep_geometry = arc_sweep_rad(s, e, seg.center_mm, seg.turns, state.plane)
+            normal = PLANE_AXES[state.plane][2]
+            length = math.hypot(sweep_geometry[0] * sweep_geometry[2], e[normal] - s[normal])
+        else:
+            length = math.sqrt((e[0] - s[0]) ** 2 + (e[1] - s[1]) ** 2 + (e[2] - s[2]) ** 2)
+        if kind is rapid:
             rapid_length += length
         else:
             feed_length += length
@@ -142,17 +154,34 @@ def summarize(
             else:
                 zero_feed += 1
                 first_zero_feed = first_zero_feed or f"{seg.file or '<program>'}:{seg.line}"
-        if seg.state.tool:
-            tools.add(seg.state.tool)
-        points: Iterable[Vec3] = (seg.tcp_start_mm, seg.tcp_end_mm)
-        if seg.kind == MotionKind.ARC and seg.center_mm is not None:
-            points = (*points, *arc_extreme_points(seg))
-        for point in points:
-            for axis in range(3):
-                low[axis] = min(low[axis], point[axis])
-                high[axis] = max(high[axis], point[axis])
+        if state.tool:
+            tools.add(state.tool)
+        points: Iterable[Vec3] = (
+            (s[0] - offset[0], s[1] - offset[1], s[2] - offset[2]),
+            (e[0] - offset[0], e[1] - offset[1], e[2] - offset[2]),
+        )
+        if sweep_geometry is not None:
+            # Without a tool offset the tool tip's arc is the controlled point's: same numbers.
+            if offset != _ZERO3:
+                sweep_geometry = None
+            points = (*points, *_arc_extremes(seg, sweep_geometry))
+        for x, y, z in points:
+            if x < low_x:
+                low_x = x
+            if x > high_x:
+                high_x = x
+            if y < low_y:
+                low_y = y
+            if y > high_y:
+                high_y = y
+            if z < low_z:
+                low_z = z
+            if z > high_z:
+                high_z = z
             if travel_mm is not None:
-                _check_travel(seg, point, travel_mm, beyond)
+                _check_travel(seg, (x, y, z), travel_mm, beyond)
+    low = [low_x, low_y, low_z]
+    high = [high_x, high_y, high_z]
     rapid_time = 60.0 * rapid_length / rapid_mm_min
     warnings: tuple[str, ...] = tuple(beyond[key] for key in sorted(beyond))
     if zero_feed:
@@ -239,11 +268,20 @@ def arc_extreme_points(seg: Segment) -> Iterator[Vec3]:
         raise NCError(
             f"{seg.kind.name} segment has no arc centre", seg.file or "<program>", seg.line
         )
+    return _arc_extremes(seg, None)
+
+
+def _arc_extremes(seg: Segment, geometry: tuple[float, float, float] | None) -> Iterator[Vec3]:
+    """:func:`arc_extreme_points` of an arc with a centre; ``geometry``: its tool tip's
+    (radius mm, start angle rad, sweep rad) if already known."""
     offset = seg.state.tool_offset_mm
     start, end = seg.tcp_start_mm, seg.tcp_end_mm
     c = seg.center_mm
+    assert c is not None
     center = (c[0] - offset[0], c[1] - offset[1], c[2] - offset[2])
-    radius, a0, sweep = arc_sweep_rad(start, end, center, seg.turns, seg.state.plane)
+    if geometry is None:
+        geometry = arc_sweep_rad(start, end, center, seg.turns, seg.state.plane)
+    radius, a0, sweep = geometry
     first_axis, second_axis, normal = PLANE_AXES[seg.state.plane]
     lo, hi = sorted((a0, a0 + sweep))
     k_first = math.ceil(lo / _QUARTER)
