@@ -96,6 +96,11 @@ class LineSource:
         self._stream = stream
         self._pending: tuple[int, int] | None = None
         self._seen_to = 0
+        # The bytes read last (from file offset _cache_base; to the end of the file if
+        # _cache_eof): a jump back into them (a loop) reads nothing again.
+        self._cache = b""
+        self._cache_base = 0
+        self._cache_eof = False
         self.offset = 0
         self.lineno = 0
 
@@ -192,11 +197,16 @@ class LineSource:
             if self._pending is not None:
                 self.offset, self.lineno = self._pending
                 self._pending = None
-            self._stream.seek(self.offset)
-            base = self.offset  # file offset of buf[0]
-            buf = b""
-            p = 0
-            eof = False
+            base = self._cache_base  # file offset of buf[0]
+            buf = self._cache
+            if base <= self.offset <= base + len(buf):
+                p = self.offset - base
+                eof = self._cache_eof
+            else:
+                base = self.offset
+                buf = b""
+                p = 0
+                eof = False
             while True:
                 found = _EOL.search(buf, p)
                 if found is not None and (
@@ -210,12 +220,14 @@ class LineSource:
                 else:
                     if len(buf) - p > MAX_LINE_BYTES:
                         raise self._too_long()
+                    self._stream.seek(base + len(buf))
                     chunk = self._read(base + len(buf))
                     if not chunk:
                         eof = True
                     buf = buf[p:] + chunk
                     base += p
                     p = 0
+                    self._cache, self._cache_base, self._cache_eof = buf, base, eof
                     continue
                 if stop - p > MAX_LINE_BYTES:
                     raise self._too_long()
