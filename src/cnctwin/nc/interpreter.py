@@ -92,6 +92,11 @@ for _group, _codes in {
 _FAST_WORDS = frozenset("xyzf")
 #: Words that every block may carry (feed, speed, tool, axes).
 _PLAIN_WORDS = frozenset("fstxyzabc@^")
+#: Words that move an axis; the centre words of an arc.
+_AXIS_WORDS = frozenset("xyzabcuw@^")
+_CENTRE_WORDS = frozenset("ijk")
+#: Words an arc block (G2/G3) may carry.
+_ARC_WORDS = _PLAIN_WORDS | frozenset("ijkrp")
 #: Modal groups of M-codes (RS274NGC): stops, tool change, spindle, coolant, overrides.
 _M_GROUPS = {
     0: 4,
@@ -673,7 +678,7 @@ class Interpreter(OWordControl):
         if 10 in seen_groups:
             self._retract_r = seen_groups[10] == 990
         # 14: reference points, offsets.
-        axis_words = any(k in words for k in "xyzabcuw@^")
+        axis_words = not _AXIS_WORDS.isdisjoint(words)
         if non_modal in (280, 300):
             self._go_home(non_modal, words)
         elif non_modal in (281, 301):
@@ -696,7 +701,7 @@ class Interpreter(OWordControl):
             if (
                 axis_words
                 or motion_code in _CYCLES
-                or (motion in (20, 30) and any(k in words for k in "ijk"))
+                or (motion in (20, 30) and not _CENTRE_WORDS.isdisjoint(words))
             ):
                 if motion is None:
                     raise self._error(
@@ -727,6 +732,16 @@ class Interpreter(OWordControl):
             and words.keys() <= _PLAIN_WORDS
         ):
             return
+        motion = motion_code if motion_code not in (None, 800) else self._motion
+        if (
+            (motion == 20 or motion == 30)
+            and not block.mcodes
+            and not g53
+            and non_modal is None
+            and words.keys() <= _ARC_WORDS
+            and not (_AXIS_WORDS.isdisjoint(words) and _CENTRE_WORDS.isdisjoint(words))
+        ):
+            return  # an arc block: every word it carries is the arc's
         seen_m: dict[int, int] = {}
         for m in block.mcodes:
             group = _M_GROUPS.get(m)
@@ -741,7 +756,7 @@ class Interpreter(OWordControl):
         if (
             non_modal in _NON_MODAL_WITH_AXES
             and motion_code not in (None, 800)
-            and any(k in words for k in "xyzabcuw@^")
+            and not _AXIS_WORDS.isdisjoint(words)
         ):
             raise self._error(
                 f"G{_g(motion_code)} and G{_g(non_modal)} both use the axis words "
@@ -749,9 +764,8 @@ class Interpreter(OWordControl):
             )
         if g53 and (self._incremental and groups.get(3) != 900 or groups.get(3) == 910):
             raise self._error("G53 cannot be used in incremental mode (G91): use G90")
-        motion = motion_code if motion_code not in (None, 800) else self._motion
-        moving = any(k in words for k in "xyzabcuw@^") or motion_code in _CYCLES
-        arc = motion in (20, 30) and (moving or any(k in words for k in "ijk"))
+        moving = not _AXIS_WORDS.isdisjoint(words) or motion_code in _CYCLES
+        arc = motion in (20, 30) and (moving or not _CENTRE_WORDS.isdisjoint(words))
         cycle = motion in _CYCLES and moving
         allowed = set("fstxyzabc@^")
         if self.setup.lathe:
