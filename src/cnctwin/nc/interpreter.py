@@ -29,6 +29,7 @@ from cnctwin.nc.limits import (
     MAX_NUMBER_CHARS,
     MAX_POSITION_MM,
     MAX_SEGMENTS_PER_BLOCK,
+    WORD_LIMITS,
     check_position,
 )
 from cnctwin.nc.owords import OWordControl
@@ -123,6 +124,16 @@ _XYZ_LINE = re.compile(
     rf"\s*(?:[nN][0-9]+\s*)?(?:[gG]0*([01])(?![0-9.])\s*)?"
     rf"(?:[xX]{_NUM})?(?:[yY]{_NUM})?(?:[zZ]{_NUM})?"
 )
+#: A raw line of only an optional N word, an optional G2/G3 (G02, G03, ...) and X, Y, Z,
+#: I, J, K words in that order; group 1 is the G-code's digit.
+_ARC_LINE = re.compile(
+    rf"\s*(?:[nN][0-9]+\s*)?(?:[gG]0*([23])(?![0-9.])\s*)?"
+    rf"(?:[xX]{_NUM})?(?:[yY]{_NUM})?(?:[zZ]{_NUM})?"
+    rf"(?:[iI]{_NUM})?(?:[jJ]{_NUM})?(?:[kK]{_NUM})?"
+)
+_ARC_LETTERS = "xyzijk"
+#: The bound of a length word (X Y Z I J K), program units.
+_LENGTH_WORD_LIMIT = WORD_LIMITS["x"][0]
 _NON_MODAL_WITH_AXES = {100, 280, 300, 520, 920}
 _CYCLES = {730, 810, 820, 830, 840, 850, 860, 890}
 _COORD_SYSTEMS = {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8, 593: 9}
@@ -326,6 +337,23 @@ class Interpreter(OWordControl):
                                     raise self._too_many_segments()
                                 yield self._out.pop()
                                 continue
+                    elif self._comp is None:
+                        arc = _arc_words(raw, self._motion)
+                        if arc is not None:
+                            # Fast path: a line of only (N) (G2/G3) X Y Z I J K words.
+                            self._started = True
+                            code, words = arc
+                            self._motion = code
+                            try:
+                                self._require_feed(words)
+                                self._arc(code == 30, words)
+                            except NCError as err:
+                                raise self._locate(err) from None
+                            self._segments_left -= 1
+                            if self._segments_left < 0:
+                                raise self._too_many_segments()
+                            yield self._out.pop()
+                            continue
                     try:
                         if "#5" in raw or "#<_" in raw:
                             self._sync_parameters()
@@ -1677,6 +1705,29 @@ class Interpreter(OWordControl):
                 else:
                     self._straight(move.kind, list(move.position_mm))
             self._state = state_before
+
+
+def _arc_words(raw: str, motion: int | None) -> tuple[int, dict[str, float]] | None:
+    """``(motion code, words)`` of a raw line that is a plain arc block (see
+    :data:`_ARC_LINE`) under the modal ``motion``; ``None`` for any other line, and for
+    one whose words need the lexer's checks (a number too long or out of range)."""
+    found = _ARC_LINE.fullmatch(raw)
+    if found is None:
+        return None
+    digit = found.group(1)
+    code = motion if digit is None else 20 if digit == "2" else 30
+    if code != 20 and code != 30:
+        return None
+    words: dict[str, float] = {}
+    for letter, text in zip(_ARC_LETTERS, found.groups()[1:], strict=True):
+        if text is not None:
+            if len(text) > MAX_NUMBER_CHARS:
+                return None
+            value = float(text)
+            if not -_LENGTH_WORD_LIMIT <= value <= _LENGTH_WORD_LIMIT:
+                return None
+            words[letter] = value
+    return (code, words) if words else None
 
 
 def _check_target(point: list[float] | tuple[float, float, float]) -> None:
