@@ -96,6 +96,8 @@ _PLAIN_WORDS = frozenset("fstxyzabc@^")
 #: Words that move an axis; the centre words of an arc.
 _AXIS_WORDS = frozenset("xyzabcuw@^")
 _CENTRE_WORDS = frozenset("ijk")
+#: The centre words in each plane.
+_IN_PLANE = {plane: frozenset("ijk"[axis] for axis in PLANE_AXES[plane][:2]) for plane in Plane}
 #: Words an arc block (G2/G3) may carry.
 _ARC_WORDS = _PLAIN_WORDS | frozenset("ijkrp")
 #: Modal groups of M-codes (RS274NGC): stops, tool change, spindle, coolant, overrides.
@@ -1234,13 +1236,16 @@ class Interpreter(OWordControl):
         start = self._pos
         f = self._factor
         letters = "ijk"
-        in_plane = {letters[i0], letters[i1]}
-        turns_word = words.get("p", 1.0)
-        if abs(turns_word - round(turns_word)) < 1e-9:
-            turns_word = float(round(turns_word))
-        if turns_word < 1 or turns_word != int(turns_word):
-            raise self._error(f"arc turn count P{turns_word:g} must be a positive integer")
-        turns = int(turns_word) * (1 if ccw else -1)
+        in_plane = _IN_PLANE[plane]
+        if "p" in words:
+            turns_word = words["p"]
+            if abs(turns_word - round(turns_word)) < 1e-9:
+                turns_word = float(round(turns_word))
+            if turns_word < 1 or turns_word != int(turns_word):
+                raise self._error(f"arc turn count P{turns_word:g} must be a positive integer")
+            turns = int(turns_word) * (1 if ccw else -1)
+        else:
+            turns = 1 if ccw else -1
         if "r" in words:
             if any(k in words for k in "ijk" if k in in_plane):
                 raise self._error("arc with both R and I/J/K: use one format")
@@ -1253,7 +1258,7 @@ class Interpreter(OWordControl):
                         f"{plane.name} plane (G{int(plane)}); use "
                         + " and ".join(sorted(x.upper() for x in in_plane))
                     )
-            if not in_plane & words.keys():
+            if in_plane.isdisjoint(words):
                 raise self._error(
                     "arc without centre: give "
                     + " and/or ".join(sorted(x.upper() for x in in_plane))
@@ -1270,7 +1275,11 @@ class Interpreter(OWordControl):
                     prog[axis] = value * 0.5 if axis == 0 and self._diameter_mode else value
                 center = list(self._state.to_machine((prog[0], prog[1], prog[2])))
             else:
-                offsets = [words.get(letters[axis], 0.0) * f for axis in range(3)]
+                offsets = [
+                    words.get("i", 0.0) * f,
+                    words.get("j", 0.0) * f,
+                    words.get("k", 0.0) * f,
+                ]
                 if self._state.xy_rotation_deg:
                     rot = math.radians(self._state.xy_rotation_deg)
                     c, s_ = math.cos(rot), math.sin(rot)

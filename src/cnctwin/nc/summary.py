@@ -268,10 +268,10 @@ def arc_extreme_points(seg: Segment) -> Iterator[Vec3]:
         raise NCError(
             f"{seg.kind.name} segment has no arc centre", seg.file or "<program>", seg.line
         )
-    return _arc_extremes(seg, None)
+    return iter(_arc_extremes(seg, None))
 
 
-def _arc_extremes(seg: Segment, geometry: tuple[float, float, float] | None) -> Iterator[Vec3]:
+def _arc_extremes(seg: Segment, geometry: tuple[float, float, float] | None) -> list[Vec3]:
     """:func:`arc_extreme_points` of an arc with a centre; ``geometry``: its tool tip's
     (radius mm, start angle rad, sweep rad) if already known."""
     offset = seg.state.tool_offset_mm
@@ -286,10 +286,12 @@ def _arc_extremes(seg: Segment, geometry: tuple[float, float, float] | None) -> 
     lo, hi = sorted((a0, a0 + sweep))
     k_first = math.ceil(lo / _QUARTER)
     k_last = min(math.floor(hi / _QUARTER), k_first + 3)
+    points: list[Vec3] = []
     for k in range(k_first, k_last + 1):
         fraction = (k * _QUARTER - a0) / sweep if sweep else 0.0
         point = [0.0, 0.0, 0.0]
         point[first_axis] = center[first_axis] + radius * _COS[k % 4]
         point[second_axis] = center[second_axis] + radius * _SIN[k % 4]
         point[normal] = start[normal] + fraction * (end[normal] - start[normal])
-        yield (point[0], point[1], point[2])
+        points.append((point[0], point[1], point[2]))
+    return points
