@@ -59,16 +59,18 @@ def write_lines(path: Path, lines: int, seed: int = 1) -> None:
 
 
 def write_arcs(path: Path, lines: int, seed: int = 2) -> None:
-    """Alternating G2/G3 half circles of radius 1-3 mm, centres given by I J."""
+    """Half circles of radius 1-3 mm, centres given by I J: a G3 out along X and a G2
+    back to the start, so that the program stays in a few mm whatever its length."""
     rng = random.Random(seed)
-    x = 0.0
     with path.open("w") as out:
         out.write(HEADER)
+        r = 1.0
         for i in range(lines - 10):
-            r = 1.0 + 2.0 * rng.random()
-            code = "G2" if i % 2 else "G3"
-            out.write(f"{code} X{x + 2 * r:.4f} Y0 I{r:.4f} J0\n")
-            x += 2 * r
+            if i % 2 == 0:
+                r = 1.0 + 2.0 * rng.random()
+                out.write(f"G3 X{2 * r:.4f} Y0 I{r:.4f} J0\n")
+            else:
+                out.write(f"G2 X0 Y0 I{-r:.4f} J0\n")
         out.write(FOOTER)
 
 
