@@ -120,11 +120,11 @@ _M_GROUPS = {
 }
 _READ_ONLY = frozenset(("_x", "_y", "_z", "_abs_x", "_abs_y", "_abs_z"))
 _NUM = r"\s*([-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+))\s*"
-#: A raw line of only an optional N word, an optional G0/G1 (G00, G01, ...) and X, Y, Z
-#: words in that order; group 1 is the G-code's digit.
+#: A raw line of only an optional N word, an optional G0/G1 (G00, G01, ...), X, Y, Z and
+#: F words in that order; group 1 is the G-code's digit.
 _XYZ_LINE = re.compile(
     rf"\s*(?:[nN][0-9]+\s*)?(?:[gG]0*([01])(?![0-9.])\s*)?"
-    rf"(?:[xX]{_NUM})?(?:[yY]{_NUM})?(?:[zZ]{_NUM})?"
+    rf"(?:[xX]{_NUM})?(?:[yY]{_NUM})?(?:[zZ]{_NUM})?(?:[fF]{_NUM})?"
 )
 #: A raw line of only an optional N word, an optional G2/G3 (G02, G03, ...) and X, Y, Z,
 #: I, J, K words in that order; group 1 is the G-code's digit.
@@ -136,6 +136,8 @@ _ARC_LINE = re.compile(
 _ARC_LETTERS = "xyzijk"
 #: The bound of a length word (X Y Z I J K), program units.
 _LENGTH_WORD_LIMIT = WORD_LIMITS["x"][0]
+#: The bound of an F word, program units per minute.
+_FEED_WORD_LIMIT = WORD_LIMITS["f"][0]
 _NON_MODAL_WITH_AXES = {100, 280, 300, 520, 920}
 _CYCLES = {730, 810, 820, 830, 840, 850, 860, 890}
 _COORD_SYSTEMS = {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8, 593: 9}
@@ -311,28 +313,32 @@ class Interpreter(OWordControl):
                         else None
                     )
                     if plain is not None:
-                        # Fastest path: a line of only (N) (G0/G1) X Y Z words, in that order.
-                        g, gx, gy, gz = plain.groups()
+                        # Fastest path: a line of only (N) (G0/G1) X Y Z (F) words, in
+                        # that order.
+                        g, gx, gy, gz, gf = plain.groups()
                         motion = self._motion if g is None else 10 if g == "1" else 0
                         moves = not (gx is None and gy is None and gz is None)
-                        if g is None and not moves and (motion == 10 or motion == 0):
+                        if g is None and gf is None and not moves and (motion == 10 or motion == 0):
                             continue
-                        if moves and (motion == 10 or motion == 0):
+                        feed = 0.0 if gf is None else float(gf)
+                        if moves and (motion == 10 or motion == 0) and feed <= _FEED_WORD_LIMIT:
                             self._motion = motion
                             self._started = True
                             try:
+                                if gf is not None:
+                                    self._set_feed(feed)
                                 self._xyz_move(
                                     motion,
                                     None if gx is None else float(gx),
                                     None if gy is None else float(gy),
                                     None if gz is None else float(gz),
-                                    False,
+                                    gf is not None,
                                 )
                             except NCError as err:
-                                if g is None:
+                                if g is None and gf is None:
                                     raise self._locate(err) from None
-                                # A G line is read again below: its words' own checks come
-                                # first there, as for any block.
+                                # A G or F line is read again below: its words' own checks
+                                # come first there, as for any block.
                             else:
                                 self._segments_left -= 1
                                 if self._segments_left < 0:
