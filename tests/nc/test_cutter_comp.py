@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from cnctwin.errors import NCError
@@ -701,6 +701,9 @@ def test_outside_offset_of_a_convex_polygon_stays_at_the_tool_radius(
     poly = _convex_polygon(angles, radii)
     if len(poly) < 3:
         return
+    # the first edge is the entry move, which LinuxCNC (and cnctwin) refuse when it is shorter
+    # than the tool radius (tests/nc/test_rs274_constructs.py, against rs274)
+    assume(math.dist(poly[0], poly[1]) > r)
     start = poly[0]
     b = PathBuilder((start[0] - 50, start[1] - 50, 0)).line((start[0], start[1], 0))
     for p in poly[1:] + poly[:1]:
