@@ -1,7 +1,11 @@
-"""Shared test helpers: the real-data folder and external services.
+"""Shared test helpers: the real-data folder, external services and Hypothesis profiles.
 
-Both skip with a reason on a developer's machine that lacks them, and fail in CI, which
-sets ``CNCTWIN_REQUIRE_DATA=1`` and ``CNCTWIN_REQUIRE_SERVICES=1``.
+The data and the services skip with a reason on a developer's machine that lacks them, and
+fail in CI, which sets ``CNCTWIN_REQUIRE_DATA=1`` and ``CNCTWIN_REQUIRE_SERVICES=1``.
+
+Property tests (Hypothesis) draw the same examples on every run (profile ``reproducible``), so
+a run of main passes or fails the same way each time; ``HYPOTHESIS_PROFILE=explore`` draws new
+examples to look for failures.
 """
 
 from __future__ import annotations
@@ -11,6 +15,11 @@ import socket
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
+
+settings.register_profile("reproducible", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "reproducible"))
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
