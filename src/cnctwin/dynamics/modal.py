@@ -255,9 +255,7 @@ def fit_modes(
     if omega_band is not None:
         low, high = omega_band
         if not (0.0 <= low < high < math.inf):
-            raise DataError(
-                f"fit_modes: band {low:g}..{high:g} rad/s; give finite 0 <= low < high"
-            )
+            raise DataError(f"fit_modes: band {low:g}..{high:g} rad/s; give finite 0 <= low < high")
         x = x.band(max(low, x.omega[0]), high)
     omega, h = x.omega, x.h
     n_linear = n_modes + (2 if residuals else 0)

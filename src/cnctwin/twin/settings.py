@@ -193,9 +193,7 @@ class OverloadConfig(Section):
     def _below_enter(cls, value: float, info: ValidationInfo) -> float:
         enter = info.data.get("enter_fraction")
         if enter is not None and value >= enter:
-            raise ValueError(
-                f"exit_fraction={value:g} must be below enter_fraction={enter:g}"
-            )
+            raise ValueError(f"exit_fraction={value:g} must be below enter_fraction={enter:g}")
         return value
 
 
