@@ -6,7 +6,7 @@ S3800 F350, a full slot then a contour (three sides of a square) in passes of 6 
 through a block at 10 dexels/mm and 12.5 ms cycles (AA6060-T6 coefficients, the
 machining-centre spindle preset). Rows:
 
-* ``force engagement``: converting one step's dexel engagement (60 slices) for the force model;
+* ``immersion intervals``: converting one step's dexel engagement (60 slices) for the force model;
 * ``step forces``: that plus the mean forces and the 360-angle peak force of the step;
 * ``cut only`` and ``cut + signals``: the whole program, as simulated seconds per wall second.
 
@@ -23,15 +23,13 @@ from collections.abc import Callable
 
 from cnctwin.drives import spindle_preset
 from cnctwin.geometry import Cutter, DexelStock
-from cnctwin.mechanics import EndMill
 from cnctwin.mechanics.materials import milling_material
 from cnctwin.nc.interpreter import Interpreter
 from cnctwin.nc.setup import NCSetup
-from cnctwin.process.signals import force_engagement, simulate_signals, step_forces
-from cnctwin.process.simulation import CutStep, simulate_cut
+from cnctwin.simulation.cut import CutStep, simulate_cut
+from cnctwin.simulation.signals import immersion_intervals, simulate_signals, step_forces
 
 CUTTER = Cutter.flat(diameter_mm=10.0, flute_length_mm=22.0, flutes=4, helix_rad=0.5236)
-END_MILL = EndMill(diameter_m=0.010, teeth=4, helix_rad=0.5236)
 COEFFICIENTS = milling_material("AA6060-T6").coefficients
 DRIVE = spindle_preset("machining-centre-15kw")
 
@@ -82,14 +80,14 @@ def main() -> None:
     passes, repeats, calls = (1, 1, 200) if args.quick else (3, 3, 2000)
     pitch = stock().grid.pitch_mm[2]
     step = slot_step()
-    step_forces(step, END_MILL, COEFFICIENTS, pitch)  # warm-up
+    step_forces(step, COEFFICIENTS, pitch)  # warm-up
     rows = []
     wall = best_of(
-        repeats, lambda: [force_engagement(step.engagement, pitch) for _ in range(calls)]
+        repeats, lambda: [immersion_intervals(step.engagement, pitch) for _ in range(calls)]
     )
-    rows.append(("force engagement (60 slices)", f"{wall / calls * 1e6:.1f} us per step"))
+    rows.append(("immersion intervals (60 slices)", f"{wall / calls * 1e6:.1f} us per step"))
     wall = best_of(
-        repeats, lambda: [step_forces(step, END_MILL, COEFFICIENTS, pitch) for _ in range(calls)]
+        repeats, lambda: [step_forces(step, COEFFICIENTS, pitch) for _ in range(calls)]
     )
     rows.append(("step forces (means + 360-angle peak)", f"{wall / calls * 1e6:.0f} us per step"))
     text = program(passes)

@@ -14,7 +14,7 @@ import pytest
 
 from cnctwin.mechanics import flat_end_mill_mean_forces
 from cnctwin.mechanics.materials import milling_material
-from cnctwin.process.signals import SIGNAL_COLUMNS
+from cnctwin.simulation.signals import SIGNAL_COLUMNS
 
 REPO = Path(__file__).resolve().parents[2]
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -90,7 +90,7 @@ def test_slot_csv_plot_and_json(tmp_path: Path) -> None:
     assert len(rows) - 1 == report["steps"]
     assert report["process_time_s"] == pytest.approx(report["steps"] * 0.0125)
     assert (out / "signals.png").read_bytes()[:8] == PNG_MAGIC
-    # The steady slot: Altintas' closed form (tests/process/test_signals.py checks it per step).
+    # The steady slot: Altintas' closed form (tests/simulation/test_signals.py checks it per step).
     data = np.array(rows[1:], dtype=float)
     c = {name: data[:, k] for k, name in enumerate(SIGNAL_COLUMNS)}
     steady = (c["contact"] > 0) & (c["x_mm"] > 3.5) & (c["x_mm"] < 36.5)

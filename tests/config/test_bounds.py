@@ -27,7 +27,7 @@ from cnctwin.config.stability import StabilityConfig
 from cnctwin.errors import ConfigError
 from cnctwin.geometry import DexelStock
 from cnctwin.nc.segments import Segment
-from cnctwin.process.simulation import COLUMNS, StepTable
+from cnctwin.simulation.cut import COLUMNS, StepTable
 from cnctwin.twin.config import load_run_config
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "src" / "cnctwin" / "examples"

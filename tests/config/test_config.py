@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from cnctwin.config import ToolConfig, TwinConfig, load_config
+from cnctwin.config import MachiningConfig, ToolConfig, load_config
 from cnctwin.errors import ConfigError
 from cnctwin.nc.setup import NCSetup, ToolEntry
 
@@ -99,7 +99,7 @@ def test_full_config_round_trip(full_config: Path) -> None:
     assert config.tools[1].corner_radius_mm == 1.0
     assert config.stock.max_mm == (-300.0, -150.0, -300.0)
     assert config.material.hardness_hb == 150.0
-    assert TwinConfig.model_validate(config.model_dump(by_alias=True)) == config
+    assert MachiningConfig.model_validate(config.model_dump(by_alias=True)) == config
 
 
 def test_nc_setup_merges_table_and_tools(full_config: Path) -> None:
@@ -120,7 +120,7 @@ def test_nc_setup_merges_table_and_tools(full_config: Path) -> None:
 
 def test_empty_file_is_the_defaults(tmp_path: Path) -> None:
     config = load_config(write(tmp_path, ""))
-    assert config == TwinConfig()
+    assert config == MachiningConfig()
     assert config.machine.kind == "mill"
     assert config.nc_setup() == NCSetup()
 

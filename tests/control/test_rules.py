@@ -9,7 +9,7 @@ import pytest
 from pydantic import Field
 
 from cnctwin.config import load_config
-from cnctwin.config.twin import TwinConfig
+from cnctwin.config.machining import MachiningConfig
 from cnctwin.control import ControlConfig, Decision, RuleConfig, RuleEngine
 from cnctwin.errors import ConfigError
 
@@ -24,7 +24,7 @@ NAMES = {
 }
 
 
-class RulesFile(TwinConfig):
+class RulesFile(MachiningConfig):
     """A twin file with the two tables of this package (what RunConfig composes)."""
 
     rules: list[RuleConfig] = Field(default_factory=list)

@@ -32,9 +32,9 @@ from cnctwin.geometry.engagement_map import (
     load_engagement_map,
     save_engagement_map,
 )
-from cnctwin.mechanics import Engagement as ForceEngagement
+from cnctwin.mechanics import ImmersionIntervals
 from cnctwin.nc import interpret_file, interpret_text, sample_program
-from cnctwin.process import COLUMNS, CutStep, simulate_cut
+from cnctwin.simulation import COLUMNS, CutStep, simulate_cut
 
 DENSITY = 10.0  # /mm
 PITCH = 1.0 / DENSITY  # mm
@@ -330,7 +330,7 @@ def test_map_agrees_with_the_live_cut_on_a_straight_slot(tmp_path: Path) -> None
     bands = emap.slices(m.nearest)
     assert bands.slice_dz_mm.sum() == pytest.approx(3.0, abs=1e-5)
     assert np.all(bands.slice_dz_mm <= 0.5 + 1e-6)
-    force = ForceEngagement.from_slices(
+    force = ImmersionIntervals.from_slices(
         bands.slice_height_mm * 1e-3, bands.slice_dz_mm * 1e-3, bands.interval_slice,
         bands.interval_start_rad, bands.interval_end_rad,
     )  # fmt: skip

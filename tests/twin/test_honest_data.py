@@ -90,7 +90,7 @@ class Scripted(MachineConnection):
 
 
 def _config(demo: RunConfig, **twin: object) -> RunConfig:
-    return RunConfig.from_physics(
+    return RunConfig.from_machining(
         demo,
         control={"enabled": True, "feed_override": {"min_pct": 30.0, "max_pct": 100.0}},
         twin={"cycle_s": DT, "watchdog_s": 60.0, "max_sample_age_s": 1.0, **twin},
@@ -283,7 +283,7 @@ def test_the_safety_filter_never_raises_an_override_it_cannot_see() -> None:
 
 
 def _volume(twin: Twin) -> float:
-    return float(twin.process.stock.volume_mm3())
+    return float(twin.physics.stock.volume_mm3())
 
 
 def test_a_one_metre_jump_removes_no_material_and_is_marked_invalid(
@@ -372,4 +372,4 @@ def test_out_of_range_keys_are_refused_naming_the_key(
     demo_config: RunConfig, twin: dict[str, object], key: str
 ) -> None:
     with pytest.raises(ValueError, match=key):
-        RunConfig.from_physics(demo_config, twin=twin)
+        RunConfig.from_machining(demo_config, twin=twin)

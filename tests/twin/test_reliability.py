@@ -142,7 +142,7 @@ def test_garbage_values_are_rejected_without_a_crash_or_a_decision(
     demo_config: RunConfig,
 ) -> None:
     machine = GarbageMachine()
-    config = RunConfig.from_physics(
+    config = RunConfig.from_machining(
         demo_config,
         rules=[{"name": "halt", "condition": "force_out_of_band > 0.5", "action": "stop"}],
         control={"enabled": True},
@@ -202,7 +202,7 @@ def test_garbage_over_opc_ua_is_rejected(demo_config: RunConfig) -> None:
     async def main():
         source = Source()
         async with OpcUaMachineServer(source) as server:
-            config = _with_endpoint(RunConfig.from_physics(demo_config), server.endpoint)
+            config = _with_endpoint(RunConfig.from_machining(demo_config), server.endpoint)
             seen: list[CycleState] = []
 
             async def publish() -> None:
@@ -231,7 +231,7 @@ def test_flood_of_rule_firings_is_bounded_by_the_safety_filter(demo_config: RunC
     from test_twin_runtime import FakeMachine
 
     machine = FakeMachine()
-    config = RunConfig.from_physics(
+    config = RunConfig.from_machining(
         demo_config,
         rules=[
             {

@@ -1,4 +1,4 @@
-"""The twin's configuration file: one TOML for physics, connection, machine, rules and twin."""
+"""The twin's configuration file: one TOML for machining, connection, machine, rules and twin."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from cnctwin.config import TwinConfig, load_config
+from cnctwin.config import MachiningConfig, load_config
 from cnctwin.errors import ConfigError
 from cnctwin.twin.config import RunConfig, load_run_config
 from cnctwin.twin.pipeline import signal_names
@@ -15,7 +15,7 @@ from cnctwin.virtual.config import HoleFault
 
 def test_demo_file_holds_every_table(demo_config: RunConfig) -> None:
     c = demo_config
-    assert isinstance(c, TwinConfig)  # the physics root, extended
+    assert isinstance(c, MachiningConfig)  # the machining root, extended
     assert c.tools[0].diameter_mm == 6.0 and c.material.name == "AA6060-T6"
     assert c.connection.transport == "opcua"
     assert c.virtual is not None and c.virtual.program is not None
@@ -34,7 +34,7 @@ def test_load_config_with_a_model_and_without(tmp_path: Path) -> None:
     path.write_text("[twin]\ncycle_s = 0.01\n[control]\nenabled = true\n")
     assert load_config(path, model=RunConfig).twin.cycle_s == 0.01
     with pytest.raises(ConfigError, match=r"twin: unknown key; valid keys: machine, tools"):
-        load_config(path)  # the physics root alone does not know the runtime's tables
+        load_config(path)  # the machining root alone does not know the runtime's tables
 
 
 def test_empty_file_is_a_valid_twin_with_control_off(tmp_path: Path) -> None:

@@ -50,7 +50,7 @@ class FakeMachine:
 
 
 def config(demo: RunConfig, rules: list[dict], **control: object) -> RunConfig:
-    return RunConfig.from_physics(
+    return RunConfig.from_machining(
         demo,
         rules=rules,
         control={"enabled": True, **control},
@@ -72,7 +72,7 @@ def test_cycles_keep_the_period_and_time_every_stage(demo_config: RunConfig) -> 
         return summary.cycles, clock.monotonic() - started
 
     cycles, elapsed = run(main(), clock)
-    twin_stages = {"read", "kinematics", "cut", "process", "rules", "actions"}
+    twin_stages = {"read", "kinematics", "cut", "forces", "rules", "actions"}
     # absolute deadlines: the first cycle at 0 and one every 5 ms up to the first at or past
     # the duration, 0.5 s: 101 cycles
     assert elapsed == pytest.approx(0.5)
@@ -258,7 +258,7 @@ def test_stop_set_by_the_twin_stays_and_is_never_released(demo_config: RunConfig
 
 def test_control_disabled_writes_nothing_but_records_decisions(demo_config: RunConfig) -> None:
     machine = FakeMachine()
-    cfg = RunConfig.from_physics(
+    cfg = RunConfig.from_machining(
         demo_config,
         rules=[{"name": "halt", "condition": "t_s > 0.02", "action": "stop", "cooldown_s": 0.05}],
     )

@@ -8,7 +8,7 @@ from typing import Any
 import pytest
 from vm_helpers import QUIET, MakeVM, physics
 
-from cnctwin.config import TwinConfig
+from cnctwin.config import MachiningConfig
 from cnctwin.virtual import VirtualMachine, VirtualMachineConfig
 
 
@@ -17,7 +17,9 @@ def make_vm(tmp_path: Path) -> MakeVM:
     """``make_vm(program_text, physics_config=None, **virtual_keys)``: a quiet virtual machine
     running the text (on :func:`vm_helpers.physics` unless ``physics_config`` is given)."""
 
-    def make(text: str, physics_config: TwinConfig | None = None, **keys: Any) -> VirtualMachine:
+    def make(
+        text: str, physics_config: MachiningConfig | None = None, **keys: Any
+    ) -> VirtualMachine:
         program = tmp_path / "program.ngc"
         program.write_text(text)
         keys.setdefault("noise", QUIET)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from cnctwin.config import TwinConfig
+from cnctwin.config import MachiningConfig
 from cnctwin.virtual import NoiseConfig, VirtualMachine
 
 #: No sensor noise: the signals are the physics alone.
@@ -27,13 +27,13 @@ MakeVM = Callable[..., VirtualMachine]
 ACCEL_MM_S2 = (2000.0, 2000.0, 1500.0)
 
 
-def physics(**stock: Any) -> TwinConfig:
+def physics(**stock: Any) -> MachiningConfig:
     """A 3-axis mill with a 10 mm, 3-flute end mill (T1) and a block of AA6060-T6.
 
     The block is 60 x 20 x 10 mm, from (0, 0, -10) to (60, 20, 0) in machine coordinates,
     unless ``stock`` says otherwise; no work or tool offsets, so the axes read the tool tip.
     """
-    return TwinConfig.model_validate(
+    return MachiningConfig.model_validate(
         {
             "machine": {
                 "rapid_mm_min": 6000.0,

@@ -76,7 +76,7 @@ def demo(
     from cnctwin.store.historian import Historian
     from cnctwin.twin.config import load_run_config
     from cnctwin.twin.host import MachineProcess
-    from cnctwin.twin.process import TwinProcess
+    from cnctwin.twin.physics import TwinPhysics
 
     check_number("--duration", duration, 0.0, MAX_DEMO_S, low_open=True, unit="s")
     if speed is not None:
@@ -97,7 +97,7 @@ def demo(
             try:
                 machine.spawn()
                 # compile the twin's kernels while the machine compiles its own
-                TwinProcess(config, density_per_mm=config.twin.density_per_mm).warm_up()
+                TwinPhysics(config, density_per_mm=config.twin.density_per_mm).warm_up()
                 endpoint = machine.wait_ready()
                 factor = speed if speed is not None else machine.speed_factor
                 note(

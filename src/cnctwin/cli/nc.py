@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.config import TwinConfig, load_config
+from cnctwin.config import MachiningConfig, load_config
 from cnctwin.nc import limits
 from cnctwin.nc.segments import Segment
 from cnctwin.nc.setup import NCSetup
@@ -66,9 +66,9 @@ MaxRepeatedOpt = Annotated[
 ]
 
 
-def _load(config: Path | None) -> TwinConfig:
+def _load(config: Path | None) -> MachiningConfig:
     """The configuration in ``config``, or the defaults when it is ``None``."""
-    return load_config(config) if config is not None else TwinConfig()
+    return load_config(config) if config is not None else MachiningConfig()
 
 
 def _bounded(setup: NCSetup, max_segments: int, max_bytes: int, max_repeated: int) -> NCSetup:
@@ -83,7 +83,7 @@ def _bounded(setup: NCSetup, max_segments: int, max_bytes: int, max_repeated: in
 
 def inspect_report(
     program: Path,
-    config: TwinConfig,
+    config: MachiningConfig,
     *,
     on_segment: Callable[[Segment], None] | None = None,
     check_travel: bool = True,

@@ -27,7 +27,7 @@ from cnctwin.cli.stability import parse_rpm_range
 from cnctwin.errors import CnctwinError, ConfigError, NCError
 
 if TYPE_CHECKING:
-    from cnctwin.config import TwinConfig
+    from cnctwin.config import MachiningConfig
     from cnctwin.config.stability import StabilityConfig
     from cnctwin.dynamics.roadmap import StabilityRoadmap
     from cnctwin.mechanics.coefficients import CuttingCoefficients
@@ -50,7 +50,7 @@ def _recording(segments: Iterable[Segment], speeds: dict[int, float]) -> Iterato
         yield segment
 
 
-def _coefficients(stability: StabilityConfig, config: TwinConfig) -> CuttingCoefficients:
+def _coefficients(stability: StabilityConfig, config: MachiningConfig) -> CuttingCoefficients:
     """The stability file's coefficients, else those of the configuration's material."""
     from cnctwin.mechanics.materials import milling_material
 
@@ -69,7 +69,7 @@ def _coefficients(stability: StabilityConfig, config: TwinConfig) -> CuttingCoef
         ) from None
 
 
-def _grid(stability: StabilityConfig, config: TwinConfig, rpm_range: str | None) -> np.ndarray:
+def _grid(stability: StabilityConfig, config: MachiningConfig, rpm_range: str | None) -> np.ndarray:
     """The speed grid: --rpm-range, else [lobes] rpm every 10 rpm; capped by the machine."""
     if rpm_range is not None:
         grid = parse_rpm_range(rpm_range)
@@ -89,7 +89,7 @@ def _grid(stability: StabilityConfig, config: TwinConfig, rpm_range: str | None)
 
 def roadmap_report(
     program: Path,
-    config: TwinConfig,
+    config: MachiningConfig,
     stability: StabilityConfig,
     *,
     margin: float,

@@ -10,139 +10,47 @@ from __future__ import annotations
 
 import csv
 import sys
-import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.cli._options import progress
 from cnctwin.cli.simulate import resolution
-from cnctwin.config import TwinConfig, load_config
-from cnctwin.errors import ConfigError, NCError
+from cnctwin.config import MachiningConfig, load_config
 
 if TYPE_CHECKING:
-    from cnctwin.process.signals import MachineSignals
+    from cnctwin.simulation.signals import MachineSignals
 
 __all__ = ["signals", "signals_report"]
 
 
 def signals_report(
     program: Path,
-    config: TwinConfig,
+    config: MachiningConfig,
     *,
     density_per_mm: float,
     cycle_s: float,
     out: Path | None = None,
     plot: Path | None = None,
-    progress: bool = False,
+    progress_bar: bool = False,
 ) -> dict[str, Any]:
-    """Predict the signals of a program; write the outputs; return the summary.
+    """Predict the signals of a program (:func:`~cnctwin.simulation.predict_program_signals`),
+    write the outputs to ``out`` (``signals.csv``, ``signals.png``, ``summary.json``; created)
+    and ``plot`` (PNG, instead of ``out/signals.png``), return the summary
+    (:meth:`~cnctwin.simulation.ProgramSignals.summary`). ``progress_bar`` shows a progress
+    bar on stderr."""
+    from cnctwin.simulation import predict_program_signals
 
-    Parameters
-    ----------
-    program
-        NC file.
-    config
-        Machine (with ``[machine.spindle]``), tools with geometry, stock and material (a milling
-        entry of the materials library).
-    density_per_mm
-        Dexel density, 1/mm.
-    cycle_s
-        Cycle time, s.
-    out
-        Folder for ``signals.csv``, ``signals.png`` and ``summary.json`` (created).
-    plot
-        Where to draw the plot (PNG), instead of ``out/signals.png``.
-    progress
-        Show a progress bar on stderr.
-
-    Returns
-    -------
-    dict
-        The summary of :meth:`cnctwin.process.signals.MachineSignals.summary` plus ``file``,
-        ``material``, ``coefficients_source``, ``rated_power_kw``, ``rated_torque_nm``,
-        ``runtime_s``, ``density_per_mm``, ``cycle_ms`` and ``warnings``.
-
-    Raises
-    ------
-    ConfigError
-        For a material missing from the library, a tool without a fluted length, an unknown
-        spindle preset.
-    NCError
-        For an NC error, or a tool the program uses that has no geometry.
-    """
-    from cnctwin.geometry import Cutter, DexelStock
-    from cnctwin.mechanics.materials import milling_material
-    from cnctwin.nc.interpreter import Interpreter
-    from cnctwin.process.signals import simulate_signals, spindle_drive_parameters
-
-    try:
-        material = milling_material(config.material.name)
-    except ConfigError as err:
-        raise ConfigError(f"material.name: {err}") from None
-    cutters = {tool.number: Cutter.from_tool_config(tool) for tool in config.tools}
-    spindle = config.machine.spindle
-    drive = spindle_drive_parameters(spindle)
-    drive_name = spindle.preset + "".join(
-        f"+{part}" for part in ("motor", "controller") if getattr(spindle, part) is not None
-    )
-    stock_cfg = config.stock
-    stock = DexelStock.box(stock_cfg.min_mm, stock_cfg.max_mm, density_per_mm)
-    interpreter = Interpreter(config.nc_setup())
-    started = time.perf_counter()
-    settings: dict[str, Any] = {
-        "rapid_mm_min": config.machine.rapid_mm_min,
-        "cycle_s": cycle_s,
-        "rated_power_w": None if spindle.rated_power_kw is None else spindle.rated_power_kw * 1e3,
-        "rated_torque_nm": spindle.rated_torque_nm,
-        "drive_name": drive_name,
-    }
-    try:
-        segments = interpreter.run_file(program)
-        if progress:
-            with Progress(
-                TextColumn("predicting signals"),
-                BarColumn(),
-                TextColumn("{task.fields[t]:.1f} s"),
-                TimeElapsedColumn(),
-                console=Console(stderr=True),
-                transient=True,
-            ) as bar:
-                task = bar.add_task("signals", total=None, t=0.0)
-                result = simulate_signals(
-                    segments,
-                    stock,
-                    cutters,
-                    material.coefficients,
-                    drive,
-                    on_chunk=lambda t: bar.update(task, t=t),
-                    **settings,
-                )
-        else:
-            result = simulate_signals(
-                segments, stock, cutters, material.coefficients, drive, **settings
-            )
-    except NCError as err:
-        if err.file == "<string>":
-            raise NCError(err.message, str(program), err.line, err.column) from None
-        raise
-    runtime = time.perf_counter() - started
-    report: dict[str, Any] = {
-        "file": str(program),
-        **result.summary(),
-        "material": material.name,
-        "coefficients_source": material.source,
-        "rated_power_kw": spindle.rated_power_kw,
-        "rated_torque_nm": spindle.rated_torque_nm,
-        "runtime_s": runtime,
-        "density_per_mm": density_per_mm,
-        "cycle_ms": cycle_s * 1e3,
-        "warnings": [*interpreter.warnings, *(f"{program}: {w}" for w in result.warnings)],
-    }
+    with progress("predicting signals", progress_bar) as on_chunk:
+        predicted = predict_program_signals(
+            program, config, density_per_mm=density_per_mm, cycle_s=cycle_s, on_chunk=on_chunk
+        )
+    result = predicted.signals
+    report = predicted.summary()
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         _write_csv(out / "signals.csv", result)
@@ -155,7 +63,7 @@ def signals_report(
 
 
 def _write_csv(path: Path, result: MachineSignals) -> None:
-    from cnctwin.process.signals import SIGNAL_COLUMNS
+    from cnctwin.simulation.signals import SIGNAL_COLUMNS
 
     with path.open("w", newline="") as handle:
         writer = csv.writer(handle)
@@ -259,7 +167,7 @@ def signals(
         cycle_s=cycle_s,
         out=out,
         plot=plot,
-        progress=not as_json and sys.stderr.isatty(),
+        progress_bar=not as_json and sys.stderr.isatty(),
     )
     if as_json:
         sys.stdout.write(finite_json.dumps(report) + "\n")

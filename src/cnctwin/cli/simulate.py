@@ -16,7 +16,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.config import TwinConfig, load_config
+from cnctwin.config import MachiningConfig, load_config
 from cnctwin.config.simulation import (
     MAX_CYCLE_MS,
     MAX_DENSITY_PER_MM,
@@ -29,7 +29,7 @@ __all__ = ["resolution", "simulate", "simulate_report"]
 
 
 def resolution(
-    settings: TwinConfig, density: float | None, cycle_ms: float | None
+    settings: MachiningConfig, density: float | None, cycle_ms: float | None
 ) -> tuple[float, float]:
     """Dexel density (per mm) and cycle time (s): the options where given, else the config's
     ``[simulation]``; a one-line :class:`ConfigError` for values out of range."""
@@ -49,7 +49,7 @@ def resolution(
 
 def simulate_report(
     program: Path,
-    config: TwinConfig,
+    config: MachiningConfig,
     *,
     density_per_mm: float,
     cycle_s: float,
@@ -83,7 +83,7 @@ def simulate_report(
     from cnctwin.geometry import Cutter, DexelStock
     from cnctwin.geometry.mesh import stock_mesh
     from cnctwin.nc.interpreter import Interpreter
-    from cnctwin.process.simulation import COLUMNS, StepTable, simulate_cut
+    from cnctwin.simulation.cut import COLUMNS, StepTable, simulate_cut
 
     cutters = {}
     for tool in config.tools:

@@ -17,11 +17,11 @@ CAMotics shape   cnctwin kind  envelope
 
 :func:`camotics_tools` gives every tool (:class:`CamoticsTool`, mm and degrees), from which
 ``cnctwin.geometry.Cutter`` builds the envelope. :func:`load_camotics_project` builds a
-:class:`~cnctwin.config.TwinConfig` whose ``tools`` hold the tools the ``[[tools]]`` model
+:class:`~cnctwin.config.MachiningConfig` whose ``tools`` hold the tools the ``[[tools]]`` model
 describes (flat and ball end mills; a conical or snub-nose tool is logged and left out, so a
 program that uses it stops with an error naming the tool); as in CAMotics, a T word loads its
 tool without M6, and the workpiece bounds become a box stock. Everything else keeps the
-defaults of :class:`~cnctwin.config.TwinConfig`.
+defaults of :class:`~cnctwin.config.MachiningConfig`.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from cnctwin.config.loading import _describe_validation_error
-from cnctwin.config.twin import TwinConfig
+from cnctwin.config.machining import MachiningConfig
 from cnctwin.errors import ConfigError
 
 __all__ = ["CamoticsTool", "camotics_tools", "load_camotics_project"]
@@ -178,8 +178,8 @@ def _tools(project: dict[str, Any], source: str) -> list[CamoticsTool]:
     return sorted(out, key=lambda entry: entry.number)
 
 
-def load_camotics_project(path: str | os.PathLike[str]) -> TwinConfig:
-    """Read a CAMotics project as a :class:`~cnctwin.config.TwinConfig`.
+def load_camotics_project(path: str | os.PathLike[str]) -> MachiningConfig:
+    """Read a CAMotics project as a :class:`~cnctwin.config.MachiningConfig`.
 
     Parameters
     ----------
@@ -188,7 +188,7 @@ def load_camotics_project(path: str | os.PathLike[str]) -> TwinConfig:
 
     Returns
     -------
-    TwinConfig
+    MachiningConfig
         The flat and ball end mills as ``tools`` (diameter and flute length in mm; conical and
         snub-nose tools are logged and left out: see :func:`camotics_tools`) and a box stock
         from the workpiece bounds; T loads a tool without M6; the rest keeps its defaults.
@@ -236,8 +236,8 @@ def load_camotics_project(path: str | os.PathLike[str]) -> TwinConfig:
         ]
     stock = {"kind": "box", "min_mm": corners["min"], "max_mm": corners["max"]}
     try:
-        return TwinConfig.model_validate(
+        return MachiningConfig.model_validate(
             {"tools": tools, "stock": stock, "machine": {"tool_change_on_t": True}}
         )
     except ValidationError as err:
-        raise ConfigError(_describe_validation_error(err, TwinConfig), source) from err
+        raise ConfigError(_describe_validation_error(err, MachiningConfig), source) from err

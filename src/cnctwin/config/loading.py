@@ -1,4 +1,4 @@
-"""Reading a TOML configuration file into a validated :class:`~cnctwin.config.TwinConfig`."""
+"""Reading a TOML configuration file into a validated :class:`~cnctwin.config.MachiningConfig`."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from typing import Any, TypeVar, overload
 from pydantic import BaseModel, ValidationError
 from pydantic_core import ErrorDetails
 
-from cnctwin.config.twin import TwinConfig
+from cnctwin.config.machining import MachiningConfig
 from cnctwin.errors import ConfigError
 
 __all__ = ["load_config"]
@@ -23,11 +23,11 @@ _SCALARS = (str, int, float, bool)
 _BOUND_ERRORS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
 _BOUND_SYMBOLS = (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<="))
 
-_Model = TypeVar("_Model", bound=TwinConfig)
+_Model = TypeVar("_Model", bound=MachiningConfig)
 
 
 @overload
-def load_config(path: str | os.PathLike[str]) -> TwinConfig: ...
+def load_config(path: str | os.PathLike[str]) -> MachiningConfig: ...
 
 
 @overload
@@ -35,8 +35,8 @@ def load_config(path: str | os.PathLike[str], *, model: type[_Model]) -> _Model:
 
 
 def load_config(
-    path: str | os.PathLike[str], *, model: type[TwinConfig] = TwinConfig
-) -> TwinConfig:
+    path: str | os.PathLike[str], *, model: type[MachiningConfig] = MachiningConfig
+) -> MachiningConfig:
     """Read and validate a configuration file.
 
     Parameters
@@ -47,12 +47,12 @@ def load_config(
         (:func:`cnctwin.config.camotics.load_camotics_project`; only with the default
         ``model``).
     model
-        The root model to validate against: :class:`TwinConfig` or a subclass that adds
+        The root model to validate against: :class:`MachiningConfig` or a subclass that adds
         tables (e.g. :class:`cnctwin.twin.config.RunConfig`, the running twin's file).
 
     Returns
     -------
-    TwinConfig
+    MachiningConfig
         The validated configuration, an instance of ``model``.
 
     Raises
@@ -63,7 +63,7 @@ def load_config(
     """
     path = Path(path)
     source = str(path)
-    if path.suffix.lower() == ".camotics" and model is TwinConfig:
+    if path.suffix.lower() == ".camotics" and model is MachiningConfig:
         from cnctwin.config.camotics import load_camotics_project
 
         return load_camotics_project(path)

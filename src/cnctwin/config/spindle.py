@@ -4,7 +4,7 @@ A named drive preset (:data:`cnctwin.drives.SPINDLE_PRESETS`), optionally with i
 speed controller replaced by explicit parameters, and optionally the spindle's continuous (S1)
 rating, against which the predicted cutting load is checked. Parameters are SI; every key names
 its unit. The preset name is checked where the drive is built
-(:func:`cnctwin.process.signals.spindle_drive_parameters`), so that loading a configuration does
+(:func:`cnctwin.simulation.signals.spindle_drive_parameters`), so that loading a configuration does
 not import the drive models.
 """
 

@@ -1,7 +1,7 @@
 """What the interpreter needs to know about the machine before it reads a program.
 
 This is a plain, validated-elsewhere description (the TOML configuration in
-:mod:`cnctwin.config` builds one with :meth:`cnctwin.config.TwinConfig.nc_setup`).
+:mod:`cnctwin.config` builds one with :meth:`cnctwin.config.MachiningConfig.nc_setup`).
 Lengths are in mm.
 """
 

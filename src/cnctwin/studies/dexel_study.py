@@ -8,7 +8,7 @@ width of cut and feed with the programmed ones and the runtime.
 
 Here one run is an NC program (:meth:`SideMillingCut.program`) interpreted and sampled at the
 cycle time (:mod:`cnctwin.nc`) and cut through a fresh tri-dexel block
-(:func:`cnctwin.process.simulate_cut`), the twin's offline loop. Its metrics, over the steady
+(:func:`cnctwin.simulation.simulate_cut`), the twin's offline loop. Its metrics, over the steady
 part of the cut (the tool at least one diameter inside both ends of the block):
 
 - ``delta_ae_mm``: mean ``|ae - ae_nominal|`` of the steps, mm (the geometry layer's ``ae``: the
@@ -39,7 +39,7 @@ import numpy as np
 from cnctwin.errors import ConfigError
 from cnctwin.geometry import Cutter, DexelStock
 from cnctwin.nc import interpret_text
-from cnctwin.process import COLUMNS, simulate_cut
+from cnctwin.simulation import COLUMNS, simulate_cut
 
 __all__ = [
     "PAPER",

@@ -24,7 +24,7 @@ from cnctwin.twin.settings import (
     FilterConfig,
     ForceBandConfig,
     FormErrorConfig,
-    TwinSection,
+    TwinSettings,
     WindowConfig,
 )
 from cnctwin.twin.state import CycleState, TwinEvent
@@ -44,7 +44,7 @@ __all__ = [
     "Twin",
     "TwinEvent",
     "TwinRuntime",
-    "TwinSection",
+    "TwinSettings",
     "WindowConfig",
     "build_twin",
     "load_run_config",

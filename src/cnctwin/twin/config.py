@@ -1,7 +1,7 @@
-"""The running twin's configuration file: physics, connection, machine, historian, rules.
+"""The running twin's configuration file: machining, connection, machine, historian, rules.
 
-One TOML file holds everything ``cnctwin run`` needs. :class:`RunConfig` is the physics
-root :class:`~cnctwin.config.TwinConfig` (``[machine]``, ``[[tools]]``, ``[stock]``,
+One TOML file holds everything ``cnctwin run`` needs. :class:`RunConfig` is the machining
+root :class:`~cnctwin.config.MachiningConfig` (``[machine]``, ``[[tools]]``, ``[stock]``,
 ``[material]``, ``[simulation]``) plus the tables each runtime package owns:
 
 - ``[connection]`` (:class:`cnctwin.thread.config.ConnectionConfig`): how to reach the machine;
@@ -10,7 +10,7 @@ root :class:`~cnctwin.config.TwinConfig` (``[machine]``, ``[[tools]]``, ``[stock
 - ``[historian]`` (:class:`cnctwin.store.config.HistorianConfig`): where runs are recorded;
 - ``[[rules]]`` and ``[control]`` (:mod:`cnctwin.control.config`): what the twin decides and
   whether it may command the machine;
-- ``[twin]`` (:class:`cnctwin.twin.settings.TwinSection`): cycle time, filters, windows and
+- ``[twin]`` (:class:`cnctwin.twin.settings.TwinSettings`): cycle time, filters, windows and
   the monitoring models.
 
 Load it with ``cnctwin.config.load_config(path, model=RunConfig)`` or :func:`load_run_config`.
@@ -24,17 +24,17 @@ from pydantic import Field, field_validator
 from pydantic_core import PydanticCustomError
 
 from cnctwin.config.loading import load_config
-from cnctwin.config.twin import TwinConfig
+from cnctwin.config.machining import MachiningConfig
 from cnctwin.control.config import ControlConfig, RuleConfig
 from cnctwin.store.config import HistorianConfig
 from cnctwin.thread.config import ConnectionConfig
-from cnctwin.twin.settings import TwinSection
+from cnctwin.twin.settings import TwinSettings
 from cnctwin.virtual.config import VirtualMachineConfig
 
 __all__ = ["RunConfig", "load_run_config"]
 
 
-class RunConfig(TwinConfig):
+class RunConfig(MachiningConfig):
     """A running twin's whole configuration (see the module notes for the tables).
 
     Attributes
@@ -58,21 +58,23 @@ class RunConfig(TwinConfig):
     historian: HistorianConfig = Field(default_factory=HistorianConfig)
     rules: list[RuleConfig] = Field(default_factory=list)
     control: ControlConfig = Field(default_factory=ControlConfig)
-    twin: TwinSection = Field(default_factory=TwinSection)
+    twin: TwinSettings = Field(default_factory=TwinSettings)
 
     @classmethod
-    def from_physics(cls, physics: TwinConfig, **tables: object) -> RunConfig:
-        """A run configuration of a physics configuration and the runtime's tables.
+    def from_machining(cls, machining: MachiningConfig, **tables: object) -> RunConfig:
+        """A run configuration of a machining configuration and the runtime's tables.
 
         Parameters
         ----------
-        physics
+        machining
             Machine, tools, stock, material, simulation.
         **tables
             ``connection``, ``virtual``, ``historian``, ``rules``, ``control``, ``twin`` as
             models or as the dictionaries their TOML tables would give.
         """
-        data: dict[str, object] = {name: getattr(physics, name) for name in TwinConfig.model_fields}
+        data: dict[str, object] = {
+            name: getattr(machining, name) for name in MachiningConfig.model_fields
+        }
         data.update(tables)
         return cls.model_validate(data)
 

@@ -200,13 +200,13 @@ def _warm_up(config: RunConfig) -> None:
     """Compile the machine's numba kernels before it listens (its clock must not stall on
     them once the twin watches): a throw-away machine runs its first ticks, and the cut and
     force kernels run on a copy of the blank."""
-    from cnctwin.twin.process import TwinProcess
+    from cnctwin.twin.physics import TwinPhysics
 
     assert config.virtual is not None
     vm = VirtualMachine(config.virtual, config)
     for _ in range(20):
         vm.step(vm.tick_s)
-    TwinProcess(config, density_per_mm=config.virtual.density_per_mm).warm_up()
+    TwinPhysics(config, density_per_mm=config.virtual.density_per_mm).warm_up()
 
 
 def _answer(message: dict[str, Any]) -> None:

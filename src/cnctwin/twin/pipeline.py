@@ -15,7 +15,7 @@ from cnctwin.thread.signals import SIGNALS
 from cnctwin.twin.actions import ActionStage, RuleStage
 from cnctwin.twin.config import RunConfig
 from cnctwin.twin.monitoring import ForceBand
-from cnctwin.twin.process import TwinProcess
+from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.program import ProgramMap
 from cnctwin.twin.recorder import Recorder
 from cnctwin.twin.runtime import TwinRuntime
@@ -26,9 +26,9 @@ from cnctwin.twin.stages import (
     FeatureStage,
     FilterStage,
     ForceBandStage,
+    ForceStage,
     FormErrorStage,
     KinematicsStage,
-    ProcessStage,
     ReadStage,
     Stage,
 )
@@ -37,7 +37,7 @@ __all__ = ["SHED_ORDER", "Twin", "build_twin", "shed_order", "signal_names"]
 
 #: The optional work of the cycle, first shed first when the twin is overloaded
 #: (docs/twin.md, "Overload"): the historian's per-cycle detail, the windowed features, the
-#: form-error prediction. The reading, kinematics, cut, engagement, process forces, filters,
+#: form-error prediction. The reading, kinematics, cut, engagement, forces, filters,
 #: force band, rules and actions (the chain that decides a stop) are never shed.
 SHED_ORDER = ("historian_detail", "features", "form_error")
 
@@ -83,7 +83,7 @@ class Twin:
     ----------
     runtime
         The cycle.
-    process
+    physics
         The twin's stock, tools and material.
     actions
         The action stage (decisions, writes, read-backs, stop reactions).
@@ -92,7 +92,7 @@ class Twin:
     """
 
     runtime: TwinRuntime
-    process: TwinProcess
+    physics: TwinPhysics
     actions: ActionStage
     safety: SafetyFilter
 
@@ -137,8 +137,8 @@ def build_twin(
     """
     twin_cfg = config.twin
     cycle_s = twin_cfg.cycle_s
-    process = TwinProcess(config, density_per_mm=twin_cfg.density_per_mm, default_dt_s=cycle_s)
-    process.warm_up()
+    physics = TwinPhysics(config, density_per_mm=twin_cfg.density_per_mm, default_dt_s=cycle_s)
+    physics.warm_up()
     engine = RuleEngine(config.rules, valid_names=signal_names(config))
     safety = SafetyFilter(config.control)
     actions = ActionStage(
@@ -149,16 +149,16 @@ def build_twin(
         KinematicsStage(
             ProgramMap(config, program, text=program_text), twin_cfg.position_deadband_mm
         ),
-        CutStage(process, twin_cfg.attach_s),
+        CutStage(physics, twin_cfg.attach_s),
         EngagementStage(),
-        ProcessStage(process),
+        ForceStage(physics),
         FilterStage(twin_cfg.filters, cycle_s),
         FeatureStage(twin_cfg.windows, cycle_s),
     ]
     if twin_cfg.force_band.enabled:
-        stages.append(ForceBandStage(ForceBand(twin_cfg.force_band), process))
+        stages.append(ForceBandStage(ForceBand(twin_cfg.force_band), physics))
     if twin_cfg.form_error.enabled:
-        stages.append(FormErrorStage(twin_cfg.form_error, process))
+        stages.append(FormErrorStage(twin_cfg.form_error, physics))
     stages += [RuleStage(engine), actions]
     runtime = TwinRuntime(
         stages,
@@ -172,4 +172,4 @@ def build_twin(
         clock=clock,
         sleep=sleep,
     )
-    return Twin(runtime, process, actions, safety)
+    return Twin(runtime, physics, actions, safety)

@@ -14,7 +14,7 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
-from cnctwin.config.twin import TwinConfig
+from cnctwin.config.machining import MachiningConfig
 from cnctwin.errors import NCError
 from cnctwin.nc.interpreter import Interpreter
 
@@ -43,7 +43,7 @@ class ProgramMap:
 
     def __init__(
         self,
-        config: TwinConfig,
+        config: MachiningConfig,
         program: str | os.PathLike[str] | None = None,
         *,
         text: str | None = None,

@@ -16,7 +16,7 @@ __all__ = [
     "OverloadConfig",
     "PlausibilityConfig",
     "StopConfirmationConfig",
-    "TwinSection",
+    "TwinSettings",
     "WindowConfig",
 ]
 
@@ -222,7 +222,7 @@ class PlausibilityConfig(Section):
     spindle_override_max_pct: float = Field(default=120.0, gt=0.0, le=120.0)
 
 
-class TwinSection(Section):
+class TwinSettings(Section):
     """The twin's runtime (``[twin]``).
 
     Attributes

@@ -12,7 +12,7 @@ Names the read stage adds to :attr:`CycleState.predicted`: ``sample_age_s`` (s).
 Names a stage adds to :attr:`CycleState.predicted` (units in the names):
 
 - engagement: ``contact``, ``ae_mm``, ``ap_mm``, ``mrr_mm3_s``, ``feed_per_tooth_mm``;
-- process variables: ``predicted_force_x_n``, ``predicted_force_y_n``,
+- forces: ``predicted_force_x_n``, ``predicted_force_y_n``,
   ``predicted_force_z_n``, ``predicted_force_xy_n``, ``predicted_force_normal_n``,
   ``predicted_torque_nm``, ``predicted_power_w``;
 - models: ``measured_force_xy_n``, ``force_band_low_n``, ``force_band_high_n``,
@@ -41,8 +41,8 @@ from cnctwin.thread.connection import ConnectionLost, MachineConnection
 from cnctwin.thread.signals import SIGNALS, RunState
 from cnctwin.twin.freshness import Freshness
 from cnctwin.twin.monitoring import ForceBand
+from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.plausibility import AXES, Plausibility
-from cnctwin.twin.process import TwinProcess
 from cnctwin.twin.program import ProgramMap
 from cnctwin.twin.settings import FilterConfig, FormErrorConfig, WindowConfig
 from cnctwin.twin.state import CycleState, TwinEvent
@@ -61,7 +61,7 @@ __all__ = [
     "ForceBandStage",
     "FormErrorStage",
     "KinematicsStage",
-    "ProcessStage",
+    "ForceStage",
     "ReadStage",
     "Stage",
     "make_filter",
@@ -312,7 +312,7 @@ class KinematicsStage:
         Tool offsets by line (and by tool).
     deadband_mm
         Axis noise dead band, mm: a reading within it of the held axis position keeps the
-        held one (:attr:`~cnctwin.twin.settings.TwinSection.position_deadband_mm`).
+        held one (:attr:`~cnctwin.twin.settings.TwinSettings.position_deadband_mm`).
     """
 
     per_sample = True
@@ -372,7 +372,7 @@ class CutStage:
 
     Parameters
     ----------
-    process
+    physics
         The twin's stock, tools and material.
     attach_s
         Machine time after which a running program counts as already under way, s.
@@ -381,8 +381,8 @@ class CutStage:
     per_sample = True
     name = "cut"
 
-    def __init__(self, process: TwinProcess, attach_s: float = 1.0) -> None:
-        self.twin = process
+    def __init__(self, physics: TwinPhysics, attach_s: float = 1.0) -> None:
+        self.twin = physics
         self.attach_s = attach_s
         self._last_t_s: float | None = None
 
@@ -460,20 +460,20 @@ class EngagementStage:
         return state
 
 
-class ProcessStage:
-    """Step 6: process variables from the physics: forces, torque, power.
+class ForceStage:
+    """Step 6: forces, torque and power of the mechanistic model.
 
     Parameters
     ----------
-    process
+    physics
         The twin's tools and material (the mechanistic force model's inputs).
     """
 
     per_sample = True
-    name = "process"
+    name = "forces"
 
-    def __init__(self, process: TwinProcess) -> None:
-        self.twin = process
+    def __init__(self, physics: TwinPhysics) -> None:
+        self.twin = physics
 
     def process(self, state: CycleState) -> CycleState:
         """Add the ``predicted_*`` forces (N), torque (N m) and power (W)."""
@@ -611,22 +611,22 @@ class ForceBandStage:
     """Step 9a: the force band of use case 1 (Heide 2025, Sec. 3.1).
 
     The measured force is the XY resultant of the dynamometer (``force_x_n``, ``force_y_n``,
-    filtered where a filter is configured); the prediction is that of the process stage.
+    filtered where a filter is configured); the prediction is that of the force stage.
 
     Parameters
     ----------
     band
         The band model.
-    process
+    physics
         The twin's blank: while it is not synchronized with the machine's, the band is off.
     """
 
     per_sample = True
     name = "force_band"
 
-    def __init__(self, band: ForceBand, process: TwinProcess | None = None) -> None:
+    def __init__(self, band: ForceBand, physics: TwinPhysics | None = None) -> None:
         self.band = band
-        self.twin = process
+        self.twin = physics
 
     def forget(self) -> None:
         """Settle again before arming (after a gap in the connection)."""
@@ -674,20 +674,20 @@ class FormErrorStage:
     ----------
     config
         Tolerance, stiffness or overhang, Young's modulus.
-    process
+    physics
         The twin's tools (diameter and fluted length for the stiffness).
     """
 
     per_sample = True
     name = "form_error"
 
-    def __init__(self, config: FormErrorConfig, process: TwinProcess) -> None:
+    def __init__(self, config: FormErrorConfig, physics: TwinPhysics) -> None:
         from cnctwin.quality.form_error import end_mill_stiffness
 
         self.tolerance_um = config.tolerance_um
-        self.twin = process
+        self.twin = physics
         self.stiffness_n_m: dict[int, float] = {}
-        for number, cutter in process.cutters.items():
+        for number, cutter in physics.cutters.items():
             if config.stiffness_n_um is not None:
                 self.stiffness_n_m[number] = config.stiffness_n_um * 1e6
                 continue

@@ -1,7 +1,7 @@
 """The ``[virtual]`` table: the simulated machine's program, clock, sensors and faults.
 
 The physics of the virtual machine (machine, tools, stock, material, dexel density) is an
-ordinary :class:`cnctwin.config.TwinConfig`; this table says what the machine runs and how it
+ordinary :class:`cnctwin.config.MachiningConfig`; this table says what the machine runs and how it
 misbehaves. Units are in the key names (mm, ms, s, N, N m, A, W, %, rpm, Hz); every numeric
 key has a range (docs/configuration.md), far beyond what a machine shows and small enough to
 keep the simulation finite.

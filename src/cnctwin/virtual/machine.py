@@ -10,8 +10,8 @@ Each :meth:`VirtualMachine.step` of ``dt`` seconds (the tick):
 3. the engagement of the cut gives the per-revolution mean cutting forces, torque and power of
    the mechanistic model with the tool's teeth and helix and the material's coefficients
    (:func:`cnctwin.mechanics.mean_forces` on the engagement of
-   :func:`cnctwin.process.signals.force_engagement`, as
-   :func:`cnctwin.process.signals.step_forces` does: Altintas 2012 ch. 2, Royandi 2026
+   :func:`cnctwin.simulation.signals.force_engagement`, as
+   :func:`cnctwin.simulation.signals.step_forces` does: Altintas 2012 ch. 2, Royandi 2026
    Eq. 8-12);
 4. the cutting torque loads the spindle drive (Christiand 2024, Eq. 10-18,
    :class:`cnctwin.drives.SpindleDrive`), which follows ``S x spindle override`` and gives the
@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cnctwin.config import TwinConfig, load_config
+from cnctwin.config import MachiningConfig, load_config
 from cnctwin.config.tools import ToolConfig
 from cnctwin.drives import RAD_S_PER_RPM, EventState, SpindleDrive
 from cnctwin.errors import ConfigError, NCError
@@ -48,7 +48,7 @@ from cnctwin.mechanics import EndMill, mean_forces
 from cnctwin.mechanics.materials import milling_material
 from cnctwin.nc.interpreter import Interpreter
 from cnctwin.nc.segments import Segment
-from cnctwin.process.signals import force_engagement, spindle_drive_parameters
+from cnctwin.simulation.signals import force_engagement, spindle_drive_parameters
 from cnctwin.thread.signals import COMMANDS, SIGNALS, RunState
 from cnctwin.virtual._motion import PathFollower
 from cnctwin.virtual.config import HoleFault, VirtualMachineConfig
@@ -120,7 +120,9 @@ class VirtualMachine:
     by the next :meth:`snapshot`.
     """
 
-    def __init__(self, config: VirtualMachineConfig, physics: TwinConfig | None = None) -> None:
+    def __init__(
+        self, config: VirtualMachineConfig, physics: MachiningConfig | None = None
+    ) -> None:
         self.config = config
         self.physics = physics if physics is not None else _load_physics(config)
         p = self.physics
@@ -481,7 +483,7 @@ class VirtualMachine:
         self, engagement: Engagement, tool: _Tool, fz_mm: float, rpm: float
     ) -> tuple[float, float, float, float, float]:
         """Per-revolution mean force on the tool (machine X, Y, Z; N), torque (N m) and force
-        magnitude (N) of a cut: :func:`cnctwin.process.signals.step_forces` without its peak
+        magnitude (N) of a cut: :func:`cnctwin.simulation.signals.step_forces` without its peak
         force (Altintas 2012 ch. 2; the tool frame turned by the feed direction)."""
         cut_engagement = force_engagement(engagement, self._pitch_z)
         if cut_engagement is None:
@@ -536,7 +538,7 @@ class VirtualMachine:
         )
 
 
-def _load_physics(config: VirtualMachineConfig) -> TwinConfig:
+def _load_physics(config: VirtualMachineConfig) -> MachiningConfig:
     """The physics configuration: ``physics_config``, else the packaged demo.toml."""
     if config.physics_config is not None:
         return load_config(config.physics_config)

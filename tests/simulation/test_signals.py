@@ -18,15 +18,15 @@ from cnctwin.drives import RAD_S_PER_RPM, spindle_preset
 from cnctwin.errors import ConfigError
 from cnctwin.geometry import Cutter, DexelStock
 from cnctwin.geometry import Engagement as DexelEngagement
-from cnctwin.mechanics import Engagement as ForceEngagement
+from cnctwin.mechanics import ImmersionIntervals
 from cnctwin.mechanics import flat_end_mill_mean_forces
 from cnctwin.mechanics.materials import milling_material
 from cnctwin.nc.interpreter import Interpreter
 from cnctwin.nc.setup import NCSetup
-from cnctwin.process.signals import (
+from cnctwin.simulation.signals import (
     SIGNAL_COLUMNS,
     MachineSignals,
-    force_engagement,
+    immersion_intervals,
     simulate_signals,
     spindle_drive_parameters,
 )
@@ -205,20 +205,20 @@ def _dexel_engagement(heights, dz, owner, start, end) -> DexelEngagement:
     )  # fmt: skip
 
 
-def test_force_engagement_lowest_slice_when_the_tip_is_inside_a_level() -> None:
+def test_immersion_intervals_lowest_slice_when_the_tip_is_inside_a_level() -> None:
     # Pitch 0.1 mm, tip 0.02 mm above the centre of its level: that slice samples 0.02 mm
     # below the tip and stands for [tip, tip + 0.03 mm]; the next one for [0.03, 0.13] mm.
     pi = math.pi
-    cut = force_engagement(
+    cut = immersion_intervals(
         _dexel_engagement([-0.02, 0.08], [0.03, 0.1], [0, 1], [0, 0], [pi, pi]), 0.1
     )
     assert cut is not None
     assert np.allclose(cut.z_bounds_m, [0.0, 0.03e-3, 0.13e-3])
     assert np.allclose(cut.entry_rad, 0.0) and np.allclose(cut.exit_rad, pi)
-    assert force_engagement(_dexel_engagement([0.05], [0.1], [], [], []), 0.1) is None
+    assert immersion_intervals(_dexel_engagement([0.05], [0.1], [], [], []), 0.1) is None
 
 
-def test_force_engagement_agrees_with_from_slices() -> None:
+def test_immersion_intervals_agree_with_from_slices() -> None:
     # Two runs of slices with a gap (0.2 to 0.5 mm above the tip), several intervals a slice,
     # one slice without intervals: the array construction against the force model's own
     # slice-by-slice reader.
@@ -227,8 +227,8 @@ def test_force_engagement_agrees_with_from_slices() -> None:
     owner = [0, 0, 1, 3, 3, 3, 4]
     start = [0.0, 2.0, 0.5, 0.1, 1.0, 6.0, 0.2]
     end = [1.5, 3.1, 2.5, 0.9, 2.0, 6.2831, 3.0]
-    cut = force_engagement(_dexel_engagement(heights, dz, owner, start, end), 0.1)
-    reference = ForceEngagement.from_slices(
+    cut = immersion_intervals(_dexel_engagement(heights, dz, owner, start, end), 0.1)
+    reference = ImmersionIntervals.from_slices(
         np.array(heights) * 1e-3, np.array(dz) * 1e-3, np.array(owner),
         np.array(start), np.array(end),
     )  # fmt: skip

@@ -19,12 +19,12 @@ from cnctwin.config.tools import ToolConfig
 from cnctwin.nc.setup import NCSetup
 from cnctwin.nc.tool_table import read_tool_table
 
-__all__ = ["TwinConfig"]
+__all__ = ["MachiningConfig"]
 
 logger = logging.getLogger(__name__)
 
 
-class TwinConfig(Section):
+class MachiningConfig(Section):
     """A whole configuration; every section has defaults, so an empty file is valid.
 
     Attributes

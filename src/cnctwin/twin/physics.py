@@ -1,4 +1,4 @@
-"""The twin's own process model: its stock, its tools, and the physics of one cycle.
+"""The twin's own physics: its stock, its tools, and the physics of one cycle.
 
 The twin keeps its *own* tri-dexel stock (the blank the configuration describes, in machine
 coordinates) and cuts it at the tool positions the machine reports (Heide 2025, Sec. 2.2 and
@@ -8,7 +8,7 @@ band around the prediction (Heide 2025, use case 1).
 
 Forces, torque and power come from the mechanistic model of :mod:`cnctwin.mechanics` with the
 material's coefficients, exactly as the offline prediction of
-:func:`cnctwin.process.signals.simulate_signals` does (Altintas 2012, ch. 2; Royandi 2026,
+:func:`cnctwin.simulation.signals.simulate_signals` does (Altintas 2012, ch. 2; Royandi 2026,
 Eq. 8-12).
 
 Units: mm, mm/min, rpm and s at the edges (names say so), N, N m, W.
@@ -21,20 +21,20 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from cnctwin.config.twin import TwinConfig
+from cnctwin.config.machining import MachiningConfig
 from cnctwin.errors import ConfigError
 from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
 from cnctwin.mechanics import CuttingCoefficients, EndMill
-from cnctwin.process.signals import StepForces, step_forces
-from cnctwin.process.simulation import CutStep
+from cnctwin.simulation.cut import CutStep
+from cnctwin.simulation.signals import StepForces, step_forces
 
-__all__ = ["NO_FORCE", "TwinProcess"]
+__all__ = ["NO_FORCE", "TwinPhysics"]
 
 #: The load of a step without contact.
 NO_FORCE = StepForces(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
-class TwinProcess:
+class TwinPhysics:
     """The twin's stock, tools and material; cut one position at a time.
 
     Parameters
@@ -58,7 +58,7 @@ class TwinProcess:
 
     def __init__(
         self,
-        config: TwinConfig,
+        config: MachiningConfig,
         *,
         density_per_mm: float | None = None,
         waveform_steps: int = 36,
@@ -192,7 +192,7 @@ class TwinProcess:
         -------
         StepForces
             All zero without contact or feed
-            (:func:`cnctwin.process.signals.step_forces` otherwise).
+            (:func:`cnctwin.simulation.signals.step_forces` otherwise).
         """
         cutter = self.cutters.get(tool)
         if cutter is None or not engagement.contact or feed_per_tooth_mm <= 0.0:

@@ -1,7 +1,7 @@
 """Machine signals predicted along a program: cutting forces, spindle torque, power and current.
 
 The offline twin of Christiand 2024's virtual resources (section 3.2), driven by the dexel cut of
-Heide 2025. At every cycle of :func:`~cnctwin.process.simulation.simulate_cut`:
+Heide 2025. At every cycle of :func:`~cnctwin.simulation.cut.simulate_cut`:
 
 1. the engagement of the step (contact intervals per axial slice, from the removed dexels) and
    the step's feed per tooth and spindle speed give the per-revolution mean forces, torque and
@@ -21,7 +21,7 @@ Axis currents are not predicted: at machining feeds they are dominated by fricti
 acceleration forces, which the twin does not model.
 
 Units: SI inside the physics; the signal table's columns carry their units in their names
-(mm, mm/min, rpm, N, N m, W, A, s), as the process layer does.
+(mm, mm/min, rpm, N, N m, W, A, s), as the rest of the simulation package does.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ from cnctwin.mechanics import CuttingCoefficients, EndMill, mean_forces, milling
 from cnctwin.mechanics import Engagement as ForceEngagement
 from cnctwin.nc.sampler import AxisLimits
 from cnctwin.nc.segments import Segment
-from cnctwin.process.simulation import CutStep, StepTable, simulate_cut
+from cnctwin.simulation.cut import CutStep, StepTable, simulate_cut
 
 __all__ = [
     "SIGNAL_COLUMNS",
