@@ -3,11 +3,10 @@
 The browser is Debian's ``chromium`` package (``/usr/bin/chromium``, or ``$CNCTWIN_CHROMIUM``);
 Playwright drives it through ``executable_path``, so nothing is downloaded. Where the browser
 or Playwright is missing the tests skip with the reason, and fail in CI
-(``CNCTWIN_REQUIRE_SERVICES=1``, tests/conftest.py).
+(``CNCTWIN_REQUIRE_SERVICES=1``, tests/skips.py).
 
-Use it from a test module with::
-
-    from browser import browser, page  # noqa: F401  (pytest fixtures)
+The fixtures reach the tests through ``tests/web/conftest.py`` (imported there once: a
+session fixture imported into several test modules would start one Playwright per module).
 
 ``browser`` is one Chromium per test session (per xdist worker); ``page`` is a fresh page in
 its own context for each test, and fails the test if the page raised a JavaScript error.
@@ -21,7 +20,7 @@ from collections.abc import Iterator
 from typing import Any
 
 import pytest
-from conftest import _missing
+from skips import missing
 
 #: Where Debian's chromium package puts the browser.
 CHROMIUM_CANDIDATES = ("/usr/bin/chromium", "/usr/bin/chromium-browser")
@@ -37,12 +36,12 @@ def chromium_path() -> str:
     for path in candidates:
         if path and (os.path.isfile(path) or shutil.which(path)):
             return path
-    _missing(
+    missing(
         f"Chromium is not installed at {', '.join(c for c in candidates if c)}"
         " (apt-get install chromium, or set CNCTWIN_CHROMIUM)",
         "CNCTWIN_REQUIRE_SERVICES",
     )
-    raise AssertionError("unreachable")  # _missing skips or fails
+    raise AssertionError("unreachable")  # missing skips or fails
 
 
 @pytest.fixture(scope="session")
@@ -51,7 +50,7 @@ def browser() -> Iterator[Any]:
     try:
         from playwright.sync_api import sync_playwright
     except ImportError as err:
-        _missing(
+        missing(
             f"Playwright is not installed ({err}); pip install -e '.[test]'",
             "CNCTWIN_REQUIRE_SERVICES",
         )

@@ -11,11 +11,11 @@ examples to look for failures.
 from __future__ import annotations
 
 import os
-import socket
 from pathlib import Path
 
 import pytest
 from hypothesis import settings
+from skips import missing
 
 settings.register_profile("reproducible", derandomize=True)
 settings.register_profile("explore", derandomize=False)
@@ -24,29 +24,10 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "reproducible"))
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
 
-def _missing(reason: str, required_by: str) -> None:
-    """Skip, or fail when the environment variable ``required_by`` is ``1``."""
-    if os.environ.get(required_by) == "1":
-        pytest.fail(f"{reason} ({required_by}=1)")
-    pytest.skip(reason)
-
-
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
     """The real-data folder: ``$CNCTWIN_DATA``, else ``<repo>/../shared/data``."""
     path = Path(os.environ.get("CNCTWIN_DATA") or REPO_ROOT.parent / "shared" / "data")
     if not path.is_dir():
-        _missing(f"real data folder {path} is absent (set CNCTWIN_DATA)", "CNCTWIN_REQUIRE_DATA")
+        missing(f"real data folder {path} is absent (set CNCTWIN_DATA)", "CNCTWIN_REQUIRE_DATA")
     return path
-
-
-def require_service(host: str, port: int, name: str) -> None:
-    """Skip the calling test unless ``name`` accepts TCP connections at ``host:port``.
-
-    Fails instead of skipping when ``CNCTWIN_REQUIRE_SERVICES=1`` (CI).
-    """
-    try:
-        with socket.create_connection((host, port), timeout=2.0):
-            return
-    except OSError as err:
-        _missing(f"{name} is not reachable at {host}:{port}: {err}", "CNCTWIN_REQUIRE_SERVICES")

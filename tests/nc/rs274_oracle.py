@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
-from conftest import _missing
+from skips import missing
 
 from cnctwin.nc.interpreter import Interpreter
 from cnctwin.nc.segments import FeedMode
@@ -48,7 +48,7 @@ def rs274_fixture() -> str:
     """Path of LinuxCNC's ``rs274``; skip (fail in CI) when it is not installed."""
     found = shutil.which("rs274")
     if found is None:
-        _missing(
+        missing(
             "LinuxCNC's rs274 is not installed (apt-get install linuxcnc-uspace)",
             "CNCTWIN_REQUIRE_SERVICES",
         )

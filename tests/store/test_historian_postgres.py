@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from conftest import require_service
 from historian_cases import assert_bits_equal, check_roundtrip, record_everything
+from skips import require_service
 
 from cnctwin.errors import DataError
 from cnctwin.store import Historian

@@ -1,9 +1,8 @@
 """The shared Chromium fixture (tests/browser.py) runs JavaScript and WebGL."""
 
-from browser import browser, page  # noqa: F401  (pytest fixtures)
 
 
-def test_page_runs_script_and_has_webgl(page) -> None:  # noqa: F811
+def test_page_runs_script_and_has_webgl(page) -> None:
     page.set_content(
         "<canvas id=c></canvas><script>"
         "document.title = String(6 * 7) + ':' +"
