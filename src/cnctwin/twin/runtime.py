@@ -146,7 +146,8 @@ class TwinRuntime:
         The optional stages to shed while overloaded, first shed first (stage names, and
         ``"historian_detail"``: the historian keeps every ``sample_every``-th cycle).
     clock, sleep
-        The runtime's clock (s) and how it waits (s): ``time.monotonic`` and
+        The clock (s) that times the cycles, the watchdog and the stop hold, and how the
+        runtime waits (s): ``time.monotonic`` and
         ``asyncio.sleep``; tests give a fake clock whose sleep advances it.
     """
 
@@ -240,7 +241,7 @@ class TwinRuntime:
         """
         self.prepare()
         t0 = self._clock()
-        self._beat_s = time.monotonic()
+        self._beat_s = self._clock()
         deadline = t0
         ended = "interrupted"
         try:
@@ -352,7 +353,7 @@ class TwinRuntime:
 
     # ------------------------------------------------------------------ watchdog
     async def _watch(self, state: CycleState) -> None:
-        now = time.monotonic()
+        now = self._clock()
         beat = state.measured.get("heartbeat") if state.connected else None
         if beat is not None and beat != self._last_beat:
             self._last_beat = beat
@@ -456,7 +457,7 @@ class TwinRuntime:
             return None
         confirmed = actions is not None and actions.stop_outcome == "confirmed"
         if run_state == RunState.STOPPED or (run_state == RunState.FAULT and confirmed):
-            now = time.monotonic()
+            now = self._clock()
             if self._stopped_since is None:
                 self._stopped_since = now
             if now - self._stopped_since >= self.stop_hold_s or not self.realtime:
