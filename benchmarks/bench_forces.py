@@ -16,10 +16,10 @@ import statistics
 import time
 from collections.abc import Callable
 
+from cnctwin.geometry import Cutter
 from cnctwin.mechanics import (
     CuttingCoefficients,
-    EndMill,
-    Engagement,
+    ImmersionIntervals,
     flat_end_mill_mean_forces,
     mean_forces,
     milling_forces,
@@ -48,13 +48,13 @@ def main() -> None:
     args = parser.parse_args()
     repeats, batch = (5, 20) if args.quick else (31, 200)
 
-    slot_cutter = EndMill(diameter_m=0.025, teeth=2, helix_rad=math.radians(30))
-    slot = Engagement.from_depths(slot_cutter, 0.025, 0.003, slices=50)
-    four = EndMill(diameter_m=0.012, teeth=4, helix_rad=math.radians(35))
-    half = Engagement.from_depths(four, 0.006, 0.012, down_milling=True, slices=50)
-    runout = EndMill(diameter_m=0.025, teeth=2, helix_rad=math.radians(30), runout_m=10e-6)
-    ball = EndMill(diameter_m=0.010, teeth=2, helix_rad=math.radians(30), kind="ball")
-    ball_cut = Engagement.from_depths(ball, 0.004, 0.003, slices=50)
+    slot_cutter = Cutter.flat(25.0, 30.0, flutes=2, helix_rad=math.radians(30))
+    slot = ImmersionIntervals.from_depths(slot_cutter, 0.025, 0.003, slices=50)
+    four = Cutter.flat(12.0, 30.0, flutes=4, helix_rad=math.radians(35))
+    half = ImmersionIntervals.from_depths(four, 0.006, 0.012, down_milling=True, slices=50)
+    runout = Cutter("flat", 25.0, 30.0, flutes=2, helix_rad=math.radians(30), runout_mm=0.01)
+    ball = Cutter.ball(10.0, 20.0, flutes=2, helix_rad=math.radians(30))
+    ball_cut = ImmersionIntervals.from_depths(ball, 0.004, 0.003, slices=50)
 
     cases: list[tuple[str, str, Callable[[], object]]] = [
         (

@@ -36,12 +36,12 @@ from typing import Any
 
 import numpy as np
 
-from cnctwin.cli.bench import virtual_machine_server
 from cnctwin.thread.config import ConnectionConfig
 from cnctwin.thread.latency import JitterProxy, LatencyResult, LatencyStats, measure_latency
 from cnctwin.thread.opcua import DEFAULT_SUBSCRIPTION_MS, NODE_MAP, OpcUaConnection
 from cnctwin.virtual import MachineClock, VirtualMachine, VirtualMachineConfig
 from cnctwin.virtual.opcua_server import OpcUaMachineServer
+from cnctwin.virtual.spawned import virtual_machine_server
 from cnctwin.virtual.users import UserTable
 
 

@@ -86,9 +86,7 @@ def main() -> None:
         repeats, lambda: [immersion_intervals(step.engagement, pitch) for _ in range(calls)]
     )
     rows.append(("immersion intervals (60 slices)", f"{wall / calls * 1e6:.1f} us per step"))
-    wall = best_of(
-        repeats, lambda: [step_forces(step, COEFFICIENTS, pitch) for _ in range(calls)]
-    )
+    wall = best_of(repeats, lambda: [step_forces(step, COEFFICIENTS, pitch) for _ in range(calls)])
     rows.append(("step forces (means + 360-angle peak)", f"{wall / calls * 1e6:.0f} us per step"))
     text = program(passes)
     simulated = 0.0

@@ -23,7 +23,8 @@ from collections.abc import Callable
 from cnctwin.dynamics.process_damping import CalibrationSetup, calibrate_cpd
 from cnctwin.dynamics.stability import MillingProcess, ProcessDamping, ToolDynamics, ToolMode
 from cnctwin.dynamics.time_domain import MillingVibration, simulate_milling
-from cnctwin.mechanics import CuttingCoefficients, EndMill
+from cnctwin.geometry import Cutter
+from cnctwin.mechanics import CuttingCoefficients
 
 RPM = math.pi / 30.0
 STEPS = 200
@@ -41,7 +42,7 @@ UBC = ToolDynamics.from_xy(
 ROYANDI_MODE = ToolMode(math.sqrt(8028e3 / 0.241), 118.0 / (2 * math.sqrt(8028e3 * 0.241)), 8028e3)
 ROYANDI = ToolDynamics.from_xy(x=[ROYANDI_MODE], y=[ROYANDI_MODE])
 ROYANDI_SLOT = MillingProcess.from_immersion(4, CuttingCoefficients(745.1e6, 360.98e6), 1.0)
-ROYANDI_CUTTER = EndMill(0.012, 4, math.radians(30.0))
+ROYANDI_CUTTER = Cutter.flat(12.0, 30.0, flutes=4, helix_rad=math.radians(30.0))
 
 
 def cases(seconds: float) -> list[tuple[str, Callable[[], MillingVibration]]]:

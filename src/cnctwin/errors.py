@@ -2,7 +2,15 @@
 
 Every error the library raises on bad input derives from :class:`CnctwinError`.
 Each message names the bad value and what would be valid; the CLI prints the
-message on one line and exits non-zero, never with a traceback.
+message on one line and exits with status 2, never with a traceback.
+
+The hierarchy::
+
+    CnctwinError
+    +-- InputError (also ValueError)    an argument of a public function or option is invalid
+    |   +-- ConfigError                 ... and it came from a configuration file or table
+    +-- DataError (also ValueError)     a data file or record cannot be read or is inconsistent
+    +-- NCError (also ValueError)       an NC program cannot be interpreted
 """
 
 from __future__ import annotations
@@ -11,6 +19,7 @@ __all__ = [
     "CnctwinError",
     "ConfigError",
     "DataError",
+    "InputError",
     "NCError",
 ]
 
@@ -19,7 +28,15 @@ class CnctwinError(Exception):
     """Root of every error cnctwin raises on purpose."""
 
 
-class ConfigError(CnctwinError, ValueError):
+class InputError(CnctwinError, ValueError):
+    """An argument is invalid: a value given to a public function or a command-line option.
+
+    The message names the argument (or option), the value given and what would be valid,
+    with its unit, e.g. ``"depth_m -0.001: give a depth > 0 m"``.
+    """
+
+
+class ConfigError(InputError):
     """A configuration file or value is invalid.
 
     Parameters

@@ -13,12 +13,12 @@ import typer
 from typer.testing import CliRunner
 
 from cnctwin.cli import chatter
-from cnctwin.config.stability import load_stability_config
+from cnctwin.dynamics.config import load_stability_config
 from cnctwin.dynamics.process_damping import CalibrationSetup, calibrate_cpd
 from cnctwin.dynamics.stability import sdm_lobes
 from cnctwin.dynamics.time_domain import simulate_milling
-from cnctwin.errors import CnctwinError, ConfigError, DataError
-from cnctwin.mechanics import EndMill
+from cnctwin.errors import CnctwinError, ConfigError, DataError, InputError
+from cnctwin.geometry import Cutter
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "stability"
 RPM = math.pi / 30.0
@@ -101,7 +101,8 @@ def test_simulate_stable_cut_is_the_library_result(royandi: Path) -> None:
     process = config.process()
     direct = simulate_milling(
         config.tool_dynamics(), process, spindle_rad_s=speed, depth_m=1.5e-3,  # type: ignore[arg-type]
-        feed_per_tooth_m=1e-4, duration_s=0.2, cutter=EndMill(0.012, 4, math.radians(30)),
+        feed_per_tooth_m=1e-4, duration_s=0.2,
+        cutter=Cutter.flat(12.0, 20.0, flutes=4, helix_rad=math.radians(30)),
         edge_tangential_n_m=31.49e3, edge_radial_n_m=21.85e3, helical_edge=True,
         damping=config.process_damping_model(),
     )  # fmt: skip
@@ -141,7 +142,8 @@ def test_calibrate_damping_matches_the_library_and_feeds_simulate(
     assert [row["status"] for row in report["cuts"]] == ["matched"] * 4
     config = load_stability_config(royandi)
     setup = CalibrationSetup(
-        config.tool_dynamics(), config.process(), EndMill(0.012, 4, math.radians(30)),  # type: ignore[arg-type]
+        config.tool_dynamics(), config.process(),
+        Cutter.flat(12.0, 20.0, flutes=4, helix_rad=math.radians(30)),
         31.49e3, 21.85e3, True, 0.15,
     )  # fmt: skip
     first = calibrate_cpd(setup, spindle_rad_s=7500 * RPM, depth_m=1.5e-3, feed_per_tooth_m=1e-4,
@@ -171,23 +173,23 @@ def test_calibrate_damping_matches_the_library_and_feeds_simulate(
 @pytest.mark.parametrize(
     ("args", "error", "message"),
     [
-        (["simulate", "--config", "{slot}", "--rpm", "9000", "--depth-mm", "1"], ConfigError,
+        (["simulate", "--config", "{slot}", "--rpm", "9000", "--depth-mm", "1"], InputError,
          "give --feed-mm"),
         (["simulate", "--config", "{orthogonal}", "--rpm", "9000", "--depth-mm", "1",
           "--feed-mm", "0.1"], ConfigError, "orthogonal"),
         (["simulate", "--config", "{slot}", "--rpm", "9000", "--depth-mm", "1", "--feed-mm",
-          "0.1", "--helix-deg", "30"], ConfigError, "--diameter-mm"),
+          "0.1", "--helix-deg", "30"], InputError, "--diameter-mm"),
         (["simulate", "--config", "{slot}", "--rpm", "9000", "--depth-mm", "1", "--feed-mm",
-          "0.1", "--cpd-n-m2", "1e10"], ConfigError, "diameter"),
+          "0.1", "--cpd-n-m2", "1e10"], InputError, "diameter"),
         (["simulate", "--config", "{slot}", "--rpm", "-5", "--depth-mm", "1", "--feed-mm",
-          "0.1"], ConfigError, "--rpm"),
+          "0.1"], InputError, "--rpm"),
         (["simulate", "--config", "{royandi}", "--rpm", "9000", "--depth-mm", "1",
           "--damping-model", "{bad}"], DataError, "not a damping model"),
         (["simulate", "--config", "{royandi}", "--rpm", "9000", "--depth-mm", "1",
-          "--cpd-n-m2", "1e10", "--damping-model", "{model}"], ConfigError, "exclude"),
+          "--cpd-n-m2", "1e10", "--damping-model", "{model}"], InputError, "exclude"),
         (["calibrate-damping", "{bad}", "--config", "{royandi}"], DataError, "no column"),
-        (["calibrate-damping", "{cuts}", "--config", "{slot}"], ConfigError, "--diameter-mm"),
-        (["calibrate-damping", "{cuts}", "--config", "{royandi}", "--axis", "z"], ConfigError,
+        (["calibrate-damping", "{cuts}", "--config", "{slot}"], InputError, "--diameter-mm"),
+        (["calibrate-damping", "{cuts}", "--config", "{royandi}", "--axis", "z"], InputError,
          "--axis"),
     ],
 )  # fmt: skip

@@ -13,9 +13,9 @@ from scipy.io import savemat
 
 from cnctwin.cli import app as root_app
 from cnctwin.cli import dynamics, run
-from cnctwin.cli.dynamics import load_tap_test, read_frf_mat, read_table
 from cnctwin.dynamics import Mode, modal_frf
 from cnctwin.errors import DataError
+from cnctwin.measurements.tap_test import load_tap_test, read_frf_mat, read_table
 
 TWO_PI = 2.0 * math.pi
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -189,7 +189,7 @@ def test_modal_fit_is_dynamics_fit_frf(tmp_path: Path, capsys) -> None:
 
 def test_modes_out_feeds_stability_lobes(tmp_path: Path, capsys) -> None:
     """Tap test -> modes file -> lobes, on the command line alone (issue 5, 'done when')."""
-    from cnctwin.config.stability import load_modes_file
+    from cnctwin.dynamics.config import load_modes_file
 
     path = _frf_table(tmp_path / "tool.csv", np.arange(0.0, 3000.0, 1.0), TRUTH)
     for axis in ("x", "y"):

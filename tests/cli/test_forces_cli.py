@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 from cnctwin.cli import run
 from cnctwin.cli.forces import forces
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 
 KEYS = [
     "mean_fx_n",
@@ -85,9 +85,9 @@ def test_material_from_the_library_and_the_table() -> None:
         SLOT.replace("--teeth 3", "--teeth 0") + " --material AA6060-T6",
     ],
 )
-def test_bad_input_is_a_config_error(args: str) -> None:
+def test_bad_input_is_an_input_error(args: str) -> None:
     code, _, error = invoke(args)
-    assert code != 0 and isinstance(error, ConfigError), error
+    assert code != 0 and isinstance(error, InputError), error
 
 
 def test_wired_command_reports_errors_on_one_line(capsys: pytest.CaptureFixture[str]) -> None:

@@ -224,6 +224,7 @@ BASES: dict[tuple[str, ...], Base] = {
         )
     ),
     ("runs", "list"): Base(lambda t: ["--db", _historian(t), "--json"]),
+    ("web",): Base(lambda t: ["--db", str(t / "missing.sqlite")], ends_with="missing.sqlite"),
     ("runs", "show"): Base(lambda t: ["1", "--db", _historian(t)], ends_with="run 1"),
     ("runs", "export"): Base(
         lambda t: ["1", str(t / "out.csv"), "--db", _historian(t)], ends_with="run 1"

@@ -12,8 +12,8 @@ import typer
 from typer.testing import CliRunner
 
 from cnctwin.cli import stability
-from cnctwin.config.stability import load_stability_config
-from cnctwin.errors import ConfigError
+from cnctwin.dynamics.config import load_stability_config
+from cnctwin.errors import InputError
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "stability"
 LISTS = ["spindle_rpm", "critical_depth_mm", "chatter_frequency_hz", "bifurcation"]
@@ -139,7 +139,7 @@ def test_errors_are_config_errors(tmp_path: Path, args: list[str], message: str)
     }
     code, _, error = invoke([arg.format(**paths) for arg in args])
     assert code != 0
-    assert isinstance(error, ConfigError)
+    assert isinstance(error, InputError)
     assert message in str(error)
     assert "\n" not in str(error)
 

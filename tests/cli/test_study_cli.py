@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from cnctwin.cli.study import app
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 
 
 def test_quick_study_writes_every_output(tmp_path: Path) -> None:
@@ -45,8 +45,8 @@ def test_quick_study_writes_every_output(tmp_path: Path) -> None:
     assert "Heide 2025 optimum" in report and "T* = rho^2 / t_cycle" in report
 
 
-def test_bad_workers_is_a_config_error(tmp_path: Path) -> None:
+def test_bad_workers_is_an_input_error(tmp_path: Path) -> None:
     done = CliRunner().invoke(app, ["dexel", "--out", str(tmp_path), "--quick", "--workers", "0"])
     # app.py turns CnctwinError into one line and exit code 2.
-    assert isinstance(done.exception, ConfigError)
+    assert isinstance(done.exception, InputError)
     assert "--workers 0" in str(done.exception)

@@ -28,11 +28,13 @@ from cnctwin.dynamics.stability import (
     floquet_multipliers,
 )
 from cnctwin.errors import ConfigError, DataError
-from cnctwin.mechanics import CuttingCoefficients, EndMill
+from cnctwin.geometry import Cutter
+from cnctwin.mechanics import CuttingCoefficients
 
 RPM = math.pi / 30.0
 G = 9.80665  # m/s^2 per g
-DIAMETER = 0.012  # Sec. 4.1: 12 mm solid carbide end mill, 4 flutes (Sec. 5)
+DIAMETER_MM = 12.0  # Sec. 4.1: 12 mm solid carbide end mill, 4 flutes (Sec. 5)
+FLUTE_LENGTH_MM = 30.0  # not given; the time-domain model does not read it
 
 # Table 2 means: k 8028 N/mm, c 118 N s/m, m 0.241 kg (918.6 Hz, zeta 0.0424, 1.47 um/N at
 # resonance: the 920 Hz and 1.45 um/N of Sec. 4.1), the same in x and y (Eq. 7).
@@ -45,7 +47,7 @@ SLOT = MillingProcess.from_immersion(4, CuttingCoefficients(745.1e6, 360.98e6), 
 SETUP = CalibrationSetup(
     TOOL,
     SLOT,
-    EndMill(DIAMETER, 4, math.radians(30.0)),
+    Cutter.flat(DIAMETER_MM, FLUTE_LENGTH_MM, flutes=4, helix_rad=math.radians(30.0)),
     edge_tangential_n_m=31.49e3,
     edge_radial_n_m=21.85e3,
     helical_edge=True,
@@ -74,7 +76,7 @@ MEASURED_M_S2 = TABLE_3[:, 3] * G
 
 def cutting_speed(spindle_rad_s: float) -> float:
     """V_c = Omega D / 2 in m/s at a spindle speed in rad/s."""
-    return float(spindle_rad_s) * DIAMETER / 2.0
+    return float(spindle_rad_s) * SETUP.cutter.radius_m
 
 
 # ----------------------------------------------------------------------------------------
@@ -147,7 +149,7 @@ def test_model_interpolates_between_speeds_and_holds_outside() -> None:
     gamma = 2.10e3 + 6.10e5 * math.exp(-1.5 / 0.42)
     assert model.gamma_n(1.5e-3, 5500 * RPM) == pytest.approx(gamma)
     assert model.cpd_pa(1.5e-3, 1e-4, 5500 * RPM) == pytest.approx(gamma / 1.5e-7)
-    damping = model.process_damping(1.5e-3, 1e-4, 5500 * RPM, DIAMETER)
+    damping = model.process_damping(1.5e-3, 1e-4, 5500 * RPM, SETUP.cutter.diameter_m)
     assert damping.effective_damping(1.5e-3, 5500 * RPM) == pytest.approx(
         gamma / cutting_speed(5500 * RPM)
     )
@@ -222,7 +224,7 @@ def test_quoted_effective_damping_lets_the_deep_slots_chatter() -> None:
     def radius(rpm: float, depth: float, ceff: float) -> float:
         speed = rpm * RPM
         cpd = ceff * cutting_speed(speed) / (depth * 1e-4)  # C_eff = C_pd a h / V_c
-        damping = ProcessDamping(cpd, 1e-4, DIAMETER)
+        damping = ProcessDamping(cpd, 1e-4, SETUP.cutter.diameter_m)
         return float(abs(floquet_multipliers(TOOL, SLOT, speed, depth, damping=damping)[0]))
 
     for rpm in (5500, 7500, 9500):
@@ -249,7 +251,7 @@ def test_table_3_calibration_matches_every_cut_and_keeps_it_stable(calibrated: l
     # Every calibrated cut is stable by the SDM (forced vibration, as the paper reports):
     # the measured levels are well below the chatter of the undamped model (250-1200 g).
     for found, n, a, f in zip(calibrated, SPEED, DEPTH_M, FEED_M, strict=True):
-        damping = ProcessDamping(found.cpd_pa, f, DIAMETER)
+        damping = ProcessDamping(found.cpd_pa, f, SETUP.cutter.diameter_m)
         assert abs(floquet_multipliers(TOOL, SLOT, n, a, damping=damping)[0]) < 1.0
 
 

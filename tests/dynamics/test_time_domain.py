@@ -25,10 +25,10 @@ from cnctwin.dynamics.stability import (
 )
 from cnctwin.dynamics.time_domain import MillingVibration, simulate_milling
 from cnctwin.errors import ConfigError
+from cnctwin.geometry import Cutter
 from cnctwin.mechanics import (
     CuttingCoefficients,
-    EndMill,
-    Engagement,
+    ImmersionIntervals,
     flat_end_mill_mean_forces,
     milling_forces,
 )
@@ -148,7 +148,7 @@ def test_transient_decays_with_the_floquet_multipliers(rpm: float, depth_mm: flo
     assert np.abs(found - np.sort_complex(mu)).max() < 2e-3
 
 
-def _forced(cutter: EndMill | None = None, **options: object) -> MillingVibration:
+def _forced(cutter: Cutter | None = None, **options: object) -> MillingVibration:
     """Half-immersion down-milling, 3 teeth, x and y modes of different frequencies."""
     tool = ToolDynamics.from_xy(
         x=[ToolMode.from_hz(700.0, 0.03, stiffness_n_m=5e6)],
@@ -171,7 +171,7 @@ def _forced(cutter: EndMill | None = None, **options: object) -> MillingVibratio
 
 
 def test_forced_response_mean_is_the_static_deflection_under_the_mean_force() -> None:
-    cutter = EndMill(0.012, 3, math.radians(30.0))
+    cutter = Cutter.flat(12.0, 20.0, flutes=3, helix_rad=math.radians(30.0))
     result = _forced(cutter)
     window = result.steady_window()
     entry, exit_ = math.pi / 2, math.pi  # a/D = 0.5, down-milling
@@ -211,13 +211,15 @@ def test_force_waveform_matches_the_mechanics_model() -> None:
     # cnctwin.mechanics.milling (another implementation: same slices, pointwise angles)
     # everywhere but the few cells a tooth of a slice enters or leaves, which the time
     # domain averages over the cell.
-    cutter = EndMill(0.012, 3, math.radians(30.0))
+    cutter = Cutter.flat(12.0, 20.0, flutes=3, helix_rad=math.radians(30.0))
     result = _forced(cutter)
     m = result.steps_per_tooth
     revolution = slice(result.time_s.size - 3 * m, result.time_s.size)
     start = result.time_s.size - 3 * m  # a whole number of revolutions from t = 0
     assert start % (3 * m) == 0
-    cut = Engagement.from_depths(cutter, 0.006, 2e-3, down_milling=True, slices=result.slices)
+    cut = ImmersionIntervals.from_depths(
+        cutter, 0.006, 2e-3, down_milling=True, slices=result.slices
+    )
     wave = milling_forces(
         cutter, CuttingCoefficients(7e8, 2.5e8, 0.0, 2.5e4, 1.5e4), cut, 8e-5, 6000.0 * RPM,
         steps=3 * m,
@@ -237,7 +239,8 @@ def test_power_balance_in_the_periodic_steady_state() -> None:
     damping = ProcessDamping(2e10, 1e-4, 0.012)
     result = simulate_milling(
         ROYANDI, ROYANDI_SLOT, spindle_rad_s=7500 * RPM, depth_m=1.5e-3,
-        feed_per_tooth_m=1e-4, duration_s=0.2, cutter=EndMill(0.012, 4, math.radians(30)),
+        feed_per_tooth_m=1e-4, duration_s=0.2,
+        cutter=Cutter.flat(12.0, 20.0, flutes=4, helix_rad=math.radians(30)),
         edge_tangential_n_m=31.49e3, edge_radial_n_m=21.85e3, damping=damping,
     )  # fmt: skip
     window = result.steady_window()
@@ -271,7 +274,7 @@ def test_step_size_convergence_is_second_order() -> None:
 def test_default_resolution() -> None:
     result = simulate_milling(
         ROYANDI, ROYANDI_SLOT, spindle_rad_s=5500 * RPM, depth_m=3.5e-3, feed_per_tooth_m=1e-4,
-        duration_s=0.01, cutter=EndMill(0.012, 4, math.radians(30.0)),
+        duration_s=0.01, cutter=Cutter.flat(12.0, 20.0, flutes=4, helix_rad=math.radians(30.0)),
     )  # fmt: skip
     # 918.6 Hz mode, tooth period 60 / (4 * 5500) s: 2.505 cycles per period, 200 per cycle.
     assert result.steps_per_tooth == 502
@@ -357,9 +360,9 @@ def test_rms_and_spectrum_of_the_outputs() -> None:
         ({"duration_s": 0.0}, "duration_s"),
         ({"steps_per_tooth": 10}, "steps_per_tooth"),
         ({"slices": 0}, "slices"),
-        ({"cutter": EndMill(0.012, 4)}, "teeth"),
-        ({"cutter": EndMill(0.012, 2, kind="ball")}, "flat end mill"),
-        ({"cutter": EndMill(0.012, 2, runout_m=1e-5)}, "runout"),
+        ({"cutter": Cutter.flat(12.0, 20.0, flutes=4)}, "teeth"),
+        ({"cutter": Cutter.ball(12.0, 20.0)}, "flat end mill"),
+        ({"cutter": Cutter("flat", 12.0, 20.0, runout_mm=0.01)}, "runout"),
         ({"duration_s": 100.0}, "at most"),
     ],
 )

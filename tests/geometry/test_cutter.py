@@ -160,3 +160,66 @@ def test_from_tool_config_converts_degrees_and_needs_a_flute_length() -> None:
         Cutter.from_tool_config(tool)
     cutter = Cutter.from_tool_config(tool, flute_length_mm=16.0)
     assert cutter == Cutter.bull(8.0, 1.0, 16.0, flutes=2, helix_rad=math.pi / 4)
+
+
+@pytest.mark.parametrize(
+    ("fields", "expected"),
+    [
+        ({"kind": "flat"}, Cutter.flat(8.0, 16.0, helix_rad=math.pi / 4)),
+        ({"kind": "ball"}, Cutter.ball(8.0, 16.0, helix_rad=math.pi / 4)),
+        (
+            {"kind": "conical", "tip_angle_deg": 90.0},
+            Cutter.conical(8.0, 16.0, tip_angle_rad=math.pi / 2, helix_rad=math.pi / 4),
+        ),
+        # No angle: the cone spans the fluted length, as CAMotics' conical tool.
+        ({"kind": "conical"}, Cutter.conical(8.0, 16.0, helix_rad=math.pi / 4)),
+        (
+            {"kind": "snub", "tip_diameter_mm": 2.0, "tip_angle_deg": 60.0},
+            Cutter.snub(8.0, 2.0, 16.0, tip_angle_rad=math.pi / 3, helix_rad=math.pi / 4),
+        ),
+    ],
+)
+def test_from_tool_config_builds_every_kind(fields: dict, expected: Cutter) -> None:
+    tool = ToolConfig(number=4, diameter_mm=8.0, flute_length_mm=16.0, helix_deg=45, **fields)
+    cutter = Cutter.from_tool_config(tool)
+    assert cutter.kind == expected.kind
+    for name in ("diameter_mm", "flute_length_mm", "corner_radius_mm", "tip_diameter_mm"):
+        assert getattr(cutter, name) == getattr(expected, name), name
+    assert cutter.tip_angle_rad == pytest.approx(expected.tip_angle_rad, rel=1e-15)
+    assert cutter.helix_rad == pytest.approx(expected.helix_rad, rel=1e-15)
+
+
+def test_from_tool_config_names_the_tool_of_a_cone_too_high_for_its_flutes() -> None:
+    # A 20-degree V-bit of 8 mm reaches its diameter 22.7 mm above the tip: 16 mm of flutes
+    # cannot hold it.
+    tool = ToolConfig(
+        number=7, kind="conical", diameter_mm=8.0, tip_angle_deg=20.0, flute_length_mm=16.0
+    )
+    with pytest.raises(ConfigError, match=r"^tool 7: flute_length_mm=16.0; the cone"):
+        Cutter.from_tool_config(tool)
+
+
+@pytest.mark.parametrize(
+    "cutter",
+    [
+        Cutter.flat(6.0, 12.0),
+        Cutter.ball(6.0, 12.0),
+        Cutter.bull(6.0, 1.5, 12.0),
+        Cutter.conical(6.0, 12.0, tip_angle_rad=math.radians(60.0)),
+        Cutter.snub(6.0, 2.0, 12.0, tip_angle_rad=math.radians(90.0)),
+    ],
+    ids=["flat", "ball", "bull", "conical", "snub"],
+)
+def test_force_model_slices_lie_on_the_envelope(cutter: Cutter) -> None:
+    # Two views of one profile: the SI slices of the force model (radius and lead angle at each
+    # slice's midpoint along the profile, m) and the envelope of the dexel removal (mm).
+    slices = cutter.slices(np.linspace(0.0, 10e-3, 41))
+    z_mm = slices.z_m * 1e3
+    np.testing.assert_allclose(slices.radius_m, cutter.radius_at(z_mm) * 1e-3, rtol=1e-9)
+    np.testing.assert_allclose(np.sin(slices.kappa_rad), cutter.sin_kappa_at(z_mm), rtol=1e-9)
+    # The profile lengths sum to the envelope's outline from the tip to 10 mm, minus the flat
+    # bottom (which has no side edge).
+    r = cutter.radius_at(np.linspace(0.0, 10.0, 200_001))
+    outline = np.sum(np.hypot(np.diff(r), 10.0 / 200_000))
+    assert slices.width_m.sum() * 1e3 == pytest.approx(outline, rel=1e-6)
+    assert np.all(np.diff(slices.lag_rad) > 0.0)

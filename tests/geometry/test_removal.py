@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from cnctwin.geometry import Cutter, DexelStock, remove
-from cnctwin.geometry.removal import fast_atan2
+from cnctwin.geometry._removal_kernels import fast_atan2
 
 
 def test_fast_atan2_matches_atan2() -> None:

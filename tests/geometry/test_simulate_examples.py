@@ -1,4 +1,5 @@
-"""``cnctwin simulate`` on real programs: removed volumes against independent computations.
+"""Real programs through the stock (``cnctwin simulate``): removed volumes against independent
+computations.
 
 The programs are in ``../shared/data/gcode`` (Fusion 360 and CAMotics examples); the Fusion 360
 program runs with its configuration in ``examples/fusion360`` (the tool its comment states),
@@ -13,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cnctwin.cli.simulate import simulate_report
 from cnctwin.config import load_config
 from cnctwin.nc.interpreter import Interpreter
 from cnctwin.nc.segments import MotionKind
+from cnctwin.simulation import simulate_program
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 DENSITY = 10.0  # /mm
@@ -24,14 +25,15 @@ CYCLE_S = 0.0125
 
 
 @pytest.mark.validation
-def test_fusion_block_contour(shared_data: Path, tmp_path: Path) -> None:
+def test_fusion_block_contour(shared_data: Path) -> None:
     # 1024_block_14bit.nc: a 1.4 mm flat end mill contours a 20 x 20 mm block in three 1 mm
     # layers, its axis on the square from -0.7 to 20.7 mm. The stock (its configuration) spans
     # -1.4 to 21.4 mm, 3 mm deep: the cut leaves the block and the stock's four corners the
     # tool's round side does not reach, (4 - pi) r^2 each.
     program = shared_data / "gcode" / "fusion360_grbl_shooshx" / "1024_block_14bit.nc"
     config = load_config(EXAMPLES / "fusion360" / "1024_block_14bit.toml")
-    report = simulate_report(program, config, density_per_mm=DENSITY, cycle_s=CYCLE_S, out=tmp_path)
+    cut = simulate_program(program, config, density_per_mm=DENSITY, cycle_s=CYCLE_S)
+    report = cut.summary()
     r = 0.7
     expected = 3.0 * (22.8**2 - 20.0**2 - (4.0 - math.pi) * r * r)
     # The discrete positions (steps s = 1000 mm/min x 12.5 ms) leave scallops at most
@@ -42,13 +44,15 @@ def test_fusion_block_contour(shared_data: Path, tmp_path: Path) -> None:
     assert report["max_ae_mm"] <= 1.4 + 1e-6
     # The program's time: 282.8 mm at 1000 or 333.3 mm/min and 11 mm of rapids, 18.0 s.
     assert report["process_time_s"] == pytest.approx(18.0, abs=CYCLE_S)
-    rows = np.genfromtxt(tmp_path / "engagement.csv", delimiter=",", names=True)
-    cutting = rows[(rows["contact"] > 0) & (rows["path_speed_mm_min"] > 999.0)]
+    ap_mm = cut.table.column("ap_mm")
+    cutting = ap_mm[
+        (cut.table.column("contact") > 0) & (cut.table.column("path_speed_mm_min") > 999.0)
+    ]
     # Each layer cuts 1 mm along the walls the layer above left: ap is the layer's 1 mm, not
     # the wall's height (only the steps at the corners, where the positions leave deeper
     # cusps than along the sides, see more).
-    assert np.median(cutting["ap_mm"]) == pytest.approx(1.0, abs=1e-4)
-    assert np.mean(np.abs(cutting["ap_mm"] - 1.0) < 1e-4) > 0.98
+    assert np.median(cutting) == pytest.approx(1.0, abs=1e-4)
+    assert np.mean(np.abs(cutting - 1.0) < 1e-4) > 0.98
 
 
 def _swept_area_mm2(points: np.ndarray, radius: float, pixel: float) -> float:
@@ -79,9 +83,9 @@ def test_camotics_scorpion_engraving(shared_data: Path) -> None:
     # along the path times 3 mm, rasterised here at 0.025 mm.
     folder = shared_data / "gcode" / "camotics" / "scorpion"
     config = load_config(folder / "scorpion.camotics")
-    report = simulate_report(
+    report = simulate_program(
         folder / "scorpion.nc", config, density_per_mm=DENSITY, cycle_s=CYCLE_S
-    )
+    ).summary()
     segments = list(Interpreter(config.nc_setup()).run_file(folder / "scorpion.nc"))
     assert all(s.kind in (MotionKind.LINEAR, MotionKind.RAPID) for s in segments)
     cut = [s for s in segments if s.kind == MotionKind.LINEAR and s.tcp_end_mm[2] <= -3.0 + 1e-9]

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from cnctwin.errors import DataError
+from cnctwin.geometry import Cutter
 from cnctwin.mechanics import (
     CuttingCoefficients,
-    EndMill,
-    Engagement,
+    ImmersionIntervals,
     immersion_angles,
     milling_forces,
 )
@@ -21,7 +21,7 @@ TRUE = CuttingCoefficients.from_n_mm(700.0, 250.0, 120.0, 20.0, 15.0, 8.0)
 FEEDS = np.array([0.02, 0.04, 0.06, 0.08, 0.10]) * 1e-3
 
 
-def _waveform_means(cutter: EndMill, cut: Engagement) -> np.ndarray:
+def _waveform_means(cutter: Cutter, cut: ImmersionIntervals) -> np.ndarray:
     means = []
     for c in FEEDS:
         m = milling_forces(cutter, TRUE, cut, c, 600.0, steps=720).mean()
@@ -33,8 +33,8 @@ def _waveform_means(cutter: EndMill, cut: Engagement) -> np.ndarray:
 def test_recovers_the_coefficients_of_simulated_cuts(width: float, down: bool) -> None:
     # Means taken from simulated waveforms (helix, 40 slices, 720 angles), not from the closed
     # form that the identification inverts: the coefficients come back within 0.5 %.
-    cutter = EndMill(diameter_m=0.010, teeth=3, helix_rad=0.5)
-    cut = Engagement.from_depths(cutter, width, 0.002, down_milling=down, slices=40)
+    cutter = Cutter.flat(10.0, 20.0, flutes=3, helix_rad=0.5)
+    cut = ImmersionIntervals.from_depths(cutter, width, 0.002, down_milling=down, slices=40)
     entry, exit_ = immersion_angles(0.010, width, down)
     fit = identify_coefficients(
         FEEDS, _waveform_means(cutter, cut), teeth=3, depth_m=0.002, entry_rad=entry, exit_rad=exit_
@@ -49,8 +49,8 @@ def test_slot_fit_is_the_textbook_regression() -> None:
     # Krc = -4 a1x / (N a), Kre = -pi a0x / (N a), with Fz = -Fa: Kac = -pi a1z / (N a),
     # Kae = -2 a0z / (N a). Noisy forces: the fit still follows those formulas.
     rng = np.random.default_rng(7)
-    cutter = EndMill(diameter_m=0.012, teeth=2, helix_rad=0.5)
-    forces = _waveform_means(cutter, Engagement.from_angles(0.0, math.pi, 0.003, slices=30))
+    cutter = Cutter.flat(12.0, 20.0, flutes=2, helix_rad=0.5)
+    forces = _waveform_means(cutter, ImmersionIntervals.from_angles(0.0, math.pi, 0.003, slices=30))
     forces += rng.normal(0.0, 2.0, forces.shape)
     fit = identify_coefficients(FEEDS, forces, teeth=2, depth_m=0.003)
     (a1x, a1y, a1z), (a0x, a0y, a0z) = fit.slopes_n_m, fit.intercepts_n

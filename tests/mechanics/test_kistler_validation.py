@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cnctwin.mechanics import EndMill, Engagement, milling_forces
+from cnctwin.geometry import Cutter
+from cnctwin.mechanics import ImmersionIntervals, milling_forces
 from cnctwin.mechanics.identification import CoefficientFit, identify_coefficients
 from cnctwin.mechanics.materials import milling_material
 
@@ -33,7 +34,8 @@ pytestmark = pytest.mark.validation
 FOLDER = Path("cutting_force") / "kistler_slot_6000rpm"
 FEEDS_MM_MIN = (300, 600, 900, 1200, 1500)
 RPM, TEETH, DEPTH_M = 6000.0, 2, 3e-3
-DIAMETER_M, HELIX_DEG = 25e-3, 30.0  # assumed, see the module notes
+DIAMETER_MM, HELIX_DEG = 25.0, 30.0  # assumed, see the module notes
+FLUTE_LENGTH_MM = 30.0  # assumed; the cut is 3 mm deep
 REVOLUTIONS = 100
 FIT_FEED = 900  # the record the runout is estimated from
 
@@ -95,14 +97,16 @@ def identify(records: list[Record]) -> CoefficientFit:
 
 
 def simulate(record: Record, fit: CoefficientFit, runout_m: float, angle_rad: float) -> np.ndarray:
-    cutter = EndMill(
-        diameter_m=DIAMETER_M,
-        teeth=TEETH,
+    cutter = Cutter(
+        "flat",
+        DIAMETER_MM,
+        FLUTE_LENGTH_MM,
+        flutes=TEETH,
         helix_rad=math.radians(HELIX_DEG),
-        runout_m=runout_m,
+        runout_mm=runout_m * 1e3,
         runout_angle_rad=angle_rad,
     )
-    cut = Engagement.from_angles(0.0, math.pi, DEPTH_M, slices=30)
+    cut = ImmersionIntervals.from_angles(0.0, math.pi, DEPTH_M, slices=30)
     wave = milling_forces(
         cutter,
         fit.coefficients,

@@ -10,10 +10,10 @@ import pytest
 from scipy.integrate import quad
 
 from cnctwin.errors import ConfigError
+from cnctwin.geometry import Cutter
 from cnctwin.mechanics import (
     CuttingCoefficients,
-    EndMill,
-    Engagement,
+    ImmersionIntervals,
     flat_end_mill_mean_forces,
     immersion_angles,
     mean_forces,
@@ -39,12 +39,14 @@ def test_closed_form_mean_agrees_with_the_numerical_integration(
     # Issue 4: Altintas' closed-form mean forces of a flat end mill against the mean of the
     # waveform summed over 4 teeth x 50 helical slices x 360 angles. The rectangle rule over a
     # revolution misplaces the entry/exit kinks by at most one 1-degree step, far below 0.5 %.
-    cutter = EndMill(diameter_m=0.020, teeth=4, helix_rad=math.radians(35.0))
+    cutter = Cutter.flat(20.0, 30.0, flutes=4, helix_rad=math.radians(35.0))
     entry, exit_ = immersion_angles(cutter.diameter_m, width_mm * 1e-3, down)
     closed = _components(
         flat_end_mill_mean_forces(K, 4, cutter.radius_m, entry, exit_, 0.004, FZ, OMEGA)
     )
-    cut = Engagement.from_depths(cutter, width_mm * 1e-3, 0.004, down_milling=down, slices=50)
+    cut = ImmersionIntervals.from_depths(
+        cutter, width_mm * 1e-3, 0.004, down_milling=down, slices=50
+    )
     numeric = _components(milling_forces(cutter, K, cut, FZ, OMEGA, steps=360).mean())
     scale = np.abs(closed).copy()
     scale[:3] = np.linalg.norm(closed[:3])  # a small component is judged against the force
@@ -73,8 +75,10 @@ def test_straight_flute_single_tooth_waveform_is_the_elemental_force() -> None:
     # Zero helix, one tooth, slot: F(phi) = a [-(Ktc h + Kte) cos - (Krc h + Kre) sin,
     # (Ktc h + Kte) sin - (Krc h + Kre) cos, -(Kac h + Kae)] with h = c sin(phi) on 0 < phi < pi.
     a = 0.003
-    cutter = EndMill(diameter_m=0.016, teeth=1)
-    wave = milling_forces(cutter, K, Engagement.from_angles(0.0, math.pi, a, slices=7), FZ, OMEGA)
+    cutter = Cutter.flat(16.0, 20.0, flutes=1, helix_rad=0.0)
+    wave = milling_forces(
+        cutter, K, ImmersionIntervals.from_angles(0.0, math.pi, a, slices=7), FZ, OMEGA
+    )
     phi = wave.angle_rad
     cutting = (phi > 0) & (phi < math.pi)
     h = FZ * np.sin(phi)
@@ -93,10 +97,10 @@ def test_helical_waveform_matches_quadrature_along_the_edge() -> None:
     # sum (midpoint rule) can be wrong by at most half a slice wherever a tooth's edge crosses
     # an interval bound (two per tooth).
     d, n, beta, a, slices = 0.012, 3, math.radians(40.0), 0.010, 200
-    cutter = EndMill(diameter_m=d, teeth=n, helix_rad=beta)
+    cutter = Cutter.flat(12.0, 20.0, flutes=n, helix_rad=beta)
     entry, exit_ = immersion_angles(d, 0.004, down_milling=True)
     wave = milling_forces(
-        cutter, K, Engagement.from_angles(entry, exit_, a, slices), FZ, OMEGA, steps=72
+        cutter, K, ImmersionIntervals.from_angles(entry, exit_, a, slices), FZ, OMEGA, steps=72
     )
     r = d / 2
 
@@ -122,21 +126,22 @@ def test_helical_waveform_matches_quadrature_along_the_edge() -> None:
     assert np.sqrt(np.mean(np.square(errors))) < 0.005 * np.sqrt(np.mean(np.square(forces)))
 
 
-@pytest.mark.parametrize(("kind", "corner_mm"), [("ball", 0.0), ("bull", 2.0)])
+@pytest.mark.parametrize(("kind", "corner_mm"), [("ball", 6.0), ("bull", 2.0)])
 def test_shear_power_equals_ktc_times_removal_rate(kind: str, corner_mm: float) -> None:
     # The shear part of the cutting power is Ktc times the material removal rate, whatever the
     # tool's shape: sum(h db v) over the edge is the chip volume per unit time. With only Ktc,
     # P = Ktc ae_area vf, the area being the cutter's cross-section below ap in a slot.
     d, ap, n = 0.012, 0.004, 2
-    cutter = EndMill(
-        diameter_m=d,
-        teeth=n,
+    cutter = Cutter(
+        kind,  # type: ignore[arg-type]
+        12.0,
+        20.0,
+        corner_radius_mm=corner_mm,
+        flutes=n,
         helix_rad=math.radians(30),
-        kind=kind,
-        corner_radius_m=corner_mm * 1e-3,
-    )  # type: ignore[arg-type]
+    )
     only_ktc = CuttingCoefficients(ktc=K.ktc, krc=0.0)
-    cut = Engagement.from_depths(cutter, d, ap, slices=400)
+    cut = ImmersionIntervals.from_depths(cutter, d, ap, slices=400)
     rc, r = cutter.corner_radius_m, d / 2
     # Cross-section of the tool envelope (in the plane normal to the feed) up to height ap.
     if kind == "ball":
@@ -155,8 +160,8 @@ def test_ball_end_mean_forces_agree_with_the_waveform() -> None:
     # Two implementations of the lead-angle projection (Lee & Altintas 1996): the exact
     # integral over phi and the sum over angles; the axial force of a ball end mill is pushed
     # up (+z) by the radial force near the tip.
-    cutter = EndMill(diameter_m=0.010, teeth=2, helix_rad=math.radians(30), kind="ball")
-    cut = Engagement.from_depths(cutter, 0.003, 0.002, down_milling=True, slices=60)
+    cutter = Cutter.ball(10.0, 20.0, flutes=2, helix_rad=math.radians(30))
+    cut = ImmersionIntervals.from_depths(cutter, 0.003, 0.002, down_milling=True, slices=60)
     closed = _components(mean_forces(cutter, K, cut, FZ, OMEGA))
     numeric = _components(milling_forces(cutter, K, cut, FZ, OMEGA, steps=720).mean())
     scale = np.abs(closed).copy()
@@ -166,7 +171,7 @@ def test_ball_end_mean_forces_agree_with_the_waveform() -> None:
 
 def test_ball_slices_follow_the_sphere() -> None:
     r = 0.005
-    cutter = EndMill(diameter_m=2 * r, teeth=2, helix_rad=0.3, kind="ball")
+    cutter = Cutter.ball(10.0, 20.0, flutes=2, helix_rad=0.3)
     geo = cutter.slices(np.linspace(0.0, 1.5 * r, 31))
     # On the sphere r(z) = sqrt(R^2 - (R - z)^2) and sin(kappa) = r(z) / R; above it a cylinder.
     sphere = geo.z_m < r
@@ -184,9 +189,9 @@ def test_runout_can_leave_one_tooth_out_of_the_cut() -> None:
     # never reaches the material and the large one cuts a chip 2 c sin(phi): the cutter acts as
     # a one-tooth cutter at twice the feed per tooth.
     c = 0.02e-3
-    two = EndMill(diameter_m=0.010, teeth=2, helix_rad=0.5, runout_m=0.015e-3)
-    one = EndMill(diameter_m=0.010, teeth=1, helix_rad=0.5)
-    cut = Engagement.from_angles(0.0, math.pi, 0.003, slices=30)
+    two = Cutter("flat", 10.0, 20.0, flutes=2, helix_rad=0.5, runout_mm=0.015)
+    one = Cutter.flat(10.0, 20.0, flutes=1, helix_rad=0.5)
+    cut = ImmersionIntervals.from_angles(0.0, math.pi, 0.003, slices=30)
     with_runout = milling_forces(two, K, cut, c, OMEGA, steps=180)
     single = milling_forces(one, K, cut, 2 * c, OMEGA, steps=180)
     np.testing.assert_allclose(with_runout.fx_n, single.fx_n, atol=1e-9)
@@ -194,9 +199,9 @@ def test_runout_can_leave_one_tooth_out_of_the_cut() -> None:
 
 
 def test_small_runout_keeps_the_mean_and_unbalances_the_teeth() -> None:
-    cutter = EndMill(diameter_m=0.010, teeth=2, helix_rad=0.5)
-    shifted = EndMill(diameter_m=0.010, teeth=2, helix_rad=0.5, runout_m=0.005e-3)
-    cut = Engagement.from_angles(0.0, math.pi, 0.003, slices=30)
+    cutter = Cutter.flat(10.0, 20.0, flutes=2, helix_rad=0.5)
+    shifted = Cutter("flat", 10.0, 20.0, flutes=2, helix_rad=0.5, runout_mm=0.005)
+    cut = ImmersionIntervals.from_angles(0.0, math.pi, 0.003, slices=30)
     c = 0.05e-3
     shear = CuttingCoefficients(ktc=K.ktc, krc=K.krc, kac=K.kac)
     base = milling_forces(cutter, shear, cut, c, OMEGA, steps=360)
@@ -212,36 +217,38 @@ def test_small_runout_keeps_the_mean_and_unbalances_the_teeth() -> None:
 def test_helical_edge_divides_the_edge_terms_by_cos_beta() -> None:
     # Royandi 2026, Eq. 10-11: dFt = Ktc h dz + Kte dz / cos(beta).
     beta = math.radians(40)
-    cutter = EndMill(diameter_m=0.010, teeth=3, helix_rad=beta)
+    cutter = Cutter.flat(10.0, 20.0, flutes=3, helix_rad=beta)
     edge_only = CuttingCoefficients(ktc=0.0, krc=0.0, kte=K.kte, kre=K.kre, kae=K.kae)
-    cut = Engagement.from_depths(cutter, 0.004, 0.003)
+    cut = ImmersionIntervals.from_depths(cutter, 0.004, 0.003)
     plain = _components(mean_forces(cutter, edge_only, cut, FZ, OMEGA))
     helical = _components(mean_forces(cutter, edge_only, cut, FZ, OMEGA, helical_edge=True))
     np.testing.assert_allclose(helical, plain / math.cos(beta), rtol=1e-12)
 
 
-def test_immersion_angles_and_engagement_intervals() -> None:
+def test_immersion_angles_and_intervals() -> None:
     # Up-milling enters at 0 and leaves at arccos(1 - 2 ae / D); down-milling mirrors it.
     assert immersion_angles(0.02, 0.005, False) == pytest.approx((0.0, math.acos(0.5)))
     assert immersion_angles(0.02, 0.005, True) == pytest.approx((math.pi - math.acos(0.5), math.pi))
     assert immersion_angles(0.02, 0.02, True) == pytest.approx((0.0, math.pi))
-    cut = Engagement.from_depths(EndMill(diameter_m=0.02, teeth=2), 0.005, 0.002, slices=4)
+    cut = ImmersionIntervals.from_depths(
+        Cutter.flat(20.0, 30.0, helix_rad=0.0), 0.005, 0.002, slices=4
+    )
     assert cut.n_slices == 4
     assert cut.depth_m == pytest.approx(0.002)
     np.testing.assert_allclose(cut.entry_rad, 0.0)
     np.testing.assert_allclose(cut.exit_rad, math.acos(0.5))
     # An interval across 2 pi is split; a ball's lowest slices touch a narrower arc.
-    wrapped = Engagement.from_intervals([0.0, 0.001], [[(5.0, 7.0)]])
+    wrapped = ImmersionIntervals.from_intervals([0.0, 0.001], [[(5.0, 7.0)]])
     np.testing.assert_allclose(wrapped.exit_rad, [7.0 - 2 * math.pi, 2 * math.pi])
     np.testing.assert_allclose(wrapped.entry_rad, [0.0, 5.0])
     # Overlapping intervals merge, so no angle is counted twice.
-    merged = Engagement.from_intervals([0.0, 0.001], [[(1.0, 2.0), (0.5, 1.5), (3.0, 3.1)]])
+    merged = ImmersionIntervals.from_intervals([0.0, 0.001], [[(1.0, 2.0), (0.5, 1.5), (3.0, 3.1)]])
     np.testing.assert_allclose(merged.entry_rad, [0.5, 3.0])
     np.testing.assert_allclose(merged.exit_rad, [2.0, 3.1])
     # A ball's slice of radius r touches the band R - ae <= y <= R only where r > R - ae,
     # over 0 <= phi <= arccos((R - ae) / r).
-    ball = EndMill(diameter_m=0.02, teeth=2, kind="ball")
-    cut = Engagement.from_depths(ball, 0.006, 0.004, slices=8)
+    ball = Cutter.ball(20.0, 30.0, helix_rad=0.0)
+    cut = ImmersionIntervals.from_depths(ball, 0.006, 0.004, slices=8)
     r = ball.slices(cut.z_bounds_m).radius_m
     touching = r > 0.004
     assert list(np.diff(cut.offsets)) == [int(t) for t in touching]
@@ -251,8 +258,8 @@ def test_immersion_angles_and_engagement_intervals() -> None:
 def test_frame_and_signs() -> None:
     # Forces on the tool: in a slot the workpiece pushes the tool back against the feed (-x)
     # and toward the up-milling side (+y); positive axial terms pull it down (-z).
-    cutter = EndMill(diameter_m=0.01, teeth=2, helix_rad=0.5)
-    m = mean_forces(cutter, K, Engagement.from_angles(0.0, math.pi, 0.002), FZ, OMEGA)
+    cutter = Cutter.flat(10.0, 20.0, flutes=2, helix_rad=0.5)
+    m = mean_forces(cutter, K, ImmersionIntervals.from_angles(0.0, math.pi, 0.002), FZ, OMEGA)
     assert m.fx_n < 0 and m.fy_n > 0 and m.fz_n < 0 and m.torque_nm > 0 and m.power_w > 0
     assert m.resultant_n == pytest.approx(math.hypot(m.fx_n, m.fy_n, m.fz_n))
 
@@ -260,19 +267,15 @@ def test_frame_and_signs() -> None:
 @pytest.mark.parametrize(
     "make",
     [
-        lambda: EndMill(diameter_m=0.0, teeth=2),
-        lambda: EndMill(diameter_m=0.01, teeth=0),
-        lambda: EndMill(diameter_m=0.01, teeth=2, helix_rad=2.0),
-        lambda: EndMill(diameter_m=0.01, teeth=2, kind="bull"),
-        lambda: EndMill(diameter_m=0.01, teeth=2, corner_radius_m=0.001),
-        lambda: EndMill(diameter_m=0.01, teeth=2, runout_m=-1e-6),
-        lambda: Engagement.from_depths(EndMill(diameter_m=0.01, teeth=2), 0.02, 0.001),
-        lambda: Engagement.from_angles(1.0, 0.5, 0.001),
-        lambda: Engagement.from_angles(0.0, 1.0, -0.001),
-        lambda: Engagement.from_intervals([0.0, 0.001, 0.0005], [[], []]),
+        lambda: Cutter("flat", 10.0, 20.0, runout_mm=-1e-3),
+        lambda: Cutter("flat", 10.0, 20.0, runout_angle_rad=math.inf),
+        lambda: ImmersionIntervals.from_depths(Cutter.flat(10.0, 20.0), 0.02, 0.001),
+        lambda: ImmersionIntervals.from_angles(1.0, 0.5, 0.001),
+        lambda: ImmersionIntervals.from_angles(0.0, 1.0, -0.001),
+        lambda: ImmersionIntervals.from_intervals([0.0, 0.001, 0.0005], [[], []]),
         lambda: CuttingCoefficients(ktc=math.nan, krc=1.0),
         lambda: milling_forces(
-            EndMill(diameter_m=0.01, teeth=2), K, Engagement.from_angles(0, 1, 0.001), -1.0, 1.0
+            Cutter.flat(10.0, 20.0), K, ImmersionIntervals.from_angles(0, 1, 0.001), -1.0, 1.0
         ),
     ],
 )
@@ -287,9 +290,9 @@ def test_coefficient_units() -> None:
     assert k.to_n_mm()["krc_n_mm2"] == pytest.approx(360.98)
 
 
-def test_engagement_from_a_slice_table_fills_gaps() -> None:
+def test_immersion_from_a_slice_table_fills_gaps() -> None:
     # A dexel simulation reports only the slices in contact, by centre height and thickness.
-    cut = Engagement.from_slices(
+    cut = ImmersionIntervals.from_slices(
         heights_m=np.array([0.0025, 0.0005, 0.0015]),
         thickness_m=np.array([0.001, 0.001, 0.001]),
         interval_slice=np.array([1, 2, 0, 0]),
@@ -299,7 +302,7 @@ def test_engagement_from_a_slice_table_fills_gaps() -> None:
     np.testing.assert_allclose(cut.z_bounds_m, [0.0, 0.001, 0.002, 0.003])
     assert list(np.diff(cut.offsets)) == [1, 1, 2]
     np.testing.assert_allclose(cut.entry_rad, [0.1, 0.2, 0.3, 2.0])
-    gap = Engagement.from_slices(
+    gap = ImmersionIntervals.from_slices(
         np.array([0.0005, 0.0035]),
         np.array([0.001, 0.001]),
         np.array([0, 1]),
@@ -309,7 +312,7 @@ def test_engagement_from_a_slice_table_fills_gaps() -> None:
     np.testing.assert_allclose(gap.z_bounds_m, [0.0, 0.001, 0.003, 0.004])
     assert list(np.diff(gap.offsets)) == [1, 0, 1]
     with pytest.raises(ConfigError):
-        Engagement.from_slices(
+        ImmersionIntervals.from_slices(
             np.array([0.001, 0.0015]),
             np.array([0.001, 0.001]),
             np.array([0]),
@@ -324,12 +327,14 @@ def test_cutter_from_a_configured_tool() -> None:
     tool = ToolConfig(
         number=3, kind="bull", diameter_mm=10.0, corner_radius_mm=1.0, flutes=4, helix_deg=30.0
     )
-    cutter = EndMill.from_tool(tool, runout_m=5e-6)
-    assert (cutter.kind, cutter.teeth) == ("bull", 4)
+    cutter = Cutter.from_tool_config(tool, flute_length_mm=20.0)
+    assert (cutter.kind, cutter.flutes) == ("bull", 4)
+    # The SI views the force model reads: m, at the one unit boundary.
     assert (cutter.diameter_m, cutter.corner_radius_m) == pytest.approx((0.010, 0.001))
     assert cutter.helix_rad == pytest.approx(math.radians(30.0))
-    assert cutter.runout_m == 5e-6
-    ball = EndMill.from_tool(ToolConfig(number=1, kind="ball", diameter_mm=6.0))
+    ball = Cutter.from_tool_config(
+        ToolConfig(number=1, kind="ball", diameter_mm=6.0), flute_length_mm=12.0
+    )
     assert ball.corner_radius_m == pytest.approx(0.003)
 
 
@@ -343,25 +348,27 @@ def test_cone_mean_torque_in_a_v_groove(kind: str, tip_mm: float, angle_deg: flo
     theta = math.radians(angle_deg)
     depth = 1.5e-3
     k = CuttingCoefficients(ktc=800e6, krc=300e6)
-    cutter = EndMill(
-        diameter_m=12e-3,
-        teeth=2,
-        kind=kind,  # type: ignore[arg-type]
+    cutter = Cutter(
+        kind,  # type: ignore[arg-type]
+        12.0,
+        30.0,
+        flutes=2,
+        helix_rad=0.0,
+        tip_diameter_mm=tip_mm,
         tip_angle_rad=theta,
-        tip_diameter_m=tip_mm * 1e-3,
     )
-    engagement = Engagement.from_angles(0.0, math.pi, depth, slices=400)
-    mean = mean_forces(cutter, k, engagement, FZ, OMEGA)
+    immersion = ImmersionIntervals.from_angles(0.0, math.pi, depth, slices=400)
+    mean = mean_forces(cutter, k, immersion, FZ, OMEGA)
     r_t = 0.5 * tip_mm * 1e-3
     integral_r = r_t * depth + 0.5 * depth**2 * math.tan(theta / 2)
-    expected = cutter.teeth / (2 * math.pi) * 2.0 * k.ktc * FZ * integral_r
+    expected = cutter.flutes / (2 * math.pi) * 2.0 * k.ktc * FZ * integral_r
     assert mean.torque_nm == pytest.approx(expected, rel=1e-4)
 
 
 def test_cone_slices_follow_the_profile() -> None:
     # Widths along the edge sum to the cone's slant length plus the cylinder above it.
     theta = math.radians(60.0)
-    cutter = EndMill(diameter_m=6e-3, teeth=2, kind="conical", tip_angle_rad=theta)
+    cutter = Cutter.conical(6.0, 10.0, tip_angle_rad=theta, helix_rad=0.0)
     height = 3e-3 / math.tan(theta / 2)
     z = np.linspace(0.0, height + 2e-3, 37)
     slices = cutter.slices(z)
@@ -370,17 +377,3 @@ def test_cone_slices_follow_the_profile() -> None:
     assert np.allclose(slices.kappa_rad[on_cone], math.pi / 2 - theta / 2)
     assert np.allclose(slices.radius_m[on_cone], slices.z_m[on_cone] * math.tan(theta / 2))
     assert np.allclose(slices.radius_m[~on_cone], 3e-3)
-
-
-@pytest.mark.parametrize(
-    ("fields", "message"),
-    [
-        ({"kind": "conical"}, "tip_angle_rad=0.0"),
-        ({"kind": "conical", "tip_angle_rad": 1.0, "tip_diameter_m": 1e-3}, "use kind 'snub'"),
-        ({"kind": "snub", "tip_angle_rad": 1.0, "tip_diameter_m": 7e-3}, "tip_diameter_m=0.007"),
-        ({"kind": "flat", "tip_angle_rad": 1.0}, "use kind 'conical' or 'snub'"),
-    ],
-)
-def test_bad_cone_geometry_is_named(fields: dict[str, object], message: str) -> None:
-    with pytest.raises(ConfigError, match=message):
-        EndMill(diameter_m=6e-3, teeth=2, **fields)  # type: ignore[arg-type]

@@ -133,9 +133,7 @@ def read_trace(path: Path) -> Trace:
             v = [float(x) for x in args.split(",")]
             shift = tuple(g5x[i] + g92[i] + tlo[i] for i in range(3))
 
-            def machine(
-                p: list[float], shift: tuple[float, ...] = shift, k: float = scale
-            ) -> Vec3:
+            def machine(p: list[float], shift: tuple[float, ...] = shift, k: float = scale) -> Vec3:
                 return (p[0] * k + shift[0], p[1] * k + shift[1], p[2] * k + shift[2])
 
             if name == "ARC_FEED":
@@ -194,11 +192,7 @@ def comp_blocks(trace: Trace) -> list[Block]:
             body = seg[on[-1] + 1 :]
         else:
             side = None
-            trav = [
-                i
-                for i, it in enumerate(seg)
-                if isinstance(it, Move) and it.kind == "traverse"
-            ]
+            trav = [i for i, it in enumerate(seg) if isinstance(it, Move) and it.kind == "traverse"]
             body = seg[trav[-1] + 1 :] if trav else []
         moves = [m for m in body if isinstance(m, Move)]
         nxt = next((it for it in items[k + 1 :] if isinstance(it, Move)), None)
@@ -263,9 +257,7 @@ class PathBuilder:
             (p[2] + self.origin[2]) * self.k,
         )
 
-    def _add(
-        self, kind: MotionKind, end: Vec3, centre: Vec3 | None = None, turns: int = 0
-    ) -> None:
+    def _add(self, kind: MotionKind, end: Vec3, centre: Vec3 | None = None, turns: int = 0) -> None:
         e = self.mm(end)
         c = None
         if centre is not None:
@@ -510,9 +502,7 @@ def test_straight_entry_is_offset_perpendicular_to_its_own_direction() -> None:
     assert_xy(out[2].end_mm, (20, 10 + R_TOOL))
 
 
-def test_corner_arc_takes_the_following_moves_line_and_feed_and_is_emitted_before_it() -> (
-    None
-):
+def test_corner_arc_takes_the_following_moves_line_and_feed_and_is_emitted_before_it() -> None:
     b = PathBuilder((-5, 0, 0)).line((0, 0, 0)).line((10, 0, 0)).line((10, 10, 0))
     comp = CutterCompensator(CutterComp.RIGHT, R_TOOL, Plane.XY, b.segs[0].start_mm)
     assert comp.push(b.segs[0]) == []  # the entry is held until the next move is known
@@ -613,11 +603,7 @@ def test_slot_narrower_than_the_tool_is_a_gouging_error() -> None:
 
 
 def test_arc_outside_the_compensation_plane_is_an_error() -> None:
-    b = (
-        PathBuilder((0, 0, 0), plane=Plane.ZX)
-        .line((0, 0, 5))
-        .arc((5, 0, 10), (0, 0, 10), 1)
-    )
+    b = PathBuilder((0, 0, 0), plane=Plane.ZX).line((0, 0, 5)).arc((5, 0, 10), (0, 0, 10), 1)
     comp = CutterCompensator(CutterComp.LEFT, 1.0, Plane.XY, (0, 0, 0))
     comp.push(b.segs[0])
     with pytest.raises(NCError, match="G18"):
@@ -651,9 +637,7 @@ def test_lathe_orientation_moves_the_path_to_the_imaginary_tip() -> None:
 # --------------------------------------------------------------------------- property
 
 
-def _convex_polygon(
-    angles: list[float], radii: list[float]
-) -> list[tuple[float, float]]:
+def _convex_polygon(angles: list[float], radii: list[float]) -> list[tuple[float, float]]:
     pts = [(rr * math.cos(a), rr * math.sin(a)) for a, rr in zip(sorted(angles), radii)]
     # keep the convex hull (counter-clockwise)
     pts.sort()
@@ -681,8 +665,7 @@ def _dist_to_polygon(p: tuple[float, float], poly: list[tuple[float, float]]) ->
             0.0,
             min(
                 1.0,
-                ((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1])
-                / (ab[0] ** 2 + ab[1] ** 2),
+                ((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1]) / (ab[0] ** 2 + ab[1] ** 2),
             ),
         )
         best = min(best, math.dist(p, (a[0] + t * ab[0], a[1] + t * ab[1])))
@@ -742,9 +725,7 @@ def _check_block(
     orientation: int = 0,
     extra_tol_mm: float = 0.0,
 ) -> None:
-    out = run_comp(
-        programmed, side, radius_mm, plane, start=start, orientation=orientation
-    )
+    out = run_comp(programmed, side, radius_mm, plane, start=start, orientation=orientation)
     if exit_programmed is not None:
         out.append(exit_move(out, exit_programmed))
     if extra_tol_mm:
@@ -765,9 +746,7 @@ def test_oracle_mill_line_arc_entry() -> None:
     # 11- the outline with G41 and tool 4 (diameter 1.0 inch in the tool table)
     assert moves[10].kind == "traverse" and moves[10].end == moves[0].end
     programmed = [seg_from_move(m, i + 1) for i, m in enumerate(moves[1:10])]
-    _check_block(
-        programmed, moves[11:], CutterComp.LEFT, 0.5 * INCH, Plane.XY, moves[10].end
-    )
+    _check_block(programmed, moves[11:], CutterComp.LEFT, 0.5 * INCH, Plane.XY, moves[10].end)
 
 
 @pytest.mark.validation
@@ -784,9 +763,7 @@ def test_oracle_mill_g90g91g92() -> None:
     d = math.sqrt(4.0 - 0.5)
     b.arc((1, 2, 0.4), (0.5 - d * half, 1.5 + d * half, 0), 1)
     b.line((2, 1, 0.2)).line((1, 0, 0)).rapid((1, 0, 1))
-    _check_block(
-        b.segs, block.comp, CutterComp.LEFT, 0.125 * INCH, Plane.XY, block.before
-    )
+    _check_block(b.segs, block.comp, CutterComp.LEFT, 0.125 * INCH, Plane.XY, block.before)
 
 
 def _zchanges_path(

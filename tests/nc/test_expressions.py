@@ -461,11 +461,17 @@ def test_start_index_outside_text() -> None:
 # ------------------------------------------------------------------------ properties
 
 _LITERAL = st.builds(
-    lambda sign, whole, frac, form: sign
-    + (
-        str(whole)
-        if form == 0
-        else f"{whole}.{frac}" if form == 1 else f".{frac}" if form == 2 else f"{whole}."
+    lambda sign, whole, frac, form: (
+        sign
+        + (
+            str(whole)
+            if form == 0
+            else f"{whole}.{frac}"
+            if form == 1
+            else f".{frac}"
+            if form == 2
+            else f"{whole}."
+        )
     ),
     st.sampled_from(["", "-"]),
     st.integers(0, 999),
@@ -517,10 +523,50 @@ def test_arithmetic_matches_python(case: tuple[str, str, float, int]) -> None:
 
 _FUZZ_ALPHABET = "0123456789.+-*/[]#<>=_ abcdefgilmnopqrstuxzE$"
 _FUZZ_TOKENS = [
-    "[", "]", "[", "]", "#", "#1", "#<a>", "#<_g>", "#<", ">", "<", "=", "1", "0", "2.5",
-    ".", "-", "+", "*", "**", "/", "mod", "eq", "ne", "gt", "ge", "lt", "le", "and",
-    "or", "xor", "sin", "atan", "/[", "exists", "sqrt", "ln", "round", "fix", "exp",
-    "acos", "9" * 30, "x", "-[",
+    "[",
+    "]",
+    "[",
+    "]",
+    "#",
+    "#1",
+    "#<a>",
+    "#<_g>",
+    "#<",
+    ">",
+    "<",
+    "=",
+    "1",
+    "0",
+    "2.5",
+    ".",
+    "-",
+    "+",
+    "*",
+    "**",
+    "/",
+    "mod",
+    "eq",
+    "ne",
+    "gt",
+    "ge",
+    "lt",
+    "le",
+    "and",
+    "or",
+    "xor",
+    "sin",
+    "atan",
+    "/[",
+    "exists",
+    "sqrt",
+    "ln",
+    "round",
+    "fix",
+    "exp",
+    "acos",
+    "9" * 30,
+    "x",
+    "-[",
 ]
 _FUZZ_TEXT = st.one_of(
     st.text(alphabet=_FUZZ_ALPHABET, max_size=40),

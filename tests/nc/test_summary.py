@@ -230,7 +230,9 @@ def test_travel_limits_warn_once_per_axis_end_with_the_line() -> None:
         Segment(MotionKind.LINEAR, 7, (0.0, 0.0, 100.0), (120.0, 0.0, 95.0), 100.0, 0.0, state),
         Segment(MotionKind.LINEAR, 8, (120.0, 0.0, 95.0), (130.0, 0.0, 95.0), 100.0, 0.0, state),
     ]
-    result = summarize(moves, rapid_mm_min=1000.0, travel_mm=((0.0, 0.0, 96.0), (100.0, 50.0, 200.0)))
+    result = summarize(
+        moves, rapid_mm_min=1000.0, travel_mm=((0.0, 0.0, 96.0), (100.0, 50.0, 200.0))
+    )
     assert result.warnings == (
         "<program>:7: X reaches 120.000 mm, beyond the machine's travel 0.000 .. 100.000 mm "
         "(machine.axes.x)",

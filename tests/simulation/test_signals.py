@@ -18,8 +18,7 @@ from cnctwin.drives import RAD_S_PER_RPM, spindle_preset
 from cnctwin.errors import ConfigError
 from cnctwin.geometry import Cutter, DexelStock
 from cnctwin.geometry import Engagement as DexelEngagement
-from cnctwin.mechanics import ImmersionIntervals
-from cnctwin.mechanics import flat_end_mill_mean_forces
+from cnctwin.mechanics import ImmersionIntervals, flat_end_mill_mean_forces
 from cnctwin.mechanics.materials import milling_material
 from cnctwin.nc.interpreter import Interpreter
 from cnctwin.nc.setup import NCSetup

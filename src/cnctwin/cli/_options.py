@@ -1,6 +1,6 @@
-"""Range checks of numeric command-line options, shared by the commands.
+"""What the commands share: range checks of numeric options, a progress bar.
 
-Each check raises a one-line :class:`~cnctwin.errors.ConfigError` that names the option, the
+Each check raises a one-line :class:`~cnctwin.errors.InputError` that names the option, the
 value given and the valid range; the CLI turns it into exit status 2. The checks run before a
 command does any work, so a bad value never starts a machine, a server or a long computation.
 The ranges and their reasons are listed in docs/cli.md ("Ranges of the options").
@@ -9,10 +9,12 @@ The ranges and their reasons are listed in docs/cli.md ("Ranges of the options")
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 
-__all__ = ["MAX_SEED", "check_count", "check_number"]
+__all__ = ["MAX_SEED", "check_count", "check_number", "progress"]
 
 #: Largest random seed accepted: the 32-bit seeds every generator of the project takes.
 MAX_SEED = 2**32 - 1
@@ -35,6 +37,8 @@ def check_number(
 ) -> float:
     """``value`` if it is finite and within ``[low, high]`` (``(low, high]`` with ``low_open``).
 
+    ``high`` may be ``math.inf``: any finite value above ``low`` is then valid.
+
     Parameters
     ----------
     option
@@ -50,16 +54,15 @@ def check_number(
 
     Raises
     ------
-    ConfigError
+    InputError
         For a non-finite value or one outside the range.
     """
     above = value > low if low_open else value >= low
     if not (math.isfinite(value) and above and value <= high):
         least = ">" if low_open else ">="
+        most = f" and <= {high:g}" if math.isfinite(high) else ""
         suffix = f" {unit}" if unit else ""
-        raise ConfigError(
-            f"{option} {value!r}: give a value {least} {low:g} and <= {high:g}{suffix}"
-        )
+        raise InputError(f"{option} {value!r}: give a value {least} {low:g}{most}{suffix}")
     return float(value)
 
 
@@ -68,10 +71,45 @@ def check_count(option: str, value: int, low: int, high: int, *, unit: str = "")
 
     Raises
     ------
-    ConfigError
+    InputError
         For a value outside the range, naming the option and the range.
     """
     if not (low <= value <= high):
         suffix = f" {unit}" if unit else ""
-        raise ConfigError(f"{option} {value}: give an integer from {low:,} to {high:,}{suffix}")
+        raise InputError(f"{option} {value}: give an integer from {low:,} to {high:,}{suffix}")
     return int(value)
+
+
+@contextmanager
+def progress(label: str, shown: bool) -> Iterator[Callable[[float], None] | None]:
+    """A progress bar on stderr for a long computation over program time, or none.
+
+    Parameters
+    ----------
+    label
+        What is computed, e.g. ``"simulating"``.
+    shown
+        Show the bar; without it the callback is ``None``.
+
+    Yields
+    ------
+    callable or None
+        Called with the program time reached, s (the ``on_chunk`` of
+        :func:`cnctwin.simulation.program.simulate_program`).
+    """
+    if not shown:
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(
+        TextColumn(label),
+        BarColumn(),
+        TextColumn("{task.fields[t]:.1f} s"),
+        TimeElapsedColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    ) as bar:
+        task = bar.add_task(label, total=None, t=0.0)
+        yield lambda t_s: bar.update(task, t=t_s)

@@ -108,6 +108,11 @@ COMMANDS: dict[str, _Lazy] = {
     "vibration": _Lazy("vibration", "app", "Milling vibration over time (time-domain model)."),
     "modal": _Lazy("modal", "app", "Modal parameters from tap tests."),
     "runs": _Lazy("runs", "app", "Recorded runs of the twin: list, show, export."),
+    "web": _Lazy(
+        "web",
+        "web",
+        "Serve the run browser: list recorded runs, open one, zoom any signal, overlay, export.",
+    ),
     "virtual": _Lazy("virtual", "app", "The virtual machine: serve it over OPC UA or Modbus TCP."),
 }
 

@@ -28,14 +28,14 @@ from cnctwin.cli._options import check_count, check_number
 from cnctwin.cli.chatter_detect import detect
 from cnctwin.config.machine import MAX_SPINDLE_RPM
 from cnctwin.config.tools import MAX_TOOL_DIAMETER_MM
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import ConfigError, DataError, InputError
 
 if TYPE_CHECKING:
-    from cnctwin.config.stability import StabilityConfig
+    from cnctwin.dynamics.config import StabilityConfig
     from cnctwin.dynamics.process_damping import ProcessDampingModel
     from cnctwin.dynamics.stability import MillingProcess
     from cnctwin.dynamics.time_domain import MillingVibration
-    from cnctwin.mechanics.cutter import EndMill
+    from cnctwin.geometry.cutter import Cutter
 
 __all__ = [
     "app",
@@ -112,13 +112,6 @@ def _milling(config: StabilityConfig) -> MillingProcess:
     return process
 
 
-def _positive(option: str, value: float, high: float = math.inf, least: float = 0.0) -> float:
-    if not (math.isfinite(value) and least < value <= high):
-        bound = f" and <= {high:g}" if math.isfinite(high) else ""
-        raise ConfigError(f"{option} {value!r}; give a finite value > {least:g}{bound}")
-    return value
-
-
 def check_time_options(
     seconds: float,
     transient_s: float | None,
@@ -129,11 +122,13 @@ def check_time_options(
     helix_deg: float,
 ) -> None:
     """Range checks of the time-domain options (s, N/mm, steps per tooth period, mm, degrees)
-    before any file is read; one-line :class:`ConfigError` naming the option."""
+    before any file is read; one-line :class:`InputError` naming the option."""
     if diameter_mm is not None:
-        _positive("--diameter-mm", diameter_mm, MAX_TOOL_DIAMETER_MM)
+        check_number(
+            "--diameter-mm", diameter_mm, 0.0, MAX_TOOL_DIAMETER_MM, low_open=True, unit="mm"
+        )
     if not (math.isfinite(helix_deg) and 0.0 <= helix_deg < 90.0):
-        raise ConfigError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
+        raise InputError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
     check_number("--seconds", seconds, MIN_SIMULATED_S, MAX_SIMULATED_S, unit="s")
     if transient_s is not None:
         check_number("--transient-s", transient_s, 0.0, MAX_SIMULATED_S, unit="s")
@@ -154,29 +149,35 @@ def _edges(config: StabilityConfig, kte: float | None, kre: float | None) -> tup
 
 
 def _diameter(config: StabilityConfig, given: float | None) -> float | None:
-    """Cutter diameter in m from the option (mm) or the ``[process_damping]`` table."""
+    """Cutter diameter in mm from the option or the ``[process_damping]`` table."""
     if given is not None:
-        return _positive("--diameter-mm", given, MAX_TOOL_DIAMETER_MM) * 1e-3
+        return check_number(
+            "--diameter-mm", given, 0.0, MAX_TOOL_DIAMETER_MM, low_open=True, unit="mm"
+        )
     if config.process_damping is not None:
-        return config.process_damping.diameter_mm * 1e-3
+        return config.process_damping.diameter_mm
     return None
 
 
-def _end_mill(teeth: int, diameter_m: float, helix_deg: float) -> EndMill:
-    from cnctwin.mechanics.cutter import EndMill
+def _end_mill(teeth: int, diameter_mm: float, helix_deg: float, depth_mm: float) -> Cutter:
+    """A flat end mill with flutes as long as the (deepest) cut ``depth_mm``: the time-domain
+    model reads only its flutes, helix and diameter."""
+    from cnctwin.geometry.cutter import Cutter
 
     if not (math.isfinite(helix_deg) and 0.0 <= helix_deg < 90.0):
-        raise ConfigError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
-    return EndMill(diameter_m, teeth, math.radians(helix_deg))
+        raise InputError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
+    return Cutter.flat(diameter_mm, depth_mm, flutes=teeth, helix_rad=math.radians(helix_deg))
 
 
-def _cutter(teeth: int, diameter_m: float | None, helix_deg: float) -> EndMill | None:
+def _cutter(
+    teeth: int, diameter_mm: float | None, helix_deg: float, depth_mm: float
+) -> Cutter | None:
     """The cutter, or None (straight flutes) when no diameter is known."""
-    if diameter_m is None:
+    if diameter_mm is None:
         if helix_deg != 0.0:
-            raise ConfigError("--helix-deg needs the cutter diameter: give --diameter-mm")
+            raise InputError("--helix-deg needs the cutter diameter: give --diameter-mm")
         return None
-    return _end_mill(teeth, diameter_m, helix_deg)
+    return _end_mill(teeth, diameter_mm, helix_deg, depth_mm)
 
 
 def load_damping_model(path: Path) -> ProcessDampingModel:
@@ -233,7 +234,7 @@ def simulation_report(
     Parameters
     ----------
     config
-        A :class:`cnctwin.config.stability.StabilityConfig` with a milling cut.
+        A :class:`cnctwin.dynamics.config.StabilityConfig` with a milling cut.
     rpm, depth_mm, feed_mm
         Spindle speed (rpm), axial depth (mm) and feed per tooth (mm; default the
         ``[process_damping]`` chip thickness).
@@ -261,38 +262,42 @@ def simulation_report(
         ``nonsynchronous_ratio``, ``growth``, ``chatter_frequency_hz``,
         ``sdm_spectral_radius``, ``sdm_stable`` and ``wall_s``.
     """
-    from cnctwin.dynamics.stability import ProcessDamping, floquet_multipliers
+    from cnctwin.dynamics.process_damping import cut_process_damping
+    from cnctwin.dynamics.stability import floquet_multipliers
     from cnctwin.dynamics.time_domain import simulate_milling
 
     process = _milling(config)
-    speed = _positive("--rpm", rpm, MAX_SPINDLE_RPM, least=1.0) * _RPM
-    depth = _positive("--depth-mm", depth_mm, 1000.0) * 1e-3
+    speed = check_number("--rpm", rpm, 1.0, MAX_SPINDLE_RPM, low_open=True, unit="rpm") * _RPM
+    depth = check_number("--depth-mm", depth_mm, 0.0, 1000.0, low_open=True, unit="mm") * 1e-3
     section = config.process_damping
     if feed_mm is None:
         if section is None:
-            raise ConfigError("give --feed-mm (feed per tooth, mm)")
+            raise InputError("give --feed-mm (feed per tooth, mm)")
         feed_mm = section.chip_thickness_mm
-    feed = _positive("--feed-mm", feed_mm, 100.0) * 1e-3
-    _positive("--seconds", seconds)
+    feed = check_number("--feed-mm", feed_mm, 0.0, 100.0, low_open=True, unit="mm") * 1e-3
+    check_number("--seconds", seconds, 0.0, math.inf, low_open=True, unit="s")
     diameter = _diameter(config, diameter_mm)
-    cutter = _cutter(process.teeth, diameter, helix_deg)
+    cutter = _cutter(process.teeth, diameter, helix_deg, depth_mm)
     kte, kre = _edges(config, kte_n_mm, kre_n_mm)
+    if cpd_n_m2 is not None:
+        check_number("--cpd-n-m2", cpd_n_m2, 0.0, math.inf, unit="N/m^2")
     if cpd_n_m2 is not None and damping_model is not None:
-        raise ConfigError("--cpd-n-m2 and --damping-model exclude each other; give one")
-    if damping_model is not None:
-        cpd: float | None = damping_model.cpd_pa(depth, feed, speed)
-    elif cpd_n_m2 is not None:
-        if not (math.isfinite(cpd_n_m2) and cpd_n_m2 >= 0.0):
-            raise ConfigError(f"--cpd-n-m2 {cpd_n_m2!r}; give a value >= 0 N/m^2")
-        cpd = cpd_n_m2 or None
-    else:
-        cpd = section.cpd_n_m2 if section is not None and section.cpd_n_m2 > 0 else None
-    damping = None
-    if cpd is not None:
-        if diameter is None:
-            raise ConfigError("process damping needs the cutter diameter: give --diameter-mm")
-        # Royandi 2026, Sec. 6.4: C_eff = C_pd a_p f_z / V_c, the chip thickness is f_z.
-        damping = ProcessDamping(cpd, feed, diameter)
+        raise InputError("--cpd-n-m2 and --damping-model exclude each other; give one")
+    try:
+        damping = cut_process_damping(
+            depth_m=depth,
+            feed_per_tooth_m=feed,
+            spindle_rad_s=speed,
+            diameter_m=None if cutter is None else cutter.diameter_m,
+            cpd_pa=cpd_n_m2,
+            model=damping_model,
+            default_cpd_pa=None if section is None else section.cpd_n_m2,
+        )
+    except InputError as err:
+        if diameter is None:  # the only refusal the checks above leave
+            raise InputError(f"{err}; give --diameter-mm") from None
+        raise
+    cpd = None if damping is None else damping.coefficient_pa
     started = time.perf_counter()
     result = simulate_milling(
         config.tool_dynamics(),
@@ -338,8 +343,10 @@ def simulation_report(
         "peak_to_peak_um": _pair(np.ptp(displacement, axis=0) * 1e6),
         "chatter": verdict.chatter,
         "nonsynchronous_ratio": verdict.nonsynchronous_ratio,
-        "growth": _null(verdict.growth),
-        "chatter_frequency_hz": _null(verdict.frequency_hz) if verdict.chatter else None,
+        "growth": finite_json.finite(float(verdict.growth)),
+        "chatter_frequency_hz": (
+            finite_json.finite(float(verdict.frequency_hz)) if verdict.chatter else None
+        ),
         "sdm_spectral_radius": radius,
         "sdm_stable": radius < 1.0,
         "wall_s": wall,
@@ -390,7 +397,7 @@ def simulate(
     as_json: JsonOption = False,
 ) -> None:
     """Simulate one milling cut in time: vibration RMS, chatter, and the SDM's verdict."""
-    from cnctwin.config.stability import load_stability_config
+    from cnctwin.dynamics.config import load_stability_config
 
     check_time_options(seconds, transient_s, kte_n_mm, kre_n_mm, steps, diameter_mm, helix_deg)
     settings = load_stability_config(config)
@@ -479,12 +486,14 @@ def calibration_report(
     )
 
     if axis not in ("x", "y"):
-        raise ConfigError(f"--axis {axis!r}; give x or y")
+        raise InputError(f"--axis {axis!r}; give x or y")
     process = _milling(config)
     diameter = _diameter(config, diameter_mm)
     if diameter is None:
-        raise ConfigError("give --diameter-mm: the cutting speed of Eq. 3 needs the diameter")
-    cutter = _end_mill(process.teeth, diameter, helix_deg)
+        raise InputError("give --diameter-mm: the cutting speed of Eq. 3 needs the diameter")
+    if not cuts["ap_mm"]:
+        raise InputError("cuts: no rows; give at least one cut (ap_mm, spindle_rpm, ...)")
+    cutter = _end_mill(process.teeth, diameter, helix_deg, max(cuts["ap_mm"]))
     kte, kre = _edges(config, kte_n_mm, kre_n_mm)
     setup = CalibrationSetup(
         config.tool_dynamics(),
@@ -493,7 +502,7 @@ def calibration_report(
         kte,
         kre,
         helical_edge,
-        _positive("--seconds", seconds),
+        check_number("--seconds", seconds, 0.0, math.inf, low_open=True, unit="s"),
         steps,
         "x" if axis == "x" else "y",
     )
@@ -519,7 +528,7 @@ def calibration_report(
                 "relative_error": found.relative_error,
                 "cpd_n_m2": found.cpd_pa,
                 "gamma_n": gamma,
-                "effective_damping_n_s_m": gamma / (speed * diameter / 2.0),
+                "effective_damping_n_s_m": gamma / (speed * cutter.radius_m),
                 "status": found.status,
                 "runs": found.evaluations,
             }
@@ -583,8 +592,8 @@ def calibrate_damping(
     ] = False,
 ) -> None:
     """Process damping per measured cut (Royandi 2026, Eq. 14) and its Gamma model (Eq. 15-19)."""
-    from cnctwin.cli.roughness import read_columns
-    from cnctwin.config.stability import load_stability_config
+    from cnctwin.dynamics.config import load_stability_config
+    from cnctwin.measurements import read_columns
 
     check_time_options(seconds, None, kte_n_mm, kre_n_mm, steps, diameter_mm, helix_deg)
     settings = load_stability_config(config)
@@ -617,10 +626,6 @@ app.command("detect")(detect)
 
 def _pair(values: np.ndarray) -> list[float]:
     return [float(values[0]), float(values[1])]
-
-
-def _null(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
 
 
 def _simulation_table(report: dict[str, Any]) -> Table:

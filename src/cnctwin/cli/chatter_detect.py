@@ -8,8 +8,6 @@ docs/chatter.md.
 
 from __future__ import annotations
 
-import csv
-import math
 import sys
 from pathlib import Path
 from typing import Annotated, Any
@@ -20,6 +18,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.cli._options import check_number
 from cnctwin.config.machine import MAX_SPINDLE_RPM
 from cnctwin.dynamics.chatter_detection import (
     DEFAULT_THRESHOLD,
@@ -27,92 +26,10 @@ from cnctwin.dynamics.chatter_detection import (
     DetectorSettings,
     detect_chatter,
 )
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import InputError
+from cnctwin.measurements import read_signal_csv
 
-__all__ = ["detect", "detection_report", "read_signal"]
-
-#: Names taken for the time column when ``--time-column`` is not given (case-insensitive).
-TIME_NAMES = ("t_s", "time_s", "time", "t")
-_UNIFORM = 1e-3  # largest relative deviation of a sampling interval from the mean
-
-
-def read_signal(
-    path: Path, column: str | None, time_column: str | None
-) -> tuple[np.ndarray, float, str]:
-    """Read one signal column and the sampling rate from a CSV with a header row.
-
-    Parameters
-    ----------
-    path
-        The CSV file.
-    column
-        Signal column; ``None``: the first column that is not the time column.
-    time_column
-        Time column (s); ``None``: the first of :data:`TIME_NAMES` present.
-
-    Returns
-    -------
-    tuple
-        The samples, the sampling rate in Hz and the signal column's name.
-
-    Raises
-    ------
-    cnctwin.errors.DataError
-        One line naming the file (and line) for a missing column, a cell that is not a
-        number, fewer than 16 rows, or a time column that is not evenly increasing.
-    """
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as handle:
-            rows = [row for row in csv.reader(handle) if any(cell.strip() for cell in row)]
-    except UnicodeDecodeError as err:
-        raise DataError(f"{path}: not a UTF-8 text file ({err.reason})") from None
-    if not rows:
-        raise DataError(f"{path}: empty; give a header row with a time column, then samples")
-    header = [cell.strip() for cell in rows[0]]
-    lowered = [name.lower() for name in header]
-    if time_column is None:
-        found = [name for name in TIME_NAMES if name in lowered]
-        if not found:
-            raise DataError(
-                f"{path}: no time column among {header}; name one t_s, time_s, time or t, "
-                "or give --time-column"
-            )
-        t_index = lowered.index(found[0])
-    elif time_column in header:
-        t_index = header.index(time_column)
-    else:
-        raise DataError(f"{path}: no column {time_column!r} (--time-column); columns: {header}")
-    if column is None:
-        others = [i for i in range(len(header)) if i != t_index]
-        if not others:
-            raise DataError(f"{path}: only a time column; add a signal column")
-        s_index = others[0]
-    elif column in header:
-        s_index = header.index(column)
-    else:
-        raise DataError(f"{path}: no column {column!r} (--column); columns: {header}")
-    data = np.empty((len(rows) - 1, 2))
-    for line, row in enumerate(rows[1:], start=2):
-        for j, index in enumerate((t_index, s_index)):
-            try:
-                data[line - 2, j] = float(row[index])
-            except (IndexError, ValueError):
-                cell = row[index] if index < len(row) else ""
-                raise DataError(
-                    f"{path}:{line}: column {header[index]!r} is {cell!r}; give a number"
-                ) from None
-    if data.shape[0] < 16:
-        raise DataError(f"{path}: {data.shape[0]} samples; give at least 16")
-    steps = np.diff(data[:, 0])
-    mean = float(steps.mean())
-    if not (mean > 0.0 and np.all(np.abs(steps - mean) <= _UNIFORM * mean)):
-        raise DataError(
-            f"{path}: column {header[t_index]!r} is not evenly increasing (steps "
-            f"{steps.min():.6g} ... {steps.max():.6g} s); resample to a fixed rate"
-        )
-    if not np.all(np.isfinite(data[:, 1])):
-        raise DataError(f"{path}: column {header[s_index]!r} holds a value that is not finite")
-    return data[:, 1].copy(), 1.0 / mean, header[s_index]
+__all__ = ["detect", "detection_report"]
 
 
 def detection_report(found: ChatterDetection, source: str, column: str) -> dict[str, Any]:
@@ -147,14 +64,16 @@ def detection_report(found: ChatterDetection, source: str, column: str) -> dict[
         "start_s": found.start_s.tolist(),
         "end_s": found.end_s.tolist(),
         "energy_ratio": found.energy_ratio.tolist(),
-        "chatter_frequency_hz": [_null(v) for v in found.chatter_frequency_hz],
+        "chatter_frequency_hz": [finite_json.finite(float(v)) for v in found.chatter_frequency_hz],
         "chatter_flags": [bool(v) for v in found.chatter],
         "windows": len(found),
         "chatter_windows": int(found.chatter.sum()),
         "chatter": bool(found.chatter.any()),
-        "first_chatter_s": _null(found.first_chatter_s),
+        "first_chatter_s": finite_json.finite(float(found.first_chatter_s)),
         "max_energy_ratio": float(found.energy_ratio[worst]),
-        "dominant_chatter_frequency_hz": _null(float(found.chatter_frequency_hz[worst])),
+        "dominant_chatter_frequency_hz": finite_json.finite(
+            float(found.chatter_frequency_hz[worst])
+        ),
     }
 
 
@@ -200,18 +119,18 @@ def detect(
     """
     # Ranges: a spindle speed as [machine] max_spindle_rpm, teeth as [[tools]] flutes, a
     # window or hop of at most an hour (a longer one overflows the sample count's arithmetic).
-    for option, value, least, high in (
-        ("--rpm", rpm, 1.0, MAX_SPINDLE_RPM),
-        ("--window-s", window_s, 0.0, 3600.0),
-        ("--hop-s", hop_s, 0.0, 3600.0),
+    for option, value, least, high, unit in (
+        ("--rpm", rpm, 1.0, MAX_SPINDLE_RPM, "rpm"),
+        ("--window-s", window_s, 0.0, 3600.0, "s"),
+        ("--hop-s", hop_s, 0.0, 3600.0, "s"),
     ):
-        if value is not None and not (math.isfinite(value) and least < value <= high):
-            raise ConfigError(f"{option} {value!r}; give a value > {least:g} and <= {high:g}")
+        if value is not None:
+            check_number(option, value, least, high, low_open=True, unit=unit)
     if not 1 <= teeth <= 100:
-        raise ConfigError(f"--teeth {teeth!r}; give an integer from 1 to 100")
+        raise InputError(f"--teeth {teeth!r}; give an integer from 1 to 100")
     if not (0.0 < threshold < 1.0):
-        raise ConfigError(f"--threshold {threshold!r}; give 0 < threshold < 1")
-    samples, rate, name = read_signal(signal, column, time_column)
+        raise InputError(f"--threshold {threshold!r}; give 0 < threshold < 1")
+    samples, rate, name = read_signal_csv(signal, column, time_column)
     settings = DetectorSettings(
         rate, rpm, teeth, window_s, hop_s, threshold, spindle_harmonics=spindle_harmonics
     )
@@ -221,10 +140,6 @@ def detect(
         sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     Console().print(_table(report))
-
-
-def _null(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
 
 
 def _table(report: dict[str, Any]) -> Table:

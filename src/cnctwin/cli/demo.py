@@ -21,15 +21,18 @@ import typer
 from rich.console import Console
 
 from cnctwin import finite_json
-from cnctwin.cli._options import MAX_SPEED_FACTOR, check_number
+from cnctwin.cli._options import MAX_SPEED_FACTOR, check_count, check_number
 from cnctwin.cli.run import (
+    WEB_PORT,
+    linger,
     note,
     quiet_protocol_logs,
     run_with_view,
     summary_report,
     summary_table,
+    web_dashboard,
 )
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 
 if TYPE_CHECKING:
     pass
@@ -40,6 +43,8 @@ __all__ = ["DEMO_CONFIG", "demo"]
 DEMO_CONFIG = "demo_twin.toml"
 #: Longest demo, s: its program ends (at the stop) well within a minute at the default speed.
 MAX_DEMO_S = 3_600.0
+#: With ``--web``, longest wait for the first page before the machine starts anyway, s.
+PAGE_WAIT_S = 60.0
 
 
 def demo(
@@ -66,6 +71,17 @@ def demo(
     transport: Annotated[
         str, typer.Option("--transport", help="Protocol of the virtual machine: opcua or modbus.")
     ] = "opcua",
+    web: Annotated[
+        bool,
+        typer.Option(
+            "--web",
+            help="Serve the live dashboard on 127.0.0.1; the machine starts once a page is open "
+            "(docs/dashboard.md).",
+        ),
+    ] = False,
+    port: Annotated[
+        int, typer.Option("--port", help="Port of the dashboard (with --web; 0: a free one).")
+    ] = WEB_PORT,
 ) -> None:
     """Run the twin against a virtual machine on loopback: feed adaptation, then a stop.
 
@@ -81,13 +97,19 @@ def demo(
     check_number("--duration", duration, 0.0, MAX_DEMO_S, low_open=True, unit="s")
     if speed is not None:
         check_number("--speed", speed, 0.0, MAX_SPEED_FACTOR, low_open=True, unit="x real time")
+    check_count("--port", port, 0, 65535)
     if transport not in ("opcua", "modbus"):
-        raise ConfigError(f"--transport {transport!r}; valid: opcua, modbus")
+        raise InputError(f"--transport {transport!r}; valid: opcua, modbus")
     protocol: Literal["opcua", "modbus"] = "opcua" if transport == "opcua" else "modbus"
     quiet_protocol_logs()
     with as_file(files("cnctwin.examples")) as folder:
         config = load_run_config(folder / DEMO_CONFIG)
-        with Historian.open(db) as historian:
+        with (
+            Historian.open(db) as historian,
+            web_dashboard(
+                config, folder, enabled=web, host="127.0.0.1", port=port, insecure=False
+            ) as board,
+        ):
             note(f"history: {historian.location}")
             # the machine's log, per user (a shared /tmp file could belong to another user)
             log = Path(platformdirs.user_log_dir("cnctwin")) / "demo-machine.log"
@@ -104,6 +126,9 @@ def demo(
                     f"virtual machine: {endpoint} ({protocol}, {factor:g}x real time; "
                     f"its log: {log})"
                 )
+                if board is not None:
+                    note(f"open {board.url} in a browser: the machine starts once a page is open")
+                    board.wait_for_page(PAGE_WAIT_S)
                 settings = config.model_copy(
                     update={
                         "connection": config.connection.model_copy(
@@ -115,6 +140,7 @@ def demo(
                     settings,
                     historian,
                     live=not as_json,
+                    web=board,
                     on_start=lambda _twin: machine.go(),
                     duration_s=duration,
                     meta={"command": "cnctwin demo", "virtual_machine": endpoint},
@@ -123,13 +149,14 @@ def demo(
                 machine_state = machine.state() or {}
             finally:
                 machine.stop()
-    report = summary_report(
-        summary,
-        transport=protocol,
-        endpoint=endpoint,
-        machine_time_s=machine_state.get("t_s"),
-    )
-    if as_json:
-        sys.stdout.write(finite_json.dumps(report) + "\n")
-        return
-    Console().print(summary_table(report, title="cnctwin demo"))
+            report = summary_report(
+                summary,
+                transport=protocol,
+                endpoint=endpoint,
+                machine_time_s=machine_state.get("t_s"),
+            )
+            if as_json:
+                sys.stdout.write(finite_json.dumps(report) + "\n")
+            else:
+                Console().print(summary_table(report, title="cnctwin demo"))
+            linger(board, summary)

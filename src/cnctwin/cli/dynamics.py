@@ -1,93 +1,40 @@
 """``cnctwin dynamics``: structural dynamics from tap tests. ``fit-frf`` fits modes to an FRF.
 
-The readers of tap-test files live here, at the edge, so that :mod:`cnctwin.dynamics` stays
-free of I/O. Three kinds of file are read:
-
-- an FRF table (text): columns frequency [Hz], real part, imaginary part (m/N by default);
-- an impact record (text): columns time [s], hammer force [N], response (acceleration in
-  m/s^2 by default), one hit; the H1 FRF is computed from it;
-- a MATLAB ``.mat`` file holding an FRF: an ``N x 2`` (real, imaginary) or complex variable,
-  with a frequency vector (``f``, ``freq`` or ``frequency``, Hz) or ``df`` and ``f_start`` (Hz).
-
-A text file is an impact record when its first column advances by less than 0.01 per row (a
-sampling interval, s) and an FRF table otherwise (a frequency step, Hz); ``--kind`` overrides.
+The tap-test files (FRF tables, impact records, ``.mat`` FRFs) are read by
+:mod:`cnctwin.measurements.tap_test`, so that :mod:`cnctwin.dynamics` stays free of I/O.
 """
 
 from __future__ import annotations
 
 import math
-import re
 import sys
-from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
-from numpy.typing import NDArray
 from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.cli._options import check_number
-from cnctwin.dynamics.frf import FRF, FRFQuantity, impact_frf
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.dynamics.frf import FRF, FRFQuantity
+from cnctwin.errors import DataError, InputError
+from cnctwin.measurements import TapTestKind, load_tap_test
 
 if TYPE_CHECKING:
     from cnctwin.dynamics.modal import ModalFit
 
-__all__ = [
-    "TapTest",
-    "app",
-    "fit_frf",
-    "fit_frf_report",
-    "load_tap_test",
-    "modes_file_text",
-    "read_frf_mat",
-    "read_impact_record",
-    "read_table",
-]
+__all__ = ["app", "fit_frf", "fit_frf_report", "modes_file_text"]
 
 app = typer.Typer(help="Structural dynamics: FRFs and modal fits from tap tests.",
                   no_args_is_help=True)  # fmt: skip
 
 TWO_PI = 2.0 * math.pi
-DEFAULT_LOW_HZ = 100.0
 MAX_BAND_HZ = 1.0e6
 """Highest edge of the fitted band, Hz: above any structural mode and impact hammer."""
 MAX_TAU_MS = 60_000.0
 """Longest exponential window time constant, ms: longer than any tap record."""
-"""Default low edge of the fitted band, Hz: below it an accelerometer's receptance is noise."""
-IMPACT_STEP_LIMIT = 0.01
-"""A text file whose first column steps by less than this is an impact record (s), else an FRF."""
-EXCITED_DB = 40.0
-"""An impact record's default band ends where the force spectrum is this far below its peak, dB."""
-
-Kind = Literal["auto", "frf", "impact"]
-_NUMBER_SPLIT = re.compile(r"[\s,;]+")
-
-
-@dataclass(frozen=True)
-class TapTest:
-    """What a tap-test file gave.
-
-    Attributes
-    ----------
-    frf
-        The FRF (still the file's quantity; an impact record's H1 with its coherence).
-    kind
-        ``"frf"`` or ``"impact"``.
-    variable
-        The ``.mat`` variable read, else None.
-    excited_omega
-        For an impact record, the highest angular frequency the hammer excites (force spectrum
-        within :data:`EXCITED_DB` of its peak), rad/s; else None.
-    """
-
-    frf: FRF
-    kind: Literal["frf", "impact"]
-    variable: str | None = None
-    excited_omega: float | None = None
 
 
 @app.callback()
@@ -95,190 +42,12 @@ def _dynamics() -> None:
     """Structural dynamics: FRFs and modal fits from tap tests."""
 
 
-def read_table(path: Path, n_columns: int = 3) -> NDArray[np.float64]:
-    """The numeric rows of a text table: whitespace, comma or semicolon separated.
-
-    Blank lines and lines starting with ``#``, ``%`` or ``;`` are skipped, and so is a header
-    (rows before the first numeric one).
-
-    Returns
-    -------
-    numpy.ndarray
-        Shape ``(rows, n_columns)``; extra columns are an error.
-
-    Raises
-    ------
-    DataError
-        ``FILE:LINE: ...`` for a row that is not ``n_columns`` numbers, or a file without rows.
-    """
-    rows: list[list[float]] = []
-    with path.open(encoding="utf-8", errors="replace") as handle:
-        for number, line in enumerate(handle, start=1):
-            text = line.strip()
-            if not text or text[0] in "#%;":
-                continue
-            fields = [field for field in _NUMBER_SPLIT.split(text) if field]
-            try:
-                values = [float(field) for field in fields]
-            except ValueError:
-                if not rows:
-                    continue  # a header
-                raise DataError(
-                    f"{path}:{number}: {text[:40]!r} is not {n_columns} numbers"
-                ) from None
-            if len(values) != n_columns:
-                raise DataError(
-                    f"{path}:{number}: {len(values)} columns; give {n_columns} (see "
-                    "cnctwin dynamics fit-frf --help)"
-                )
-            rows.append(values)
-    if len(rows) < 4:
-        raise DataError(f"{path}: {len(rows)} numeric rows; give a table of at least 4")
-    table = np.asarray(rows)
-    if not np.all(np.isfinite(table)):
-        raise DataError(f"{path}: the table holds NaN or infinite values")
-    return table
-
-
-def _frf_from_table(path: Path, table: NDArray[np.float64], quantity: FRFQuantity) -> FRF:
-    frequency_hz = table[:, 0]
-    if np.any(np.diff(frequency_hz) <= 0.0) or frequency_hz[0] < 0.0:
-        raise DataError(f"{path}: the frequencies (first column, Hz) must be >= 0 and increasing")
-    return FRF(TWO_PI * frequency_hz, table[:, 1] + 1j * table[:, 2], quantity)
-
-
-def read_impact_record(
-    path: Path, table: NDArray[np.float64] | None = None
-) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """Force [N], response and sampling interval [s] of an impact record (t, force, response).
-
-    ``table`` is the file's table when it has been read already.
-
-    Raises
-    ------
-    DataError
-        When the time column is not uniformly increasing.
-    """
-    rows = read_table(path) if table is None else table
-    time = rows[:, 0]
-    dt = float(time[-1] - time[0]) / (time.size - 1)
-    # The times are printed with few digits: allow rounding, not a missing or repeated sample.
-    if not dt > 0.0 or np.max(np.abs(time - time[0] - dt * np.arange(time.size))) > 0.25 * dt:
-        raise DataError(f"{path}: the time column (s) must increase by a constant step")
-    return rows[:, 1], rows[:, 2], dt
-
-
-def read_frf_mat(
-    path: Path, variable: str | None = None, quantity: FRFQuantity = "receptance"
-) -> tuple[FRF, str]:
-    """An FRF from a MATLAB ``.mat`` file (module docstring), and the variable's name.
-
-    Raises
-    ------
-    DataError
-        When the file holds no FRF, several without ``variable``, or no frequencies.
-    """
-    from scipy.io import loadmat  # scipy.io only when a .mat is read
-
-    try:
-        content = {k: v for k, v in loadmat(str(path)).items() if not k.startswith("__")}
-    except (ValueError, NotImplementedError, TypeError) as err:
-        raise DataError(f"{path}: not a readable MATLAB file ({err})") from None
-    candidates = {name: value for name, value in content.items() if _frf_like(value)}
-    if variable is None:
-        if len(candidates) != 1:
-            found = ", ".join(sorted(candidates)) or "none"
-            raise DataError(
-                f"{path}: {len(candidates)} FRF variables ({found}); name one with --variable"
-            )
-        variable = next(iter(candidates))
-    elif variable not in candidates:
-        raise DataError(
-            f"{path}: no FRF variable {variable!r}; valid: "
-            f"{', '.join(sorted(candidates)) or 'none'}"
-        )
-    value = np.asarray(candidates[variable])
-    h = value[:, 0] + 1j * value[:, 1] if np.isrealobj(value) else value.ravel()
-    frequency_hz = _mat_frequencies(path, content, h.size)
-    return FRF(TWO_PI * frequency_hz, h.astype(complex), quantity), variable
-
-
-def _frf_like(value: Any) -> bool:
-    """An N x 2 real array or a complex vector, N >= 4."""
-    if not isinstance(value, np.ndarray) or value.dtype.kind not in "fc" or value.size < 8:
-        return False
-    if value.dtype.kind == "c":
-        return value.ndim == 1 or (value.ndim == 2 and 1 in value.shape)
-    return value.ndim == 2 and value.shape[1] == 2 and value.shape[0] >= 4
-
-
-def _mat_frequencies(path: Path, content: dict[str, Any], n: int) -> NDArray[np.float64]:
-    for name in ("f", "freq", "frequency", "f_hz", "freq_hz"):
-        if name in content and np.asarray(content[name]).size == n:
-            return np.asarray(content[name], dtype=np.float64).ravel()
-    if "df" in content:
-        df = float(np.asarray(content["df"]).ravel()[0])
-        start = float(np.asarray(content.get("f_start", 0.0)).ravel()[0])
-        if df > 0.0:
-            return np.asarray(start + df * np.arange(n), dtype=np.float64)
-    raise DataError(
-        f"{path}: no frequencies; give a vector f (Hz) of {n} values, or df and f_start (Hz)"
-    )
-
-
-def load_tap_test(
-    path: Path,
-    *,
-    kind: Kind = "auto",
-    variable: str | None = None,
-    quantity: FRFQuantity | None = None,
-    tau_s: float | None = None,
-) -> TapTest:
-    """Read a tap-test file (module docstring) into an FRF.
-
-    Parameters
-    ----------
-    path
-        The file: ``.mat``, or a text table.
-    kind
-        ``"frf"``, ``"impact"`` or ``"auto"`` (a ``.mat`` is an FRF; a text file by its first
-        column's step).
-    variable
-        The ``.mat`` variable holding the FRF.
-    quantity
-        What the FRF (or the impact record's response) is; default ``"receptance"`` for an FRF,
-        ``"accelerance"`` (response in m/s^2) for an impact record.
-    tau_s
-        Exponential window time constant for an impact record, s; None for none.
-    """
-    if not path.is_file():
-        raise DataError(f"{path}: no such file")
-    if path.suffix.lower() == ".mat":
-        if kind == "impact":
-            raise DataError(f"{path}: impact records are read from text files, not .mat")
-        frf, name = read_frf_mat(path, variable, quantity or "receptance")
-        return TapTest(frf, "frf", name)
-    table = read_table(path)
-    if kind == "auto":
-        step = float(np.median(np.diff(table[:, 0])))
-        kind = "impact" if 0.0 < step < IMPACT_STEP_LIMIT else "frf"
-    if kind == "frf":
-        return TapTest(_frf_from_table(path, table, quantity or "receptance"), "frf")
-    force, response, dt = read_impact_record(path, table)
-    frf = impact_frf(force, response, dt, quantity=quantity or "accelerance", tau=tau_s)
-    spectrum = np.abs(np.fft.rfft(force))
-    excited = np.flatnonzero(spectrum >= spectrum.max() * 10.0 ** (-EXCITED_DB / 20.0))
-    return TapTest(
-        frf, "impact", None, TWO_PI * float(np.fft.rfftfreq(force.size, dt)[excited[-1]])
-    )
-
-
 def fit_frf_report(
     path: Path,
     *,
     modes: int = 1,
     band_hz: tuple[float, float] | None = None,
-    kind: Kind = "auto",
+    kind: TapTestKind = "auto",
     variable: str | None = None,
     quantity: FRFQuantity | None = None,
     tau_ms: float | None = None,
@@ -296,7 +65,7 @@ def fit_frf_report(
         ``damping_n_s_m``, ``modal_constant_per_kg`` and ``residual_norm`` (over its
         half-power band).
     """
-    from cnctwin.dynamics.modal import fit_modes
+    from cnctwin.dynamics.modal import default_band, fit_modes
 
     if tau_ms is not None:
         check_number("--tau-ms", tau_ms, 0.0, MAX_TAU_MS, low_open=True, unit="ms")
@@ -309,17 +78,14 @@ def fit_frf_report(
     )  # fmt: skip
     receptance = test.frf.to_receptance()
     if band_hz is None:
-        high = receptance.omega[-1] if test.excited_omega is None else test.excited_omega
-        low = TWO_PI * DEFAULT_LOW_HZ
-        if high <= low:
-            raise ConfigError(
-                f"{path}: the default band starts at {DEFAULT_LOW_HZ:g} Hz, above the data "
-                f"({high / TWO_PI:g} Hz); give --band LO HI"
-            )
+        try:
+            low, high = default_band(receptance, test.excited_omega)
+        except DataError as err:
+            raise DataError(f"{path}: {err} with --band LO HI") from None
     else:
         low, high = (TWO_PI * value for value in band_hz)
         if not (0.0 <= low < high):
-            raise ConfigError(f"--band {band_hz[0]:g} {band_hz[1]:g}: give 0 <= LO < HI, in Hz")
+            raise InputError(f"--band {band_hz[0]:g} {band_hz[1]:g}: give 0 <= LO < HI, in Hz")
     fit = fit_modes(receptance, modes, omega_band=(low, high))
     if plot is not None:
         _plot(plot, receptance, fit, path.name)
@@ -473,11 +239,11 @@ def fit_frf(
     [[modes]] tables: concatenate the x and y files into one modes file.
     """
     if direction not in ("x", "y"):
-        raise ConfigError(f"--direction {direction!r}; valid: x, y")
+        raise InputError(f"--direction {direction!r}; valid: x, y")
     if kind not in ("auto", "frf", "impact"):
-        raise ConfigError(f"--kind {kind!r}; valid: auto, frf, impact")
+        raise InputError(f"--kind {kind!r}; valid: auto, frf, impact")
     if quantity is not None and quantity not in ("receptance", "mobility", "accelerance"):
-        raise ConfigError(f"--quantity {quantity!r}; valid: receptance, mobility, accelerance")
+        raise InputError(f"--quantity {quantity!r}; valid: receptance, mobility, accelerance")
     report = fit_frf_report(
         file, modes=modes, band_hz=band, kind=kind, variable=variable,  # type: ignore[arg-type]
         quantity=quantity, tau_ms=tau_ms, plot=plot,  # type: ignore[arg-type]

@@ -21,7 +21,8 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.errors import ConfigError
+from cnctwin.cli._options import check_number
+from cnctwin.errors import InputError
 
 __all__ = ["forces", "forces_report"]
 
@@ -69,7 +70,7 @@ def forces_report(
 
     Raises
     ------
-    ConfigError
+    InputError
         For a value out of range, an unknown material, or both or neither coefficient sources.
     """
     from cnctwin.config.machine import MAX_SPINDLE_RPM
@@ -78,10 +79,10 @@ def forces_report(
         MAX_TOOL_LENGTH_MM,
         MIN_TOOL_DIAMETER_MM,
     )
+    from cnctwin.geometry import Cutter
     from cnctwin.mechanics import (
         CuttingCoefficients,
-        EndMill,
-        Engagement,
+        ImmersionIntervals,
         immersion_angles,
         mean_forces,
         milling_forces,
@@ -89,27 +90,28 @@ def forces_report(
     from cnctwin.mechanics.materials import milling_material
 
     if not (MIN_TOOL_DIAMETER_MM <= diameter_mm <= MAX_TOOL_DIAMETER_MM):
-        raise ConfigError(
+        raise InputError(
             f"--diameter-mm {diameter_mm!r}; give {MIN_TOOL_DIAMETER_MM:g} <= diameter <= "
             f"{MAX_TOOL_DIAMETER_MM:g} mm"
         )
-    _check_positive("--ap-mm", ap_mm, MAX_TOOL_LENGTH_MM)
-    _check_positive("--fz-mm", fz_mm, 100.0)
-    _check_positive("--rpm", rpm, MAX_SPINDLE_RPM)
+    check_number("--ap-mm", ap_mm, 0.0, MAX_TOOL_LENGTH_MM, low_open=True, unit="mm")
+    check_number("--fz-mm", fz_mm, 0.0, 100.0, low_open=True, unit="mm")
+    check_number("--rpm", rpm, 0.0, MAX_SPINDLE_RPM, low_open=True, unit="rpm")
     if not (math.isfinite(ae_mm) and 0.0 < ae_mm <= diameter_mm):
-        raise ConfigError(f"--ae-mm {ae_mm!r}; give 0 < ae <= the diameter ({diameter_mm!r} mm)")
+        raise InputError(f"--ae-mm {ae_mm!r}; give 0 < ae <= the diameter ({diameter_mm!r} mm)")
     if not 1 <= teeth <= 100:
-        raise ConfigError(f"--teeth {teeth!r}; give an integer from 1 to 100")
+        raise InputError(f"--teeth {teeth!r}; give an integer from 1 to 100")
     if not (math.isfinite(helix_deg) and 0.0 <= helix_deg < 90.0):
-        raise ConfigError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
+        raise InputError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
     if material is not None and coefficients_n_mm is None:
         coefficients = milling_material(material).coefficients
     elif material is None and coefficients_n_mm is not None:
         coefficients = CuttingCoefficients.from_n_mm(**coefficients_n_mm)
     else:
-        raise ConfigError("give either --material NAME or the coefficients --ktc and --krc")
-    cutter = EndMill(diameter_m=diameter_mm * 1e-3, teeth=teeth, helix_rad=math.radians(helix_deg))
-    cut = Engagement.from_depths(
+        raise InputError("give either --material NAME or the coefficients --ktc and --krc")
+    # The force model reads only the engaged slices: the flutes are taken as long as the cut.
+    cutter = Cutter.flat(diameter_mm, ap_mm, flutes=teeth, helix_rad=math.radians(helix_deg))
+    cut = ImmersionIntervals.from_depths(
         cutter, ae_mm * 1e-3, ap_mm * 1e-3, down_milling=down_milling, slices=_SLICES
     )
     omega = rpm * 2.0 * math.pi / 60.0
@@ -129,11 +131,6 @@ def forces_report(
         "milling": "down" if down_milling else "up",
         "material": material,
     }
-
-
-def _check_positive(option: str, value: float, high: float) -> None:
-    if not (math.isfinite(value) and 0.0 < value <= high):
-        raise ConfigError(f"{option} {value!r}; give a value > 0 and <= {high:g}")
 
 
 def _coefficient(name: str, unit: str) -> Any:
@@ -179,9 +176,9 @@ def forces(
     }
     explicit = {key: value for key, value in given.items() if value is not None}
     if explicit and material is not None:
-        raise ConfigError("--material and explicit coefficients exclude each other; give one")
+        raise InputError("--material and explicit coefficients exclude each other; give one")
     if material is None and (ktc is None or krc is None):
-        raise ConfigError("give --material NAME, or at least --ktc and --krc")
+        raise InputError("give --material NAME, or at least --ktc and --krc")
     report = forces_report(
         diameter_mm=diameter_mm,
         teeth=teeth,

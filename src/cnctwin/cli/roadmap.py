@@ -24,11 +24,11 @@ from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.cli.stability import parse_rpm_range
-from cnctwin.errors import CnctwinError, ConfigError, NCError
+from cnctwin.errors import CnctwinError, ConfigError, InputError, NCError
 
 if TYPE_CHECKING:
     from cnctwin.config import MachiningConfig
-    from cnctwin.config.stability import StabilityConfig
+    from cnctwin.dynamics.config import StabilityConfig
     from cnctwin.dynamics.roadmap import StabilityRoadmap
     from cnctwin.mechanics.coefficients import CuttingCoefficients
     from cnctwin.nc.segments import Segment
@@ -137,13 +137,13 @@ def roadmap_report(
 
     rho = config.simulation.density_per_mm if density_per_mm is None else density_per_mm
     if not (MIN_DENSITY_PER_MM <= rho <= MAX_DENSITY_PER_MM):
-        raise ConfigError(
+        raise InputError(
             f"--density {rho!r}; give {MIN_DENSITY_PER_MM:g} <= density <= "
             f"{MAX_DENSITY_PER_MM:g} dexels per mm"
         )
     step = 1.0 / rho if step_mm is None else step_mm
     if not (math.isfinite(step) and 0.1 / rho <= step <= MAX_STEP_MM):
-        raise ConfigError(
+        raise InputError(
             f"--step-mm {step!r}; give {0.1 / rho:g} (a tenth of the dexel spacing) <= step "
             f"<= {MAX_STEP_MM:g} mm"
         )
@@ -179,15 +179,17 @@ def roadmap_report(
                 "ap_mm": seg.ap_mm,
                 "ae_mm": seg.ae_mm,
                 "radial_immersion": seg.ae_mm / diameter[seg.tool],
-                "entry_deg": _null(math.degrees(seg.entry_rad)),
-                "exit_deg": _null(math.degrees(seg.exit_rad)),
+                "entry_deg": finite_json.finite(math.degrees(seg.entry_rad)),
+                "exit_deg": finite_json.finite(math.degrees(seg.exit_rad)),
                 "programmed_rpm": seg.programmed_rpm,
-                "programmed_critical_depth_mm": _null(seg.programmed_critical_depth_mm),
-                "programmed_chatter_hz": _null(seg.programmed_chatter_hz),
+                "programmed_critical_depth_mm": finite_json.finite(
+                    seg.programmed_critical_depth_mm
+                ),
+                "programmed_chatter_hz": finite_json.finite(seg.programmed_chatter_hz),
                 "programmed_stable": seg.programmed_stable,
                 "stable_ranges_rpm": [list(pair) for pair in seg.stable_ranges_rpm],
-                "scheduled_rpm": _null(seg.scheduled_rpm),
-                "scheduled_critical_depth_mm": _null(seg.scheduled_critical_depth_mm),
+                "scheduled_rpm": finite_json.finite(seg.scheduled_rpm),
+                "scheduled_critical_depth_mm": finite_json.finite(seg.scheduled_critical_depth_mm),
             }
         )
     with_lobes = [seg for seg in result.segments if seg.lobes >= 0]
@@ -207,7 +209,7 @@ def roadmap_report(
                 "teeth": lobes.teeth,
                 "entry_deg": math.degrees(lobes.entry_rad),
                 "exit_deg": math.degrees(lobes.exit_rad),
-                "min_critical_depth_mm": _null(float(np.min(lobes.critical_depth_mm))),
+                "min_critical_depth_mm": finite_json.finite(float(np.min(lobes.critical_depth_mm))),
             }
             for lobes in result.lobes
         ],
@@ -254,14 +256,14 @@ def roadmap(
     programmed one if stable, else the nearest stable one (Ward 2021, Fig. 12).
     """
     from cnctwin.config import load_config
-    from cnctwin.config.stability import load_stability_config
+    from cnctwin.dynamics.config import load_stability_config
 
     if not (math.isfinite(margin) and 1.0 <= margin <= MAX_MARGIN):
-        raise ConfigError(f"--margin {margin!r}; give a factor >= 1 and <= {MAX_MARGIN:g}")
+        raise InputError(f"--margin {margin!r}; give a factor >= 1 and <= {MAX_MARGIN:g}")
     overrides: dict[str, dict[str, Any]] = {}
     if method is not None:
         if method not in ("zoa", "sdm"):
-            raise ConfigError(f"--method {method!r}; give zoa or sdm")
+            raise InputError(f"--method {method!r}; give zoa or sdm")
         overrides["lobes"] = {"method": method}
     settings = load_config(config)
     modes = load_stability_config(stability, overrides)
@@ -275,10 +277,6 @@ def roadmap(
         sys.stdout.write(finite_json.dumps(report) + "\n")
         return
     Console().print(_table(report))
-
-
-def _null(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
 
 
 def _table(report: dict[str, Any]) -> Table:

@@ -24,8 +24,8 @@ from rich.table import Table
 from rich.text import Text
 
 from cnctwin import finite_json
-from cnctwin.cli._options import MAX_RUN_S, MAX_WAIT_S, check_number
-from cnctwin.errors import ConfigError
+from cnctwin.cli._options import MAX_RUN_S, MAX_WAIT_S, check_count, check_number
+from cnctwin.errors import InputError
 from cnctwin.thread.signals import RunState
 
 if TYPE_CHECKING:
@@ -34,9 +34,11 @@ if TYPE_CHECKING:
     from cnctwin.twin.pipeline import Twin
     from cnctwin.twin.runtime import RunSummary, TwinRuntime
     from cnctwin.twin.state import CycleState
+    from cnctwin.web.server import LiveDashboard
 
 __all__ = [
     "LiveView",
+    "linger",
     "note",
     "quiet_protocol_logs",
     "run",
@@ -44,7 +46,11 @@ __all__ = [
     "run_with_view",
     "summary_report",
     "summary_table",
+    "web_dashboard",
 ]
+
+#: Default port of the dashboard (``--web``).
+WEB_PORT = 8765
 
 #: Keys of the summary every ``--json`` output has (see docs/twin.md).
 SUMMARY_KEYS = (
@@ -90,6 +96,23 @@ def run(
     as_json: Annotated[
         bool, typer.Option("--json", help="Print one JSON object at the end, no live view.")
     ] = False,
+    web: Annotated[
+        bool,
+        typer.Option("--web", help="Serve the live dashboard in the browser (docs/dashboard.md)."),
+    ] = False,
+    host: Annotated[
+        str, typer.Option("--host", help="Address the dashboard listens on (with --web).")
+    ] = "127.0.0.1",
+    port: Annotated[
+        int, typer.Option("--port", help="Port of the dashboard (with --web; 0: a free one).")
+    ] = WEB_PORT,
+    insecure: Annotated[
+        bool,
+        typer.Option(
+            "--insecure",
+            help="Allow a non-loopback --host for the dashboard (plain HTTP, trusted network).",
+        ),
+    ] = False,
 ) -> None:
     """Run the twin against a machine until its program ends or Ctrl-C.
 
@@ -103,6 +126,7 @@ def run(
     if duration is not None:
         check_number("--duration", duration, 0.0, MAX_RUN_S, low_open=True, unit="s")
     check_number("--connect-timeout", connect_timeout, 0.0, MAX_WAIT_S, low_open=True, unit="s")
+    check_count("--port", port, 0, 65535)
     settings = load_run_config(config)
     quiet_protocol_logs()
     if endpoint is not None:
@@ -112,29 +136,37 @@ def run(
         elif endpoint.startswith("opc.tcp://"):
             update["transport"] = "opcua"
         else:
-            raise ConfigError(
+            raise InputError(
                 f"--endpoint {endpoint!r}; give opc.tcp://HOST:PORT/PATH or modbus://HOST:PORT"
             )
         settings = settings.model_copy(
             update={"connection": settings.connection.model_copy(update=update)}
         )
     historian = Historian.open(db) if db is not None else Historian.from_config(settings.historian)
-    with historian:
+    base_dir = config.resolve().parent
+    with (
+        historian,
+        web_dashboard(
+            settings, base_dir, enabled=web, host=host, port=port, insecure=insecure
+        ) as board,
+    ):
         note(f"history: {historian.location}")
         summary = run_with_view(
             settings,
             historian,
             live=not as_json,
+            web=board,
             duration_s=duration,
             meta={"config": str(config.resolve()), "command": "cnctwin run"},
-            base_dir=config.resolve().parent,
+            base_dir=base_dir,
             connect_timeout_s=connect_timeout,
         )
-    report = summary_report(summary)
-    if as_json:
-        sys.stdout.write(finite_json.dumps(report) + "\n")
-        return
-    Console().print(summary_table(report, title=f"twin run: {config.name}"))
+        report = summary_report(summary)
+        if as_json:
+            sys.stdout.write(finite_json.dumps(report) + "\n")
+        else:
+            Console().print(summary_table(report, title=f"twin run: {config.name}"))
+        linger(board, summary)
 
 
 async def run_until_interrupted(
@@ -339,17 +371,26 @@ def run_with_view(
     *,
     live: bool,
     on_start: Callable[[Twin], None] | None = None,
+    web: LiveDashboard | None = None,
     **session: Any,
 ) -> RunSummary:
     """Run one twin session under the live view (on a terminal, when ``live``) until it ends
     or Ctrl-C; ``on_start`` runs once the twin is built (after the view is attached);
-    ``session`` goes to :func:`cnctwin.twin.session.run_session`."""
+    ``web``, a started dashboard, watches it too; ``session`` goes to
+    :func:`cnctwin.twin.session.run_session`."""
     from cnctwin.twin.session import run_session
 
     view = LiveView(enabled=live and sys.stdout.isatty())
 
+    def on_cycle(state: CycleState) -> None:
+        view.observe(state)
+        if web is not None:
+            web.observe(state)
+
     def start(twin: Twin) -> None:
         view.attach(twin)
+        if web is not None:
+            web.attach(twin)
         if on_start is not None:
             on_start(twin)
 
@@ -360,13 +401,56 @@ def run_with_view(
                     settings,
                     historian=historian,
                     stop_event=stop,
-                    on_cycle=view.observe,
+                    on_cycle=on_cycle,
                     on_start=start,
                     **session,
                 ),
                 view,
             )
         )
+
+
+@contextlib.contextmanager
+def web_dashboard(
+    settings: RunConfig, base_dir: Path, *, enabled: bool, host: str, port: int, insecure: bool
+) -> Iterator[LiveDashboard | None]:
+    """The live dashboard of ``--web``, serving for the block with its address on stderr;
+    ``None`` when not ``enabled``."""
+    if not enabled:
+        yield None
+        return
+    from cnctwin.web.server import LiveDashboard
+
+    program = settings.twin.program
+    if program is None and settings.virtual is not None:
+        program = settings.virtual.program
+    board = LiveDashboard(
+        host=host,
+        port=port,
+        insecure=insecure,
+        control_enabled=settings.control.enabled,
+        title=settings.machine.name,
+        program=None if program is None else base_dir / program,
+    )
+    with board:
+        if board.token_for_view:
+            note(f"dashboard: {board.url}?token={board.token} (every page needs the token)")
+        else:
+            note(f"dashboard: {board.url}")
+        if settings.control.enabled:
+            note(f"dashboard control token: {board.token} (open {board.url}?token={board.token})")
+        else:
+            note("dashboard control: off ([control] enabled = false)")
+        yield board
+
+
+def linger(board: LiveDashboard | None, summary: RunSummary) -> None:
+    """After the run, keep the dashboard serving until Ctrl-C so the run can still be read."""
+    if board is None:
+        return
+    board.finish(summary)
+    note(f"run ended ({summary.ended}); the dashboard stays at {board.url} until Ctrl-C")
+    board.wait_until_interrupted()
 
 
 def quiet_protocol_logs() -> None:

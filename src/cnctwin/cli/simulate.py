@@ -3,19 +3,17 @@
 from __future__ import annotations
 
 import csv
-import math
 import sys
-import time
 from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.cli._options import progress
 from cnctwin.config import MachiningConfig, load_config
 from cnctwin.config.simulation import (
     MAX_CYCLE_MS,
@@ -23,7 +21,7 @@ from cnctwin.config.simulation import (
     MIN_CYCLE_MS,
     MIN_DENSITY_PER_MM,
 )
-from cnctwin.errors import ConfigError, NCError
+from cnctwin.errors import InputError
 
 __all__ = ["resolution", "simulate", "simulate_report"]
 
@@ -32,16 +30,16 @@ def resolution(
     settings: MachiningConfig, density: float | None, cycle_ms: float | None
 ) -> tuple[float, float]:
     """Dexel density (per mm) and cycle time (s): the options where given, else the config's
-    ``[simulation]``; a one-line :class:`ConfigError` for values out of range."""
+    ``[simulation]``; a one-line :class:`InputError` for values out of range."""
     rho = density if density is not None else settings.simulation.density_per_mm
     cycle = cycle_ms if cycle_ms is not None else settings.simulation.cycle_ms
     if not (MIN_DENSITY_PER_MM <= rho <= MAX_DENSITY_PER_MM):
-        raise ConfigError(
+        raise InputError(
             f"--density {rho}: give {MIN_DENSITY_PER_MM:g} <= density <= "
             f"{MAX_DENSITY_PER_MM:g} dexels per mm"
         )
     if not (MIN_CYCLE_MS <= cycle <= MAX_CYCLE_MS):
-        raise ConfigError(
+        raise InputError(
             f"--cycle-ms {cycle}: give {MIN_CYCLE_MS:g} <= cycle <= {MAX_CYCLE_MS:g} ms"
         )
     return rho, cycle / 1e3
@@ -54,117 +52,29 @@ def simulate_report(
     density_per_mm: float,
     cycle_s: float,
     out: Path | None = None,
-    progress: bool = False,
+    progress_bar: bool = False,
 ) -> dict[str, Any]:
-    """Run the program through the stock; write the outputs; return the summary.
-
-    Parameters
-    ----------
-    program
-        NC file.
-    config
-        Machine, tools (with geometry) and stock.
-    density_per_mm
-        Dexel density, 1/mm.
-    cycle_s
-        Cycle time, s.
-    out
-        Folder for ``engagement.csv``, ``stock.stl`` and ``summary.json`` (created).
-    progress
-        Show a progress bar on stderr.
-
-    Returns
-    -------
-    dict
-        ``steps``, ``process_time_s``, ``runtime_s``, ``realtime_factor``,
-        ``removed_volume_mm3``, ``max_ae_mm``, ``max_ap_mm``, ``max_mrr_mm3_s``,
-        stock volumes, warnings and the settings used.
-    """
-    from cnctwin.geometry import Cutter, DexelStock
+    """Run the program through the stock (:func:`~cnctwin.simulation.simulate_program`),
+    write the outputs to ``out`` (``engagement.csv``, ``stock.stl``, ``summary.json``;
+    created) and return the summary (:meth:`~cnctwin.simulation.ProgramCut.summary`).
+    ``progress_bar`` shows a progress bar on stderr."""
     from cnctwin.geometry.mesh import stock_mesh
-    from cnctwin.nc.interpreter import Interpreter
-    from cnctwin.simulation.cut import COLUMNS, StepTable, simulate_cut
+    from cnctwin.simulation import COLUMNS, simulate_program
 
-    cutters = {}
-    for tool in config.tools:
-        cutters[tool.number] = Cutter.from_tool_config(tool)
-    stock_cfg = config.stock
-    stock = DexelStock.box(stock_cfg.min_mm, stock_cfg.max_mm, density_per_mm)
-    volume_before = stock.volume_mm3()
-    interpreter = Interpreter(config.nc_setup())
-    table = StepTable()
-    started = time.perf_counter()
-    segments = interpreter.run_file(program)
-    try:
-        chunks = simulate_cut(
-            segments, stock, cutters, rapid_mm_min=config.machine.rapid_mm_min, cycle_s=cycle_s
+    with progress("simulating", progress_bar) as on_chunk:
+        cut = simulate_program(
+            program, config, density_per_mm=density_per_mm, cycle_s=cycle_s, on_chunk=on_chunk
         )
-        if progress:
-            with Progress(
-                TextColumn("simulating"),
-                BarColumn(),
-                TextColumn("{task.fields[t]:.1f} s"),
-                TimeElapsedColumn(),
-                console=Console(stderr=True),
-                transient=True,
-            ) as bar:
-                task = bar.add_task("cut", total=None, t=0.0)
-                for rows in chunks:
-                    table.append(rows)
-                    bar.update(task, t=float(rows[-1, 0]) if len(rows) else 0.0)
-        else:
-            for rows in chunks:
-                table.append(rows)
-    except NCError as err:
-        if err.file == "<string>":
-            raise NCError(err.message, str(program), err.line, err.column) from None
-        raise
-    runtime = time.perf_counter() - started
-    volume_after = stock.volume_mm3()
-    n = len(table)
-    process_time = float(table.column("t_s")[-1]) + cycle_s if n else 0.0
-    contact = table.column("contact") > 0
-    rapid = table.column("rapid") > 0
-    warnings = []
-    crash = np.flatnonzero(contact & rapid)
-    if crash.size:
-        warnings.append(
-            f"{program}:{int(table.column('line')[crash[0]])}: a rapid move cuts material "
-            f"({crash.size} steps in all): a collision on the machine"
-        )
-    shank = np.flatnonzero(table.column("above_flutes") > 0)
-    if shank.size:
-        warnings.append(
-            f"{program}:{int(table.column('line')[shank[0]])}: material above the flutes "
-            f"({shank.size} steps): the shank would rub"
-        )
-    removed = float(table.column("removed_mm3").sum())
-    report: dict[str, Any] = {
-        "file": str(program),
-        "steps": n,
-        "process_time_s": process_time,
-        "runtime_s": runtime,
-        "realtime_factor": process_time / runtime if runtime > 0 else math.inf,
-        "removed_volume_mm3": removed,
-        "stock_volume_before_mm3": volume_before,
-        "stock_volume_after_mm3": volume_after,
-        "volume_balance_mm3": volume_before - volume_after - removed,
-        "max_ae_mm": float(table.column("ae_mm").max()) if n else 0.0,
-        "max_ap_mm": float(table.column("ap_mm").max()) if n else 0.0,
-        "max_mrr_mm3_s": float(table.column("mrr_mm3_s").max()) if n else 0.0,
-        "density_per_mm": density_per_mm,
-        "cycle_ms": cycle_s * 1e3,
-        "warnings": [*interpreter.warnings, *warnings],
-    }
+    report = cut.summary()
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         with (out / "engagement.csv").open("w", newline="") as handle:
             writer = csv.writer(handle)
             writer.writerow(COLUMNS)
-            data = np.column_stack([table.column(name) for name in COLUMNS])
+            data = np.column_stack([cut.table.column(name) for name in COLUMNS])
             for row in data:
                 writer.writerow([f"{v:.6g}" for v in row])
-        _write_stl(out / "stock.stl", stock_mesh(stock), program.name)
+        _write_stl(out / "stock.stl", stock_mesh(cut.stock), program.name)
         (out / "summary.json").write_text(finite_json.dumps(report, indent=2) + "\n")
     return report
 
@@ -210,7 +120,7 @@ def simulate(
         density_per_mm=rho,
         cycle_s=cycle_s,
         out=out,
-        progress=not as_json and sys.stderr.isatty(),
+        progress_bar=not as_json and sys.stderr.isatty(),
     )
     if as_json:
         sys.stdout.write(finite_json.dumps(report) + "\n")

@@ -23,7 +23,8 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.errors import ConfigError
+from cnctwin.cli._options import check_number
+from cnctwin.errors import InputError
 
 __all__ = ["app", "lobes", "lobes_report", "parse_rpm_list", "parse_rpm_range"]
 
@@ -44,19 +45,19 @@ def parse_rpm_list(text: str, option: str = "--rpm") -> np.ndarray:
 
     Raises
     ------
-    ConfigError
+    InputError
         Naming the option and the text, for an empty list, more than 100,000 speeds or a
         value out of range.
     """
     from cnctwin.config.machine import MAX_SPINDLE_RPM
-    from cnctwin.config.stability import MAX_POINTS
+    from cnctwin.dynamics.config import MAX_POINTS
 
     try:
         values = np.array([float(v) for v in text.split(",") if v.strip()])
     except ValueError:
         values = np.array([math.nan])
     if not (0 < values.size <= MAX_POINTS and np.all((values > 0.0) & (values <= MAX_SPINDLE_RPM))):
-        raise ConfigError(
+        raise InputError(
             f"{option} {text!r}; give up to {MAX_POINTS} spindle speeds in rpm separated by "
             f"commas, each > 0 and <= {MAX_SPINDLE_RPM:g}"
         )
@@ -68,12 +69,12 @@ def parse_rpm_range(text: str, option: str = "--rpm-range") -> np.ndarray:
 
     Raises
     ------
-    ConfigError
+    InputError
         Naming the option and the text, unless ``0 < MIN < MAX <= 200,000`` and
         ``2 <= N <= 100,000``.
     """
     from cnctwin.config.machine import MAX_SPINDLE_RPM
-    from cnctwin.config.stability import MAX_POINTS
+    from cnctwin.dynamics.config import MAX_POINTS
 
     parts = text.split(":")
     try:
@@ -82,7 +83,7 @@ def parse_rpm_range(text: str, option: str = "--rpm-range") -> np.ndarray:
     except (ValueError, IndexError):
         valid = False
     if not valid:
-        raise ConfigError(
+        raise InputError(
             f"{option} {text!r}; give MIN:MAX:N with 0 < MIN < MAX <= {MAX_SPINDLE_RPM:g} rpm "
             f"and 2 <= N <= {MAX_POINTS}, e.g. 5000:25000:400"
         )
@@ -95,7 +96,7 @@ def lobes_report(config: Any, rpm: np.ndarray | None = None) -> dict[str, Any]:
     Parameters
     ----------
     config
-        A :class:`cnctwin.config.stability.StabilityConfig`.
+        A :class:`cnctwin.dynamics.config.StabilityConfig`.
     rpm
         Spindle speeds in rpm; default the ``[lobes]`` range and number of points.
 
@@ -122,7 +123,7 @@ def lobes_report(config: Any, rpm: np.ndarray | None = None) -> dict[str, Any]:
     started = time.perf_counter()
     if spec.method == "zoa":
         if damping is not None:
-            raise ConfigError("process damping needs --method sdm (the ZOA has no depth term)")
+            raise InputError("process damping needs --method sdm (the ZOA has no depth term)")
         result = zoa_lobes(tool, process, rpm * _RPM)
     else:
         steps = None if spec.steps == "auto" else spec.steps
@@ -143,16 +144,16 @@ def lobes_report(config: Any, rpm: np.ndarray | None = None) -> dict[str, Any]:
         "method": spec.method,
         "operation": config.cut.operation,
         "spindle_rpm": [float(v) for v in rpm],
-        "critical_depth_mm": _nulls(depth_mm),
-        "chatter_frequency_hz": _nulls(result.chatter_frequency_hz),
+        "critical_depth_mm": finite_json.finite(depth_mm.tolist()),
+        "chatter_frequency_hz": finite_json.finite(result.chatter_frequency_hz.tolist()),
         "bifurcation": list(result.bifurcation),
         "min_critical_depth_mm": None if best is None else float(depth_mm[best]),
         "min_critical_rpm": None if best is None else float(rpm[best]),
         "min_chatter_frequency_hz": (
             None if best is None else float(result.chatter_frequency_hz[best])
         ),
-        "absolute_depth_mm": _null(absolute_m * 1e3),
-        "absolute_chatter_frequency_hz": _null(absolute_hz),
+        "absolute_depth_mm": finite_json.finite(float(absolute_m * 1e3)),
+        "absolute_chatter_frequency_hz": finite_json.finite(float(absolute_hz)),
         "max_depth_mm": spec.max_depth_mm if spec.method == "sdm" else None,
         "steps": spec.steps if spec.method == "sdm" else None,
         "process_damping": damping is not None,
@@ -233,11 +234,11 @@ def lobes(
 
     Milling cut options: --teeth, --material NAME (or --ktc and --krc), --immersion, --down/--up.
     """
-    from cnctwin.config.stability import load_stability_config
+    from cnctwin.dynamics.config import load_stability_config
 
     path = config if config is not None else modes_file
     if path is None or (config is not None and modes_file is not None):
-        raise ConfigError("give either --config FILE or --modes-file FILE")
+        raise InputError("give either --config FILE or --modes-file FILE")
     span, speeds = _speeds(rpm, rpm_range, points, high_rpm or [])
     overrides = _overrides(
         immersion=immersion,
@@ -272,16 +273,16 @@ def _speeds(
     if extra:
         # --rpm LOW HIGH: click hands HIGH over as a stray argument.
         if rpm is None or len(extra) != 1 or "," in rpm:
-            raise ConfigError(f"unexpected argument {' '.join(extra)!r}; see --help")
+            raise InputError(f"unexpected argument {' '.join(extra)!r}; see --help")
         try:
             low, high = float(rpm), float(extra[0])
         except ValueError:
-            raise ConfigError(f"--rpm {rpm} {extra[0]}; give LOW HIGH in rpm") from None
+            raise InputError(f"--rpm {rpm} {extra[0]}; give LOW HIGH in rpm") from None
         return (low, high), None
     if rpm is not None and rpm_range is not None:
-        raise ConfigError("--rpm and --rpm-range exclude each other; give one")
+        raise InputError("--rpm and --rpm-range exclude each other; give one")
     if points is not None and (rpm is not None or rpm_range is not None):
-        raise ConfigError("--points goes with the file's range or --rpm LOW HIGH; "
+        raise InputError("--points goes with the file's range or --rpm LOW HIGH; "
                           "give N in --rpm-range MIN:MAX:N instead")  # fmt: skip
     if rpm is not None:
         return None, parse_rpm_list(rpm)
@@ -292,46 +293,48 @@ def _speeds(
 
 def _overrides(**given: Any) -> dict[str, dict[str, Any]]:
     """The options as replacements of the file's tables; option values checked here."""
-    from cnctwin.config.stability import MIN_IMMERSION
+    from cnctwin.dynamics.config import MIN_IMMERSION
 
     cut: dict[str, Any] = {}
     spec: dict[str, Any] = {}
     if given["immersion"] is not None:
         value = given["immersion"]
         if not (math.isfinite(value) and MIN_IMMERSION <= value <= 1.0):
-            raise ConfigError(f"--immersion {value!r}; give {MIN_IMMERSION:g} <= ae/D <= 1")
+            raise InputError(f"--immersion {value!r}; give {MIN_IMMERSION:g} <= ae/D <= 1")
         cut["radial_immersion"] = value
     if given["down"] is not None:
         cut["milling"] = "down" if given["down"] else "up"
     if given["teeth"] is not None:
         if given["teeth"] < 1:
-            raise ConfigError(f"--teeth {given['teeth']!r}; give an integer >= 1")
+            raise InputError(f"--teeth {given['teeth']!r}; give an integer >= 1")
         cut["teeth"] = given["teeth"]
     material, ktc, krc = given["material"], given["ktc"], given["krc"]
     if material is not None and (ktc is not None or krc is not None):
-        raise ConfigError("--material and --ktc/--krc exclude each other; give one")
+        raise InputError("--material and --ktc/--krc exclude each other; give one")
     if material is not None:
         cut.update(material=material, ktc_n_mm2=None, krc_n_mm2=None)
     if ktc is not None or krc is not None:
         if ktc is None or krc is None:
-            raise ConfigError("give both --ktc and --krc (N/mm^2)")
-        _positive("--ktc", ktc)
+            raise InputError("give both --ktc and --krc (N/mm^2)")
+        check_number("--ktc", ktc, 0.0, math.inf, low_open=True, unit="N/mm^2")
         cut.update(material=None, ktc_n_mm2=ktc, krc_n_mm2=krc)
     if given["method"] is not None:
         if given["method"] not in ("zoa", "sdm"):
-            raise ConfigError(f"--method {given['method']!r}; give zoa or sdm")
+            raise InputError(f"--method {given['method']!r}; give zoa or sdm")
         spec["method"] = given["method"]
     if given["rpm"] is not None:
         low, high = given["rpm"]
         if not (math.isfinite(low) and math.isfinite(high) and 0.0 < low < high):
-            raise ConfigError(f"--rpm {low!r} {high!r}; give LOW HIGH with 0 < LOW < HIGH")
+            raise InputError(f"--rpm {low!r} {high!r}; give LOW HIGH with 0 < LOW < HIGH")
         spec["rpm"] = [low, high]
     if given["points"] is not None:
         if given["points"] < 2:
-            raise ConfigError(f"--points {given['points']!r}; give an integer >= 2")
+            raise InputError(f"--points {given['points']!r}; give an integer >= 2")
         spec["points"] = given["points"]
     if given["max_depth_mm"] is not None:
-        _positive("--max-depth-mm", given["max_depth_mm"])
+        check_number(
+            "--max-depth-mm", given["max_depth_mm"], 0.0, math.inf, low_open=True, unit="mm"
+        )
         spec["max_depth_mm"] = given["max_depth_mm"]
     if given["steps"] is not None:
         spec["steps"] = _steps(given["steps"])
@@ -346,21 +349,8 @@ def _steps(text: str) -> int | str:
     except ValueError:
         value = 0
     if value < 2:
-        raise ConfigError(f"--steps {text!r}; give an integer >= 2 or auto")
+        raise InputError(f"--steps {text!r}; give an integer >= 2 or auto")
     return value
-
-
-def _positive(option: str, value: float) -> None:
-    if not (math.isfinite(value) and value > 0.0):
-        raise ConfigError(f"{option} {value!r}; give a finite value > 0")
-
-
-def _null(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
-
-
-def _nulls(values: np.ndarray) -> list[float | None]:
-    return [_null(float(v)) for v in values]
 
 
 def _pockets(report: dict[str, Any], count: int = 5) -> list[int]:

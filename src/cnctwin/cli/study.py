@@ -15,7 +15,7 @@ from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.cli._options import check_count
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 
 __all__ = ["app", "dexel", "dexel_report"]
 
@@ -58,7 +58,7 @@ def dexel_report(
     n = default_workers() if workers is None else workers
     check_count("--workers", n, 1, MAX_WORKERS, unit="processes")
     if out.exists() and not out.is_dir():
-        raise ConfigError(f"--out {out}: not a folder; give a folder for the results")
+        raise InputError(f"--out {out}: not a folder; give a folder for the results")
     study = DexelStudy.quick() if quick else DexelStudy.paper()
     started = time.perf_counter()
     if progress:

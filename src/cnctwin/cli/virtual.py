@@ -22,7 +22,7 @@ import typer
 
 from cnctwin.cli._options import MAX_SPEED_FACTOR, MAX_WAIT_S, check_number
 from cnctwin.cli.run import note, quiet_protocol_logs
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.virtual.exposure import check_exposure
 from cnctwin.virtual.users import ROLES, Role, UserTable, hash_password, load_users
 
@@ -109,14 +109,14 @@ def serve(
     from cnctwin.twin.config import load_run_config
 
     if transport not in ("opcua", "modbus"):
-        raise ConfigError(f"--transport {transport!r}; valid: opcua, modbus")
+        raise InputError(f"--transport {transport!r}; valid: opcua, modbus")
     secured = transport == "opcua" and security_mode != "None"
     check_exposure(host, transport, secured=secured, insecure=insecure)
     security, table = _access(
         transport, security_mode, certificate, private_key, trust, users, anonymous
     )
     if not 0 <= port <= 65535:
-        raise ConfigError(f"--port {port}; give 0 (a free port) to 65535")
+        raise InputError(f"--port {port}; give 0 (a free port) to 65535")
     if speed is not None:
         check_number("--speed", speed, 0.0, MAX_SPEED_FACTOR, low_open=True, unit="x real time")
     check_number("--delay", delay, 0.0, MAX_WAIT_S, unit="s")
@@ -145,7 +145,7 @@ def hash_password_command(
     Prints the salted scrypt hash, or with ``--user`` the whole ``[users.NAME]`` table.
     """
     if role not in ROLES:
-        raise ConfigError(f"--role {role!r}; valid: {', '.join(ROLES)}")
+        raise InputError(f"--role {role!r}; valid: {', '.join(ROLES)}")
     if sys.stdin.isatty():
         password = typer.prompt("Password", hide_input=True, confirmation_prompt=True)
     else:
@@ -162,7 +162,7 @@ def _toml_key(name: str) -> str:
     if name and all(c.isascii() and (c.isalnum() or c in "-_") for c in name):
         return name
     if any(c in name for c in '"\\') or not name.isprintable():
-        raise ConfigError(f"--user {name!r}; valid: printable, without quotes or backslashes")
+        raise InputError(f"--user {name!r}; valid: printable, without quotes or backslashes")
     return f'"{name}"'
 
 
@@ -175,7 +175,7 @@ def _access(
     users: Path | None,
     anonymous: str | None,
 ) -> tuple[OpcUaServerSecurity | None, UserTable]:
-    """The OPC UA server's security and users from the options (ConfigError if invalid)."""
+    """The OPC UA server's security and users from the options (InputError if invalid)."""
     given = [
         name
         for name, value in (
@@ -190,12 +190,12 @@ def _access(
     if transport == "modbus":
         if given or mode != "None":
             options = ", ".join(given or ["--security-mode"])
-            raise ConfigError(f"{options}: OPC UA only; Modbus TCP has no security")
+            raise InputError(f"{options}: OPC UA only; Modbus TCP has no security")
         return None, UserTable()
     if mode not in ("None", "Sign", "SignAndEncrypt"):
-        raise ConfigError(f"--security-mode {mode!r}; valid: None, Sign, SignAndEncrypt")
+        raise InputError(f"--security-mode {mode!r}; valid: None, Sign, SignAndEncrypt")
     if anonymous is not None and anonymous not in (*ROLES, "none"):
-        raise ConfigError(f"--anonymous {anonymous!r}; valid: none, {', '.join(ROLES)}")
+        raise InputError(f"--anonymous {anonymous!r}; valid: none, {', '.join(ROLES)}")
     table = load_users(users) if users is not None else UserTable()
     if anonymous is not None:
         table = UserTable(table.accounts, None if anonymous == "none" else cast(Role, anonymous))
@@ -228,7 +228,7 @@ async def _serve(
         machine = MachineServer(settings, transport, speed, host, port, security, users, insecure)
         await machine.start()
     except OSError as err:
-        raise ConfigError(f"cannot listen on {host}:{port}: {err.strerror or err}") from err
+        raise InputError(f"cannot listen on {host}:{port}: {err.strerror or err}") from err
     try:
         typer.echo(machine.endpoint)
         note(

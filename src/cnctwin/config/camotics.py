@@ -17,17 +17,15 @@ CAMotics shape   cnctwin kind  envelope
 
 :func:`camotics_tools` gives every tool (:class:`CamoticsTool`, mm and degrees), from which
 ``cnctwin.geometry.Cutter`` builds the envelope. :func:`load_camotics_project` builds a
-:class:`~cnctwin.config.MachiningConfig` whose ``tools`` hold the tools the ``[[tools]]`` model
-describes (flat and ball end mills; a conical or snub-nose tool is logged and left out, so a
-program that uses it stops with an error naming the tool); as in CAMotics, a T word loads its
-tool without M6, and the workpiece bounds become a box stock. Everything else keeps the
-defaults of :class:`~cnctwin.config.MachiningConfig`.
+:class:`~cnctwin.config.MachiningConfig` whose ``tools`` hold every tool as a ``[[tools]]``
+entry (a cone spanning the tool's length, as in CAMotics: no ``tip_angle_deg``); as in
+CAMotics, a T word loads its tool without M6, and the workpiece bounds become a box stock.
+Everything else keeps the defaults of :class:`~cnctwin.config.MachiningConfig`.
 """
 
 from __future__ import annotations
 
 import json
-import logging
 import math
 import os
 from dataclasses import dataclass
@@ -36,18 +34,16 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from cnctwin.config.loading import _describe_validation_error
+from cnctwin.config.loading import describe_validation_error
 from cnctwin.config.machining import MachiningConfig
 from cnctwin.errors import ConfigError
 
 __all__ = ["CamoticsTool", "camotics_tools", "load_camotics_project"]
 
-logger = logging.getLogger(__name__)
 
 _MM_PER_INCH = 25.4
 _SHAPES = {"cylindrical": "flat", "ballnose": "ball", "conical": "conical", "snubnose": "snub"}
 #: Kinds the ``[[tools]]`` configuration model describes.
-_CONFIG_KINDS = ("flat", "ball")
 
 
 def _scale(units: object, where: str, source: str) -> float:
@@ -189,9 +185,9 @@ def load_camotics_project(path: str | os.PathLike[str]) -> MachiningConfig:
     Returns
     -------
     MachiningConfig
-        The flat and ball end mills as ``tools`` (diameter and flute length in mm; conical and
-        snub-nose tools are logged and left out: see :func:`camotics_tools`) and a box stock
-        from the workpiece bounds; T loads a tool without M6; the rest keeps its defaults.
+        Every tool as ``tools`` (kind, diameter, flute length and a snub nose's tip diameter
+        in mm, as :func:`camotics_tools` reads them) and a box stock from the workpiece
+        bounds; T loads a tool without M6; the rest keeps its defaults.
 
     Raises
     ------
@@ -203,15 +199,6 @@ def load_camotics_project(path: str | os.PathLike[str]) -> MachiningConfig:
     scale = _scale(project.get("units", "metric"), "units", source)
     tools: list[dict[str, Any]] = []
     for tool in _tools(project, source):
-        if tool.kind not in _CONFIG_KINDS:
-            logger.warning(
-                "%s: tool %d is %s, which the [[tools]] model does not describe; it is left "
-                "out (camotics_tools() gives its geometry)",
-                source,
-                tool.number,
-                tool.kind,
-            )
-            continue
         entry: dict[str, Any] = {
             "number": tool.number,
             "kind": tool.kind,
@@ -219,6 +206,8 @@ def load_camotics_project(path: str | os.PathLike[str]) -> MachiningConfig:
         }
         if tool.flute_length_mm is not None:
             entry["flute_length_mm"] = tool.flute_length_mm
+        if tool.kind == "snub":
+            entry["tip_diameter_mm"] = tool.tip_diameter_mm
         tools.append(entry)
     bounds = (project.get("workpiece") or {}).get("bounds") or {}
     if "min" not in bounds or "max" not in bounds:
@@ -240,4 +229,4 @@ def load_camotics_project(path: str | os.PathLike[str]) -> MachiningConfig:
             {"tools": tools, "stock": stock, "machine": {"tool_change_on_t": True}}
         )
     except ValidationError as err:
-        raise ConfigError(_describe_validation_error(err, MachiningConfig), source) from err
+        raise ConfigError(describe_validation_error(err, MachiningConfig), source) from err

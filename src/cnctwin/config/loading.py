@@ -15,7 +15,7 @@ from pydantic_core import ErrorDetails
 from cnctwin.config.machining import MachiningConfig
 from cnctwin.errors import ConfigError
 
-__all__ = ["load_config"]
+__all__ = ["describe_validation_error", "load_config"]
 
 _SCALARS = (str, int, float, bool)
 
@@ -80,10 +80,10 @@ def load_config(
     try:
         return model.model_validate(data, context={"base_dir": path.parent})
     except ValidationError as err:
-        raise ConfigError(_describe_validation_error(err, model), source) from err
+        raise ConfigError(describe_validation_error(err, model), source) from err
 
 
-def _describe_validation_error(error: ValidationError, root: type[BaseModel]) -> str:
+def describe_validation_error(error: ValidationError, root: type[BaseModel]) -> str:
     """One line for a pydantic error: key path, what is wrong, what is valid, the value.
 
     Parameters

@@ -32,7 +32,7 @@ class SimulationConfig(Section):
     density_per_mm
         Dexels per mm of the tri-dexel stock, 0.1 to 100 (a pitch of 10 mm to 10 um; Heide
         2025's optimum: 10). The stock's rays must also fit the work limit
-        (:mod:`cnctwin.config.limits`).
+        (:mod:`cnctwin.memory`).
     cycle_ms
         Cycle time between two tool positions, ms, 0.1 to 1000 (the twin's cycle: 12.5). The
         program's positions must also fit the work limit.

@@ -22,7 +22,7 @@ class BoxStock(Section):
     min_mm, max_mm
         Opposite corners in machine coordinates, mm, within +-100,000; ``max_mm`` exceeds
         ``min_mm`` in x, y and z. The stock's dexel rays must fit the work limit
-        (:mod:`cnctwin.config.limits`).
+        (:mod:`cnctwin.memory`).
     """
 
     kind: Literal["box"] = "box"

@@ -12,6 +12,7 @@ from cnctwin.config.base import Section
 from cnctwin.nc.setup import ToolEntry
 
 __all__ = [
+    "CutterKind",
     "MAX_FLUTES",
     "MAX_TOOL_DIAMETER_MM",
     "MAX_TOOL_LENGTH_MM",
@@ -27,6 +28,12 @@ MAX_FLUTES = 100
 #: Largest fluted length and tool length offset magnitude, mm (long drills, extensions).
 MAX_TOOL_LENGTH_MM = 2000.0
 
+#: Cutter shapes: ``"flat"`` end mill, ``"ball"`` nose, ``"bull"`` nose (with a corner radius),
+#: ``"conical"`` (a V-bit, pointed) or ``"snub"`` nose (a cone with a flat tip). The one list of
+#: kinds, for the configuration and for :class:`cnctwin.geometry.Cutter`.
+CutterKind = Literal["flat", "ball", "bull", "conical", "snub"]
+_CONES = ("conical", "snub")
+
 
 class ToolConfig(Section):
     """One cutting tool.
@@ -36,18 +43,27 @@ class ToolConfig(Section):
     number
         Tool number (the T word), 0 to 99,999.
     kind
-        ``"flat"`` end mill, ``"ball"`` nose or ``"bull"`` nose (corner radius).
+        ``"flat"`` end mill, ``"ball"`` nose, ``"bull"`` nose (corner radius), ``"conical"``
+        (V-bit) or ``"snub"`` nose (cone with a flat tip): :data:`CutterKind`.
     diameter_mm
         Cutter diameter in mm, 0.01 to 1000.
     corner_radius_mm
-        Corner radius in mm: 0 for ``flat`` (the default), ``diameter_mm / 2`` for ``ball``
-        (the default), and required, strictly between 0 and ``diameter_mm / 2``, for ``bull``.
+        Corner radius in mm: 0 for ``flat``, ``conical`` and ``snub`` (the default),
+        ``diameter_mm / 2`` for ``ball`` (the default), and required, strictly between 0 and
+        ``diameter_mm / 2``, for ``bull``.
+    tip_diameter_mm
+        Diameter of a snub nose's flat tip in mm: required for ``snub``, strictly between 0 and
+        ``diameter_mm``; 0 (the default) for every other kind.
     flutes
         Number of flutes (teeth), an integer 1 to 100.
     helix_deg
         Helix angle in degrees, 0 to 89.
     flute_length_mm
         Length of the fluted part in mm, if known: 0.01 to 2000.
+    tip_angle_deg
+        Included angle of the cone of a ``conical`` or ``snub`` tool in degrees, in (0, 180)
+        (90 for a common V-bit); none (the default): the cone spans the whole fluted length, as
+        CAMotics models these tools. Not allowed for the other kinds.
     length_mm
         Tool length offset along Z in mm (applied by G43), within +-2000.
     x_offset_mm
@@ -58,12 +74,14 @@ class ToolConfig(Section):
     """
 
     number: int = Field(ge=0, le=99_999)
-    kind: Literal["flat", "ball", "bull"] = "flat"
+    kind: CutterKind = "flat"
     diameter_mm: float = Field(ge=MIN_TOOL_DIAMETER_MM, le=MAX_TOOL_DIAMETER_MM)
     corner_radius_mm: float | None = Field(default=None, ge=0, validate_default=True)
+    tip_diameter_mm: float | None = Field(default=None, ge=0, validate_default=True)
     flutes: int = Field(default=2, ge=1, le=MAX_FLUTES)
     helix_deg: float = Field(default=30.0, ge=0, le=89)
     flute_length_mm: float | None = Field(default=None, ge=0.01, le=MAX_TOOL_LENGTH_MM)
+    tip_angle_deg: float | None = Field(default=None, gt=0, lt=180)
     length_mm: float = Field(default=0.0, ge=-MAX_TOOL_LENGTH_MM, le=MAX_TOOL_LENGTH_MM)
     x_offset_mm: float = Field(default=0.0, ge=-MAX_TOOL_LENGTH_MM, le=MAX_TOOL_LENGTH_MM)
     orientation: int = Field(default=0, ge=0, le=9)
@@ -76,11 +94,12 @@ class ToolConfig(Section):
         if kind is None or diameter is None:
             return value  # kind or diameter is itself invalid and reported
         half = diameter / 2.0
-        if kind == "flat":
+        if kind == "flat" or kind in _CONES:
             if value:
                 raise PydanticCustomError(
                     "corner_radius",
-                    "must be 0 for kind 'flat' (use kind 'bull' for a corner radius)",
+                    "must be 0 for kind '{kind}' (use kind 'bull' for a corner radius)",
+                    {"kind": kind},
                 )
             return 0.0
         if kind == "ball":
@@ -97,6 +116,42 @@ class ToolConfig(Section):
                 "must be given for kind 'bull', greater than 0 and less than "
                 "diameter_mm/2 ({half})",
                 {"half": half},
+            )
+        return value
+
+    @field_validator("tip_diameter_mm")
+    @classmethod
+    def _tip_fits_kind(cls, value: float | None, info: ValidationInfo) -> float | None:
+        kind = info.data.get("kind")
+        diameter = info.data.get("diameter_mm")
+        if kind is None or diameter is None:
+            return value  # kind or diameter is itself invalid and reported
+        if kind != "snub":
+            if value:
+                raise PydanticCustomError(
+                    "tip_diameter",
+                    "must be 0 for kind '{kind}' (use kind 'snub' for a flat tip)",
+                    {"kind": kind},
+                )
+            return 0.0
+        if value is None or not 0.0 < value < diameter:
+            raise PydanticCustomError(
+                "tip_diameter",
+                "must be given for kind 'snub', greater than 0 and less than "
+                "diameter_mm ({diameter})",
+                {"diameter": diameter},
+            )
+        return value
+
+    @field_validator("tip_angle_deg")
+    @classmethod
+    def _angle_fits_kind(cls, value: float | None, info: ValidationInfo) -> float | None:
+        kind = info.data.get("kind")
+        if value is not None and kind is not None and kind not in _CONES:
+            raise PydanticCustomError(
+                "tip_angle",
+                "is only for kind 'conical' or 'snub'; remove it for kind '{kind}'",
+                {"kind": kind},
             )
         return value
 

@@ -21,7 +21,7 @@ from cnctwin.dynamics.frf import (
     impact_frf,
     window_damping_correction,
 )
-from cnctwin.dynamics.modal import ModalFit, Mode, fit_modes, modal_frf
+from cnctwin.dynamics.modal import ModalFit, Mode, default_band, fit_modes, modal_frf
 from cnctwin.dynamics.stability import (
     MillingProcess,
     OrthogonalProcess,
@@ -47,6 +47,7 @@ __all__ = [
     "ToolDynamics",
     "ToolMode",
     "accelerance_to_receptance",
+    "default_band",
     "exponential_window",
     "fit_modes",
     "floquet_multipliers",

@@ -39,12 +39,14 @@ from scipy.signal import find_peaks
 from cnctwin.dynamics.frf import FRF, window_damping_correction
 from cnctwin.errors import DataError
 
-__all__ = ["ModalFit", "Mode", "fit_modes", "modal_frf"]
+__all__ = ["DEFAULT_LOW_HZ", "ModalFit", "Mode", "default_band", "fit_modes", "modal_frf"]
 
 _log = logging.getLogger(__name__)
 
 #: Most modes one fit takes: each mode adds parameters, beyond 20 the fit is ill-posed.
 MAX_MODES = 20
+#: Low edge of the default fitted band, Hz: below it an accelerometer's receptance is noise.
+DEFAULT_LOW_HZ = 100.0
 _ZETA_MIN = 1e-5
 _ZETA_MAX = 0.7
 _ZETA_FALLBACK = 0.02
@@ -207,6 +209,40 @@ class ModalFit:
         for mode in self.modes:
             h = h + mode.residue / (s**2 + 2.0 * mode.zeta * mode.omega_n * s + mode.omega_n**2)
         return np.asarray(h, dtype=complex)
+
+
+def default_band(receptance: FRF, excited_omega: float | None = None) -> tuple[float, float]:
+    """The band a tap test is fitted over unless told otherwise, rad/s.
+
+    From :data:`DEFAULT_LOW_HZ` to the FRF's last frequency, or, for an impact record, to the
+    highest frequency the hammer excites (its force spectrum within 40 dB of the peak:
+    :attr:`cnctwin.measurements.TapTest.excited_omega`).
+
+    Parameters
+    ----------
+    receptance
+        The measured FRF; only its frequencies are used.
+    excited_omega
+        Highest excited angular frequency of an impact record, rad/s; None for an FRF file.
+
+    Returns
+    -------
+    tuple of float
+        ``(low, high)`` in rad/s.
+
+    Raises
+    ------
+    DataError
+        When the data end at or below :data:`DEFAULT_LOW_HZ`: give the band explicitly.
+    """
+    high = float(receptance.omega[-1]) if excited_omega is None else float(excited_omega)
+    low = 2.0 * math.pi * DEFAULT_LOW_HZ
+    if high <= low:
+        raise DataError(
+            f"the default band starts at {DEFAULT_LOW_HZ:g} Hz, above the data "
+            f"({high / (2.0 * math.pi):g} Hz); give the band"
+        )
+    return low, high
 
 
 def fit_modes(

@@ -33,8 +33,8 @@ from scipy.optimize import brentq, minimize_scalar, nnls
 
 from cnctwin.dynamics.stability import MillingProcess, ProcessDamping, ToolDynamics
 from cnctwin.dynamics.time_domain import simulate_milling
-from cnctwin.errors import ConfigError, DataError
-from cnctwin.mechanics.cutter import EndMill
+from cnctwin.errors import ConfigError, DataError, InputError
+from cnctwin.geometry.cutter import Cutter
 
 __all__ = [
     "CalibrationSetup",
@@ -42,6 +42,7 @@ __all__ = [
     "GammaFit",
     "ProcessDampingModel",
     "calibrate_cpd",
+    "cut_process_damping",
     "fit_gamma",
     "fit_process_damping_model",
     "match_cpd",
@@ -204,7 +205,7 @@ class CalibrationSetup:
 
     tool: ToolDynamics
     process: MillingProcess
-    cutter: EndMill
+    cutter: Cutter
     edge_tangential_n_m: float = 0.0
     edge_radial_n_m: float = 0.0
     helical_edge: bool = False
@@ -453,6 +454,60 @@ class ProcessDampingModel:
         """The :class:`~cnctwin.dynamics.ProcessDamping` of one cut (diameter in m)."""
         cpd = self.cpd_pa(depth_m, feed_per_tooth_m, spindle_rad_s)
         return ProcessDamping(cpd, feed_per_tooth_m, diameter_m)
+
+
+def cut_process_damping(
+    *,
+    depth_m: float,
+    feed_per_tooth_m: float,
+    spindle_rad_s: float,
+    diameter_m: float | None,
+    cpd_pa: float | None = None,
+    model: ProcessDampingModel | None = None,
+    default_cpd_pa: float | None = None,
+) -> ProcessDamping | None:
+    """The process damping of one milling cut, or None when the cut has none.
+
+    The coefficient ``C_pd`` comes from the first source given: a fitted Gamma ``model``
+    (Royandi 2026, Eq. 20, at this depth, feed and speed), an explicit ``cpd_pa`` (0 turns
+    process damping off), else ``default_cpd_pa`` (e.g. a stability file's
+    ``[process_damping].cpd_n_m2``; None or 0 for none). The chip thickness is the feed per
+    tooth (Royandi 2026, Sec. 6.4: ``C_eff = C_pd a_p f_z / V_c``).
+
+    Parameters
+    ----------
+    depth_m, feed_per_tooth_m
+        Axial depth of cut and feed per tooth, m (> 0).
+    spindle_rad_s
+        Spindle speed, rad/s (> 0).
+    diameter_m
+        Cutter diameter, m; None when unknown (then no source may give a C_pd > 0).
+    cpd_pa, model, default_cpd_pa
+        The sources of ``C_pd``, N/m^2; ``cpd_pa`` and ``model`` exclude each other.
+
+    Raises
+    ------
+    InputError
+        For both ``cpd_pa`` and ``model``, a ``cpd_pa`` that is negative or not finite, or a
+        ``C_pd > 0`` without ``diameter_m``.
+    """
+    if cpd_pa is not None and model is not None:
+        raise InputError("cpd_pa and model exclude each other; give one")
+    if model is not None:
+        cpd: float | None = model.cpd_pa(depth_m, feed_per_tooth_m, spindle_rad_s)
+    elif cpd_pa is not None:
+        if not (math.isfinite(cpd_pa) and cpd_pa >= 0.0):
+            raise InputError(f"cpd_pa {cpd_pa!r}: give a value >= 0 N/m^2 (0: no damping)")
+        cpd = cpd_pa or None
+    else:
+        cpd = default_cpd_pa if default_cpd_pa is not None and default_cpd_pa > 0.0 else None
+    if cpd is None:
+        return None
+    if diameter_m is None:
+        raise InputError(
+            f"process damping (C_pd {cpd:.3g} N/m^2) needs the cutter diameter (diameter_m, m)"
+        )
+    return ProcessDamping(cpd, feed_per_tooth_m, diameter_m)
 
 
 def fit_process_damping_model(

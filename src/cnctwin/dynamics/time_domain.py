@@ -60,7 +60,7 @@ from scipy.linalg import expm
 from cnctwin.dynamics import _time_domain_kernels as _k
 from cnctwin.dynamics.stability import MillingProcess, ProcessDamping, ToolDynamics
 from cnctwin.errors import ConfigError
-from cnctwin.mechanics.cutter import EndMill
+from cnctwin.geometry.cutter import Cutter
 
 __all__ = [
     "ChatterVerdict",
@@ -371,7 +371,7 @@ def simulate_milling(
     depth_m: float,
     feed_per_tooth_m: float,
     duration_s: float,
-    cutter: EndMill | None = None,
+    cutter: Cutter | None = None,
     edge_tangential_n_m: float = 0.0,
     edge_radial_n_m: float = 0.0,
     helical_edge: bool = False,
@@ -400,8 +400,8 @@ def simulate_milling(
     duration_s
         Time to simulate in s, > 0; rounded up to whole tooth periods.
     cutter
-        A flat end mill (its helix angle and diameter give the lag of the slices; its teeth
-        must match ``process``); ``None``: straight flutes.
+        A flat end mill (its helix angle and diameter give the lag of the slices; its flutes
+        must match the teeth of ``process``); ``None``: straight flutes.
     edge_tangential_n_m, edge_radial_n_m
         Edge coefficients Kte, Kre in N/m (Royandi 2026, Eq. 10-11).
     helical_edge
@@ -593,7 +593,7 @@ def _angle_tables(
     return _Tables(*(np.ascontiguousarray(x.T) for x in arrays))
 
 
-def _cutter_geometry(cutter: EndMill | None, process: MillingProcess) -> tuple[float, float]:
+def _cutter_geometry(cutter: Cutter | None, process: MillingProcess) -> tuple[float, float]:
     """Helix angle (rad) and radius (m) of the cutter; (0, 0) for straight flutes."""
     if cutter is None:
         return 0.0, 0.0
@@ -601,13 +601,14 @@ def _cutter_geometry(cutter: EndMill | None, process: MillingProcess) -> tuple[f
         raise ConfigError(
             f"cutter kind {cutter.kind!r}; the time-domain model takes a flat end mill"
         )
-    if cutter.runout_m != 0.0:
+    if cutter.runout_mm != 0.0:
         raise ConfigError(
-            f"runout_m={cutter.runout_m!r}; the time-domain model takes no runout (0)"
+            f"runout_mm={cutter.runout_mm!r}; the time-domain model takes no runout (0)"
         )
-    if cutter.teeth != process.teeth:
+    if cutter.flutes != process.teeth:
         raise ConfigError(
-            f"cutter teeth={cutter.teeth} but the process has {process.teeth}; give the same"
+            f"cutter flutes={cutter.flutes} but the process has {process.teeth} teeth; give the "
+            "same"
         )
     return cutter.helix_rad, cutter.radius_m
 

@@ -1,8 +1,13 @@
-"""Cutter geometry: flat, ball, bull-nose, conical (V-bit) and snub-nose end mills as solids of
-revolution about +z.
+"""The cutter: flat, ball, bull-nose, conical (V-bit) and snub-nose end mills as solids of
+revolution about +z, for the material removal, the engagement and the force model alike.
 
-Units: the geometry package works in mm (every length's name ends in ``_mm``) and rad; it sits
-next to the NC layer, whose tool-tip positions (``SampleChunk.tcp_mm``) are in mm.
+Units: a :class:`Cutter` stores its lengths in mm (every length's name ends in ``_mm``), as the
+``[[tools]]`` configuration and the geometry and NC layers do, and its angles in rad (the
+configuration's degrees are converted once, in :meth:`Cutter.from_tool_config`). The force model
+(:mod:`cnctwin.mechanics`, SI) reads the SI views: :attr:`Cutter.diameter_m`,
+:attr:`Cutter.radius_m`, :attr:`Cutter.corner_radius_m`, :attr:`Cutter.tip_diameter_m`,
+:attr:`Cutter.runout_m` and :meth:`Cutter.slices` (heights in m). This class is the one unit
+boundary between the mm of the geometry and the m of the mechanics.
 
 The cutting envelope is the solid swept by the cutting edges in one spindle turn. For a tool
 with radius ``R``, corner radius ``rc`` (0 flat, ``R`` ball, between for a bull nose) and fluted
@@ -29,41 +34,80 @@ CAMotics' ``ConicSweep``), which :meth:`Cutter.conical` and :meth:`Cutter.snub` 
 angle is named. The angle ``kappa`` between the tool axis and the surface normal enters the
 uncut chip thickness ``h = f_z sin(phi) sin(kappa)`` (Altintas, *Manufacturing Automation*, 2nd
 ed., 2012, Sec. 2.6 for ball end mills); on a cone ``sin(kappa) = cos(theta / 2)``.
+
+For the force model the edge is cut into axial slices (:meth:`Cutter.slices`): each has a local
+radius, a lead angle ``kappa``, a chip width (its length along the profile) and the lag angle
+of the helical flute, ``psi = z tan(beta) / R`` at height ``z`` (Lee & Altintas (1996),
+"Prediction of ball-end milling forces from orthogonal cutting data", IJMTM 36(9); Altintas
+2012, ch. 2). A radial runout ``rho`` (a parallel offset of the tool axis) changes each
+tooth's radius (Kline & DeVor (1983), IJMTDR 23(2)); the envelope uses the nominal radius.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from cnctwin.config.tools import MAX_FLUTES
+from cnctwin.config.tools import MAX_FLUTES, CutterKind
 from cnctwin.errors import ConfigError
 
 if TYPE_CHECKING:
     from cnctwin.config.tools import ToolConfig
 
-__all__ = ["Cutter", "CutterKind"]
+__all__ = ["Cutter", "CutterSlices"]
 
-#: ``"flat"`` end mill, ``"ball"`` nose, ``"bull"`` nose (with a corner radius), ``"conical"``
-#: (a V-bit, pointed) or ``"snub"`` nose (a cone with a flat tip).
-CutterKind = Literal["flat", "ball", "bull", "conical", "snub"]
 _CONES = ("conical", "snub")
 #: A cone height within this fraction above the fluted length is the fluted length (the angle
 #: of a cone over the whole length, computed from it, rounds either way).
 _CONE_REL_TOL = 1e-9
 
 
+@dataclass(frozen=True)
+class CutterSlices:
+    """Local geometry of axial slices of a cutter (arrays of one value per slice).
+
+    Attributes
+    ----------
+    z_m
+        Height of the slice's representative point above the tool tip, in m.
+    radius_m
+        Local radius of the cutting edge, in m.
+    kappa_rad
+        Axial immersion (lead) angle in rad: pi/2 on the cylinder, 0 at a ball's tip.
+    width_m
+        Chip width of the slice: its length along the tool profile, in m (``dz`` on the
+        cylinder, ``rc * d(kappa)`` on the corner arc).
+    lag_rad
+        Helix lag angle of the edge at ``z_m``, in rad.
+    """
+
+    z_m: np.ndarray
+    radius_m: np.ndarray
+    kappa_rad: np.ndarray
+    width_m: np.ndarray
+    lag_rad: np.ndarray
+
+
 @dataclass(frozen=True, slots=True)
 class Cutter:
     """A milling cutter whose axis is +z and whose tip is the lowest point of the envelope.
 
+    The one tool geometry of the project: the dexel removal and engagement
+    (:mod:`cnctwin.geometry`), the force model (:mod:`cnctwin.mechanics`), the time-domain
+    vibration model, the twin and the virtual machine all take it. Lengths are stored in mm and
+    angles in rad; the force model reads the SI views (``*_m`` properties and :meth:`slices`),
+    the unit boundary of the module notes. :meth:`from_tool_config` is the one factory from a
+    ``[[tools]]`` entry (mm and degrees).
+
     Attributes
     ----------
     kind
-        ``"flat"``, ``"ball"``, ``"bull"``, ``"conical"`` or ``"snub"``.
+        ``"flat"``, ``"ball"``, ``"bull"``, ``"conical"`` or ``"snub"``
+        (:data:`~cnctwin.config.tools.CutterKind`).
     diameter_mm
         Cutting diameter ``D = 2R`` in mm, > 0.
     flute_length_mm
@@ -82,6 +126,13 @@ class Cutter:
     tip_angle_rad
         Included angle ``theta`` of the cone of a ``conical`` or ``snub`` tool, rad, in
         (0, pi) (90 degrees for a common V-bit); 0 for every other kind.
+    runout_mm
+        Radial runout (parallel offset of the tool axis from the spindle axis) ``rho`` in mm,
+        >= 0. Only the force model uses it (:meth:`tooth_radius_offsets_m`); the envelope keeps
+        the nominal radius.
+    runout_angle_rad
+        Direction of that offset, ``lambda`` in rad, measured from tooth 0 in the direction of
+        rotation: tooth j's radius becomes ``R + rho cos(j 2 pi / N - lambda)``.
 
     Raises
     ------
@@ -97,6 +148,8 @@ class Cutter:
     helix_rad: float = math.radians(30.0)
     tip_diameter_mm: float = 0.0
     tip_angle_rad: float = 0.0
+    runout_mm: float = 0.0
+    runout_angle_rad: float = 0.0
 
     def __post_init__(self) -> None:
         d = self.diameter_mm
@@ -155,6 +208,10 @@ class Cutter:
             raise ConfigError(f"flutes={self.flutes!r}; give an integer from 1 to {MAX_FLUTES}")
         if not (math.isfinite(self.helix_rad) and 0.0 <= self.helix_rad < 0.5 * math.pi):
             raise ConfigError(f"helix_rad={self.helix_rad!r}; give an angle in [0, pi/2) rad")
+        if not (math.isfinite(self.runout_mm) and self.runout_mm >= 0.0):
+            raise ConfigError(f"runout_mm={self.runout_mm!r}; give a finite runout >= 0 mm")
+        if not math.isfinite(self.runout_angle_rad):
+            raise ConfigError(f"runout_angle_rad={self.runout_angle_rad!r}; give a finite angle")
 
     @classmethod
     def flat(
@@ -252,7 +309,8 @@ class Cutter:
 
     @classmethod
     def from_tool_config(cls, tool: ToolConfig, flute_length_mm: float | None = None) -> Cutter:
-        """The cutter of a configured tool (``[[tools]]`` entry, mm and degrees).
+        """The cutter of a configured tool (``[[tools]]`` entry, mm and degrees): every kind,
+        with its corner radius, tip diameter and tip angle (degrees to rad).
 
         Parameters
         ----------
@@ -264,21 +322,37 @@ class Cutter:
         Raises
         ------
         ConfigError
-            When neither the tool nor ``flute_length_mm`` gives a fluted length.
+            When neither the tool nor ``flute_length_mm`` gives a fluted length, or the cone of
+            a conical or snub tool is higher than its fluted length (the message names the tool).
         """
         length = tool.flute_length_mm if tool.flute_length_mm is not None else flute_length_mm
         if length is None:
             raise ConfigError(
                 f"tool {tool.number} has no flute_length_mm; set it in the tool's configuration"
             )
-        return cls(
-            tool.kind,
-            tool.diameter_mm,
-            length,
-            float(tool.corner_radius_mm or 0.0),
-            tool.flutes,
-            math.radians(tool.helix_deg),
-        )
+        helix = math.radians(tool.helix_deg)
+        angle = None if tool.tip_angle_deg is None else math.radians(tool.tip_angle_deg)
+        try:
+            if tool.kind == "conical":
+                return cls.conical(
+                    tool.diameter_mm, length, tip_angle_rad=angle, flutes=tool.flutes,
+                    helix_rad=helix,
+                )  # fmt: skip
+            if tool.kind == "snub":
+                return cls.snub(
+                    tool.diameter_mm, float(tool.tip_diameter_mm or 0.0), length,
+                    tip_angle_rad=angle, flutes=tool.flutes, helix_rad=helix,
+                )  # fmt: skip
+            return cls(
+                tool.kind,
+                tool.diameter_mm,
+                length,
+                float(tool.corner_radius_mm or 0.0),
+                tool.flutes,
+                helix,
+            )
+        except ConfigError as err:
+            raise ConfigError(f"tool {tool.number}: {err}") from None
 
     def _check_cone(self, diameter: float, corner: float) -> None:
         """Validate a conical or snub-nose tool's corner radius, tip diameter and angle."""
@@ -305,6 +379,64 @@ class Cutter:
     def radius_mm(self) -> float:
         """Cutting radius ``R = D / 2`` in mm."""
         return 0.5 * self.diameter_mm
+
+    @property
+    def diameter_m(self) -> float:
+        """Cutting diameter ``D`` in m (SI view for the force model)."""
+        return self.diameter_mm * 1e-3
+
+    @property
+    def radius_m(self) -> float:
+        """Cutting radius ``R = D / 2`` in m (SI view for the force model)."""
+        return self.diameter_m / 2.0
+
+    @property
+    def corner_radius_m(self) -> float:
+        """Corner radius ``rc`` in m (SI view for the force model)."""
+        return self.corner_radius_mm * 1e-3
+
+    @property
+    def tip_diameter_m(self) -> float:
+        """Diameter of a snub nose's flat tip in m (SI view for the force model)."""
+        return self.tip_diameter_mm * 1e-3
+
+    @property
+    def runout_m(self) -> float:
+        """Radial runout ``rho`` in m (SI view for the force model)."""
+        return self.runout_mm * 1e-3
+
+    @property
+    def pitch_rad(self) -> float:
+        """Tooth spacing ``2 pi / N`` in rad."""
+        return 2.0 * math.pi / self.flutes
+
+    def tooth_radius_offsets_m(self) -> np.ndarray:
+        """Radius of each tooth minus the nominal radius, in m: ``rho cos(j 2 pi/N - lambda)``.
+
+        Kline & DeVor (1983), "The effect of runout on cutting geometry and forces in end
+        milling", IJMTDR 23(2): a parallel axis offset rho changes each tooth's radius.
+        """
+        j = np.arange(self.flutes, dtype=np.float64)
+        return self.runout_m * np.cos(j * self.pitch_rad - self.runout_angle_rad)
+
+    def slices(self, z_bounds_m: np.ndarray) -> CutterSlices:
+        """Local geometry of the axial slices between consecutive heights ``z_bounds_m``, for
+        the force model (SI).
+
+        Parameters
+        ----------
+        z_bounds_m
+            Increasing heights above the tool tip in m, >= 0 (n + 1 values for n slices).
+
+        Returns
+        -------
+        CutterSlices
+            One value per slice, taken at the slice's midpoint along the tool profile.
+        """
+        z = np.asarray(z_bounds_m, dtype=np.float64)
+        if z.ndim != 1:
+            raise ConfigError(f"z_bounds_m has shape {z.shape}; give a 1-D array of heights in m")
+        return _slices(self, z.tobytes())
 
     @property
     def flat_radius_mm(self) -> float:
@@ -376,3 +508,67 @@ class Cutter:
             inner * inner * rc + 0.5 * math.pi * inner * rc * rc + (2.0 / 3.0) * rc**3
         )
         return corner + math.pi * big * big * (length - rc)
+
+
+@lru_cache(maxsize=256)
+def _slices(cutter: Cutter, z_bytes: bytes) -> CutterSlices:
+    """:meth:`Cutter.slices`, cached (a twin asks for the same slices at every cycle)."""
+    z = np.frombuffer(z_bytes, dtype=np.float64)
+    if z.size < 2 or not np.all(np.isfinite(z)):
+        raise ConfigError("z_bounds_m must be at least two finite heights in m")
+    if z[0] < 0.0 or np.any(np.diff(z) <= 0.0):
+        raise ConfigError(f"z_bounds_m from {z[0]!r}; give increasing heights >= 0 m")
+    rc = cutter.corner_radius_m
+    if cutter.kind in _CONES:
+        return _cone_slices(cutter, z)
+    if rc > 0.0:
+        # Arc length along the profile: rc * kappa on the corner, then the cylinder.
+        kappa_z = np.arccos(np.clip((rc - np.minimum(z, rc)) / rc, -1.0, 1.0))
+        s = np.where(z < rc, rc * kappa_z, rc * math.pi / 2 + (z - rc))
+        s_mid = 0.5 * (s[:-1] + s[1:])
+        kappa = np.minimum(s_mid / rc, math.pi / 2)
+        z_mid = np.where(
+            s_mid < rc * math.pi / 2,
+            rc * (1.0 - np.cos(kappa)),
+            s_mid - rc * (math.pi / 2 - 1),
+        )
+    else:
+        s = z
+        z_mid = 0.5 * (z[:-1] + z[1:])
+        kappa = np.full(z_mid.shape, math.pi / 2)
+    radius = cutter.radius_m - rc + rc * np.sin(kappa)
+    return _frozen_slices(cutter, z_mid, radius, kappa, np.diff(s))
+
+
+def _cone_slices(cutter: Cutter, z: np.ndarray) -> CutterSlices:
+    """Slices of a conical or snub-nose tool (heights ``z`` above the tip, m).
+
+    On the cone ``r(z) = r_t + z tan(theta/2)`` and the lead angle is constant,
+    ``kappa = pi/2 - theta/2`` (the angle between the axis and the cone's normal); an element of
+    height ``dz`` has the chip width ``dz / cos(theta/2)`` along the edge. Above the cone's
+    height ``(R - r_t) / tan(theta/2)`` the tool is a cylinder. The flat tip of a snub nose, like
+    the bottom of a flat end mill, does not cut sideways and has no slice.
+    """
+    half_angle = 0.5 * cutter.tip_angle_rad
+    tip_radius = 0.5 * cutter.tip_diameter_m
+    height = (cutter.radius_m - tip_radius) / math.tan(half_angle)
+    z_mid = 0.5 * (z[:-1] + z[1:])
+    on_cone = z_mid < height
+    radius = np.where(on_cone, tip_radius + z_mid * math.tan(half_angle), cutter.radius_m)
+    kappa = np.where(on_cone, 0.5 * math.pi - half_angle, 0.5 * math.pi)
+    # Length along the profile of each slice, split at the cone's height.
+    dz = np.diff(z)
+    dz_cone = np.clip(np.minimum(z[1:], height) - z[:-1], 0.0, None)
+    width = dz_cone / math.cos(half_angle) + (dz - dz_cone)
+    return _frozen_slices(cutter, z_mid, radius, kappa, width)
+
+
+def _frozen_slices(
+    cutter: Cutter, z_mid: np.ndarray, radius: np.ndarray, kappa: np.ndarray, width: np.ndarray
+) -> CutterSlices:
+    """Slices with the helix lag ``psi = z tan(beta) / R`` (Altintas 2012, ch. 2), read-only."""
+    lag = z_mid * math.tan(cutter.helix_rad) / cutter.radius_m
+    arrays = (z_mid, radius, kappa, width, lag)
+    for array in arrays:
+        array.setflags(write=False)
+    return CutterSlices(*arrays)

@@ -59,10 +59,10 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from numba import njit
 
-from cnctwin.config.limits import check_memory
 from cnctwin.errors import ConfigError, DataError
+from cnctwin.geometry._dexel_kernels import Family, fill, total_length
+from cnctwin.memory import check_memory
 
 __all__ = ["AXES", "Axis", "DexelGrid", "DexelStock"]
 
@@ -185,9 +185,15 @@ class _Family:
         self.rows = np.zeros((n_rays * capacity + heap_rows, 2), dtype=np.float32)
         self.heap_top = np.array([n_rays * capacity], dtype=np.int64)
 
-    def arrays(self) -> tuple[np.ndarray, ...]:
-        """The arrays as the kernels take them: count, start, block, rows, heap_top."""
-        return (self.count, self.start, self.block, self.rows, self.heap_top)
+    def arrays(self) -> Family:
+        """The arrays as the kernels take them."""
+        return Family(
+            count=self.count,
+            start=self.start,
+            block=self.block,
+            rows=self.rows,
+            heap_top=self.heap_top,
+        )
 
     @property
     def nbytes(self) -> int:
@@ -292,10 +298,10 @@ class DexelStock:
         """Bytes held by the stock's arrays."""
         return sum(fam.nbytes for fam in self._families.values())
 
-    def family_arrays(self, axis: Axis) -> tuple[np.ndarray, ...]:
+    def family_arrays(self, axis: Axis) -> Family:
         """The arrays of a family as the kernels take them (see the module notes): count,
-        start, block, rows, heap_top. They are replaced (and :attr:`version` changes) when the
-        heap grows or the family is loaded."""
+        start, block, rows, heap_top (a NamedTuple of these fields). They are replaced (and
+        :attr:`version` changes) when the heap grows or the family is loaded."""
         return self._families[_check_axis(axis)].arrays()
 
     def grow_heap(self, axis: Axis) -> None:
@@ -304,7 +310,7 @@ class DexelStock:
         Raises
         ------
         ConfigError
-            When the grown stock would exceed the memory limit (:mod:`cnctwin.config.limits`)
+            When the grown stock would exceed the memory limit (:mod:`cnctwin.memory`)
             or the family's int32 row index: the cut has split the rays into more intervals
             than fit.
         """
@@ -367,7 +373,7 @@ class DexelStock:
             local = local[keep]
         heap_rows = _heap_rows_needed(counts.astype(np.int64), self.capacity)
         fam = _Family(n_rays, self.capacity, 2 * heap_rows)
-        _fill(counts.astype(np.int32), local, self.capacity, *fam.arrays())
+        fill(counts.astype(np.int32), local, self.capacity, tuple(fam.arrays()))
         self._families[axis] = fam
         self.last_cut = None
         self.version += 1
@@ -377,7 +383,7 @@ class DexelStock:
         if axis is None:
             return sum(self.volume_mm3(a) for a in AXES) / 3.0
         fam = self._families[_check_axis(axis)]
-        length = _total_length(fam.count, fam.start, fam.rows)
+        length = total_length(tuple(fam.arrays()))
         return float(length) * self.grid.cell_area_mm2(axis)
 
     def ray_intervals_mm(self, axis: Axis, u: int, v: int) -> np.ndarray:
@@ -479,191 +485,3 @@ def _heap_rows_needed(counts: np.ndarray, capacity: int) -> int:
         return 0
     caps = np.maximum(2 * capacity, 2 ** np.ceil(np.log2(over)).astype(np.int64))
     return int(caps.sum())
-
-
-@njit(cache=True)
-def _fill(counts, local, capacity, count, start, block, rows, heap_top):
-    src = 0
-    for r in range(counts.shape[0]):
-        n = counts[r]
-        count[r] = n
-        if n > capacity:
-            cap = 2 * capacity
-            while cap < n:
-                cap *= 2
-            start[r] = heap_top[0]
-            block[r] = cap
-            heap_top[0] += cap
-        base = start[r]
-        for q in range(n):
-            rows[base + q, 0] = local[src + q, 0]
-            rows[base + q, 1] = local[src + q, 1]
-        src += n
-
-
-@njit(cache=True)
-def _total_length(count, start, rows):
-    total = 0.0
-    for r in range(count.shape[0]):
-        base = start[r]
-        for q in range(count[r]):
-            total += np.float64(rows[base + q, 1]) - np.float64(rows[base + q, 0])
-    return total
-
-
-@njit(cache=True, inline="always")
-def subtract_interval(r, fa, fb, hint, count, start, block, rows, heap_top):
-    """Remove ``[fa, fb]`` (float32, ray coordinates) from ray ``r`` of a family.
-
-    ``hint`` is a guess of the index of the first interval ending after ``fa`` (0 if none;
-    the caller passes the index found on a similar ray, which makes rays through many features
-    cheap). Returns ``(status, removed, lo_inside, hi_inside, cut_lo, cut_hi, index)``: status
-    0 done, 1 the heap is full (the ray is untouched; grow the heap and call again); the
-    removed length (mm, float64 from the stored float32 values); whether ``fa`` and ``fb`` lay
-    strictly inside material (there the boundary of the removed piece is the cutting tool's
-    surface); the lowest and highest removed coordinate (``inf``/``-inf`` when nothing was
-    removed); the index of the first interval ending after ``fa``.
-
-    Array indices are unsigned (``_u``), which spares numba's wrap-around of negative indices
-    on every access (a sixth of the time of a row kernel).
-    """
-    u = _u(r)
-    n = count[u]
-    base = start[u]
-    if (
-        hint < n
-        and rows[_u(base + hint), 1] > fa
-        and (hint == 0 or rows[_u(base + hint - 1), 1] <= fa)
-    ):
-        i = hint
-    elif n <= 8:
-        i = 0
-        while i < n and rows[_u(base + i), 1] <= fa:
-            i += 1
-    else:
-        i = 0
-        top = n
-        while i < top:
-            mid = (i + top) >> 1
-            if rows[_u(base + mid), 1] <= fa:
-                i = mid + 1
-            else:
-                top = mid
-    if i == n or rows[_u(base + i), 0] >= fb or not fa < fb:
-        return (0, 0.0, False, False, np.inf, -np.inf, i)
-    at = _u(base + i)
-    lo = rows[at, 0]
-    hi = rows[at, 1]
-    keep_left = lo < fa
-    if hi >= fb or i == n - 1 or rows[_u(base + i + 1), 0] >= fb:
-        # One interval overlaps (the common case): trim it, empty it or split it.
-        keep_right = hi > fb
-        cut_lo = max(lo, fa)
-        cut_hi = min(hi, fb)
-        removed = np.float64(cut_hi) - np.float64(cut_lo)
-        if keep_left and keep_right:
-            if n + 1 > block[u]:
-                if not _move_to_heap(r, n, base, start, block, rows, heap_top):
-                    return (1, 0.0, False, False, np.inf, -np.inf, i)
-                base = start[u]
-                at = _u(base + i)
-            for q in range(n - 1, i, -1):
-                rows[_u(base + q + 1), 0] = rows[_u(base + q), 0]
-                rows[_u(base + q + 1), 1] = rows[_u(base + q), 1]
-            rows[at, 1] = fa
-            rows[_u(base + i + 1), 0] = fb
-            rows[_u(base + i + 1), 1] = hi
-            count[u] = n + 1
-        elif keep_left:
-            rows[at, 1] = fa
-        elif keep_right:
-            rows[at, 0] = fb
-        else:
-            for q in range(i + 1, n):
-                rows[_u(base + q - 1), 0] = rows[_u(base + q), 0]
-                rows[_u(base + q - 1), 1] = rows[_u(base + q), 1]
-            count[u] = n - 1
-        return (0, removed, keep_left, keep_right, np.float64(cut_lo), np.float64(cut_hi), i)
-    # Several intervals overlap: keep the left part of the first and the right part of the
-    # last one (never more intervals than before).
-    j = i + 1
-    while j + 1 < n and rows[_u(base + j + 1), 0] < fb:
-        j += 1
-    right_hi = rows[_u(base + j), 1]
-    keep_right = right_hi > fb
-    removed = 0.0
-    for q in range(i, j + 1):
-        removed += np.float64(min(rows[_u(base + q), 1], fb)) - np.float64(
-            max(rows[_u(base + q), 0], fa)
-        )
-    cut_lo = np.float64(max(lo, fa))
-    cut_hi = np.float64(min(right_hi, fb))
-    w = i
-    if keep_left:
-        rows[_u(base + w), 1] = fa
-        w += 1
-    if keep_right:
-        rows[_u(base + w), 0] = fb
-        rows[_u(base + w), 1] = right_hi
-        w += 1
-    for q in range(j + 1, n):
-        rows[_u(base + w), 0] = rows[_u(base + q), 0]
-        rows[_u(base + w), 1] = rows[_u(base + q), 1]
-        w += 1
-    count[u] = w
-    return (0, removed, keep_left, keep_right, cut_lo, cut_hi, i)
-
-
-@njit(cache=True, inline="always")
-def trim_interval(r, fa, fb, hint, count, start, block, rows, heap_top):
-    """:func:`subtract_interval` (same arguments and results) with the common case of a cut
-    first: ``[fa, fb]`` overlaps only the interval at ``hint`` and trims one of its ends. The
-    branch returns whether each end lay inside material as constants, which lets the compiler
-    simplify the caller's contact bookkeeping after it (measured 10% faster a row kernel).
-    """
-    u = _u(r)
-    n = count[u]
-    base = start[u]
-    if hint < n and fa < fb:
-        at = _u(base + hint)
-        lo = rows[at, 0]
-        hi = rows[at, 1]
-        if (
-            hi > fa
-            and lo < fb
-            and (hint == 0 or rows[_u(base + hint - 1), 1] <= fa)
-            and (hi >= fb or hint == n - 1 or rows[_u(base + hint + 1), 0] >= fb)
-        ):
-            if lo < fa and hi <= fb:  # the interval's upper end is cut away
-                rows[at, 1] = fa
-                return (0, np.float64(hi) - np.float64(fa), True, False, np.float64(fa),
-                        np.float64(hi), hint)  # fmt: skip
-            if lo >= fa and hi > fb:  # its lower end
-                rows[at, 0] = fb
-                return (0, np.float64(fb) - np.float64(lo), False, True, np.float64(lo),
-                        np.float64(fb), hint)  # fmt: skip
-    return subtract_interval(r, fa, fb, hint, count, start, block, rows, heap_top)
-
-
-@njit(cache=True, inline="always")
-def _u(index):
-    """``index`` (>= 0) as an unsigned array index: numba then omits the wrap-around of
-    negative indices (a compare and an add on every access)."""
-    return np.uintp(index)
-
-
-@njit(cache=True, inline="always")
-def _move_to_heap(r, n, base, start, block, rows, heap_top):
-    """Move ray r's n intervals to a new heap block of twice its capacity; False if the heap is
-    full (nothing changed)."""
-    new_block = 2 * block[r]
-    top = heap_top[0]
-    if top + new_block > rows.shape[0]:
-        return False
-    for q in range(n):
-        rows[top + q, 0] = rows[base + q, 0]
-        rows[top + q, 1] = rows[base + q, 1]
-    heap_top[0] = top + new_block
-    start[r] = top
-    block[r] = new_block
-    return True

@@ -51,67 +51,41 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from cnctwin.errors import ConfigError
-from cnctwin.geometry.cutter import Cutter
-from cnctwin.geometry.dexel import DexelStock
-
-# numba caches the kernels below by this file's content alone, with the removal kernels they
-# call compiled in: a change to those kernels needs a change here too, or a stale cache runs
-# the old code (removal kernels revised: cell indices clamped, 2026-11).
-from cnctwin.geometry.removal import (
-    _DONE,
-    A_ABOVE,
-    A_ARCS,
-    A_BOTTOM,
-    A_LEN_X,
-    A_LEN_Y,
-    A_LEN_Z,
-    A_NMAX,
-    A_NMIN,
-    A_ZMAX,
-    A_ZMIN,
-    I_K0,
-    I_NSLICES,
-    P_FX,
-    P_FY,
-    P_GAP,
-    P_INNER,
-    P_L,
-    P_PX,
-    P_PY,
-    P_PZ,
-    P_R,
-    P_RC,
-    P_SLOPE,
-    P_TZ,
+from cnctwin.geometry._engagement_kernels import (
+    N_OUT,
+    O_ABOVE,
+    O_AE,
+    O_AP,
+    O_BOTTOM,
+    O_CONTACT,
+    O_FDX,
+    O_FDY,
+    O_FEED,
+    O_HMAX,
+    O_HMEAN,
+    O_MRR,
+    O_REMOVED,
+    OUT_FULL,
+    PathOutputs,
+    path,
+)
+from cnctwin.geometry._removal_kernels import DONE, plain
+from cnctwin.geometry._workspace import (
     Workspace,
-    _cut,
     grow_for,
-    kernel,
     last_tip,
     parameters,
-    place,
-    reset_accumulators,
     workspace,
     xyz_mm,
 )
+from cnctwin.geometry.cutter import Cutter
+from cnctwin.geometry.dexel import DexelStock
 
 __all__ = ["Engagement", "EngagementPath", "cut", "cut_path"]
 
-TWO_PI = 2.0 * math.pi
 _WIDEN_PITCHES = 0.5  # widen intervals by this many pitches (over r) on each side
-_MIN_FEED_MOVE_MM = 1e-9  # a horizontal displacement below this leaves the feed direction +x
-#: Across the 45-degree boundary between the x and the y rays' contact points, arcs of one
-#: contact region may lie one more sample spacing (sqrt(2) pitches) apart than within a family:
-#: up to sqrt(2) p before the boundary in one family and sqrt(2) p after it in the other.
-_ACROSS_PITCHES = math.sqrt(2.0)
-# Columns of the per-position output of _path.
-_O_CONTACT, _O_REMOVED, _O_MRR, _O_AE, _O_AP, _O_FEED, _O_FDX, _O_FDY = range(8)
-_O_HMEAN, _O_HMAX, _O_BOTTOM, _O_ABOVE = range(8, 12)
-_N_OUT = 12
-_OUT_FULL = 3  # kernel status: the output buffers of slices or intervals are full
 
 
 class Engagement(NamedTuple):
@@ -332,28 +306,29 @@ def cut(
     outputs.tip[0, 0], outputs.tip[0, 1], outputs.tip[0, 2] = tip[0] - ox, tip[1] - oy, tip[2] - oz
     outputs.fz[0] = feed_per_tooth_mm
     _run(stock, ws, cutter, outputs.tip, previous, outputs.fz, cycle_s, outputs)
-    m, q = int(outputs.slice_offsets[1]), int(outputs.interval_offsets[1])
-    row = outputs.out[0].tolist()
-    slices = outputs.slices[:, :m].copy()
-    angles = outputs.intervals[:, :q].copy()
+    arrays = outputs.arrays
+    m, q = int(arrays.slice_offsets[1]), int(arrays.interval_offsets[1])
+    row = arrays.out[0].tolist()
+    slices = arrays.slices[:, :m].copy()
+    angles = arrays.intervals[:, :q].copy()
     return Engagement(
-        contact=row[_O_CONTACT] > 0.0,
-        removed_volume_mm3=row[_O_REMOVED],
-        mrr_mm3_s=row[_O_MRR],
-        ae_mm=row[_O_AE],
-        ap_mm=row[_O_AP],
-        feed_mm_min=row[_O_FEED],
-        feed_dir=(row[_O_FDX], row[_O_FDY]),
-        h_mean_mm=row[_O_HMEAN],
-        h_max_mm=row[_O_HMAX],
+        contact=row[O_CONTACT] > 0.0,
+        removed_volume_mm3=row[O_REMOVED],
+        mrr_mm3_s=row[O_MRR],
+        ae_mm=row[O_AE],
+        ap_mm=row[O_AP],
+        feed_mm_min=row[O_FEED],
+        feed_dir=(row[O_FDX], row[O_FDY]),
+        h_mean_mm=row[O_HMEAN],
+        h_max_mm=row[O_HMAX],
         slice_height_mm=slices[0],
         slice_dz_mm=slices[1],
         slice_radius_mm=slices[2],
-        interval_slice=outputs.interval_slice[:q].copy(),
+        interval_slice=arrays.interval_slice[:q].copy(),
         interval_start_rad=angles[0],
         interval_end_rad=angles[1],
-        bottom_contact=row[_O_BOTTOM] > 0.0,
-        above_flutes=row[_O_ABOVE] > 0.0,
+        bottom_contact=row[O_BOTTOM] > 0.0,
+        above_flutes=row[O_ABOVE] > 0.0,
     )
 
 
@@ -414,73 +389,77 @@ def cut_path(
     outputs = _Outputs(len(tips), ws)
     grid_tips = tips - np.array(ws.grid[:3])
     _run(stock, ws, cutter, grid_tips, previous, np.ascontiguousarray(fz), cycle_s, outputs)
-    out = outputs.out
-    m, q = int(outputs.slice_offsets[-1]), int(outputs.interval_offsets[-1])
+    arrays = outputs.arrays
+    out = arrays.out
+    m, q = int(arrays.slice_offsets[-1]), int(arrays.interval_offsets[-1])
     return EngagementPath(
-        contact=out[:, _O_CONTACT] > 0.0,
-        removed_volume_mm3=out[:, _O_REMOVED],
-        mrr_mm3_s=out[:, _O_MRR],
-        ae_mm=out[:, _O_AE],
-        ap_mm=out[:, _O_AP],
-        feed_mm_min=out[:, _O_FEED],
-        feed_dir=out[:, _O_FDX : _O_FDY + 1],
-        h_mean_mm=out[:, _O_HMEAN],
-        h_max_mm=out[:, _O_HMAX],
-        bottom_contact=out[:, _O_BOTTOM] > 0.0,
-        above_flutes=out[:, _O_ABOVE] > 0.0,
-        slice_offsets=outputs.slice_offsets,
-        slice_height_mm=outputs.slices[0, :m],
-        slice_dz_mm=outputs.slices[1, :m],
-        slice_radius_mm=outputs.slices[2, :m],
-        interval_offsets=outputs.interval_offsets,
-        interval_slice=outputs.interval_slice[:q],
-        interval_start_rad=outputs.intervals[0, :q],
-        interval_end_rad=outputs.intervals[1, :q],
+        contact=out[:, O_CONTACT] > 0.0,
+        removed_volume_mm3=out[:, O_REMOVED],
+        mrr_mm3_s=out[:, O_MRR],
+        ae_mm=out[:, O_AE],
+        ap_mm=out[:, O_AP],
+        feed_mm_min=out[:, O_FEED],
+        feed_dir=out[:, O_FDX : O_FDY + 1],
+        h_mean_mm=out[:, O_HMEAN],
+        h_max_mm=out[:, O_HMAX],
+        bottom_contact=out[:, O_BOTTOM] > 0.0,
+        above_flutes=out[:, O_ABOVE] > 0.0,
+        slice_offsets=arrays.slice_offsets,
+        slice_height_mm=arrays.slices[0, :m],
+        slice_dz_mm=arrays.slices[1, :m],
+        slice_radius_mm=arrays.slices[2, :m],
+        interval_offsets=arrays.interval_offsets,
+        interval_slice=arrays.interval_slice[:q],
+        interval_start_rad=arrays.intervals[0, :q],
+        interval_end_rad=arrays.intervals[1, :q],
     )
 
 
 class _Outputs:
-    """The output buffers of :func:`_path` for ``n`` positions: a row of :data:`_N_OUT` values
-    per position, and the slices and intervals of all positions one after the other; and its
-    small input arrays (kept with the buffers of :func:`cut`, which fills them at every call
-    instead of allocating them: a few microseconds a position)."""
+    """The output buffers of :func:`~cnctwin.geometry._engagement_kernels.path` for ``n``
+    positions (:class:`~cnctwin.geometry._engagement_kernels.PathOutputs`: a row of ``N_OUT``
+    values per position, and the slices and intervals of all positions one after the other);
+    and its small input arrays (kept with the buffers of :func:`cut`, which fills them at every
+    call instead of allocating them: a few microseconds a position)."""
 
-    __slots__ = (
-        "fz",
-        "interval_offsets",
-        "interval_slice",
-        "intervals",
-        "old_tip",
-        "out",
-        "prev",
-        "slice_offsets",
-        "slices",
-        "state",
-        "tip",
-    )
+    __slots__ = ("arrays", "fz", "kernel_arrays", "old_tip", "prev", "state", "tip")
 
     def __init__(self, n: int, ws: Workspace) -> None:
-        self.out = np.empty((n, _N_OUT))
         # The inputs of one position (cut) and the small arrays of every call (see _run).
         self.tip = np.zeros((1, 3))
         self.fz = np.zeros(1)
         self.state = np.zeros(4, dtype=np.int64)
         self.prev = np.zeros(3)
         self.old_tip = np.zeros(3)
-        self.slice_offsets = np.zeros(n + 1, dtype=np.int64)
-        self.interval_offsets = np.zeros(n + 1, dtype=np.int64)
         # Room for one position's most slices and intervals, and for four of each a position.
-        n_slices = max(4 * n, ws.slices.shape[1])
-        n_intervals = max(4 * n, ws.iv_slice.shape[0])
-        self.slices = np.empty((3, n_slices))
-        self.interval_slice = np.empty(n_intervals, dtype=np.int64)
-        self.intervals = np.empty((2, n_intervals))
+        n_slices = max(4 * n, ws.work.slices.shape[1])
+        n_intervals = max(4 * n, ws.work.interval_slice.shape[0])
+        self._set(
+            PathOutputs(
+                out=np.empty((n, N_OUT)),
+                slice_offsets=np.zeros(n + 1, dtype=np.int64),
+                slices=np.empty((3, n_slices)),
+                interval_offsets=np.zeros(n + 1, dtype=np.int64),
+                interval_slice=np.empty(n_intervals, dtype=np.int64),
+                intervals=np.empty((2, n_intervals)),
+            )
+        )
+
+    def _set(self, arrays: PathOutputs) -> None:
+        self.arrays = arrays
+        #: ``plain(arrays)``, as the kernel takes them.
+        self.kernel_arrays = plain(arrays)
 
     def grow(self) -> None:
         """Double the room for slices and intervals, keeping what is written."""
-        self.slices = _grown(self.slices)
-        self.interval_slice = _grown(self.interval_slice)
-        self.intervals = _grown(self.intervals)
+        a = self.arrays
+        self._set(
+            a._replace(
+                slices=_grown(a.slices),
+                interval_slice=_grown(a.interval_slice),
+                intervals=_grown(a.intervals),
+            )
+        )
 
 
 def _check_feed_and_cycle(feed_per_tooth_mm: float, cycle_s: float) -> None:
@@ -502,7 +481,7 @@ def _run(
     cycle_s: float,
     outputs: _Outputs,
 ) -> None:
-    """Cut at every tip (grid coordinates, mm) with :func:`_path` into ``outputs``, growing
+    """Cut at every tip (grid coordinates, mm) with the path kernel into ``outputs``, growing
     buffers as needed; record the last tip as the stock's last cut."""
     n = len(tips)
     ox, oy, oz = ws.grid[:3]
@@ -521,15 +500,13 @@ def _run(
     old_tip[0], old_tip[1], old_tip[2] = old if old is not None else (0.0, 0.0, 0.0)
     widen_mm = _WIDEN_PITCHES * max(ws.grid[3], ws.grid[4])
     while True:
-        status = _path(
-            prm, ints, tips, fz, cycle_s, state, prev, old_tip, *ws.cut_arrays(stock),
-            ws.acc, widen_mm, ws.first, ws.order, ws.ra, ws.rb, ws.pa, ws.pb, ws.slices,
-            ws.iv_slice, ws.iv_angles, ws.stats, outputs.out, outputs.slice_offsets,
-            outputs.slices, outputs.interval_offsets, outputs.interval_slice, outputs.intervals,
+        status = path(
+            prm, ints, tips, fz, cycle_s, state, prev, old_tip, ws.cut_arrays(stock), ws.acc,
+            widen_mm, ws.engage_work(), outputs.kernel_arrays,
         )  # fmt: skip
-        if status == _DONE:
+        if status == DONE:
             break
-        if status == _OUT_FULL:
+        if status == OUT_FULL:
             outputs.grow()
         else:
             grow_for(status, stock, ws)
@@ -542,377 +519,3 @@ def _grown(array: np.ndarray) -> np.ndarray:
     grown = np.empty((*array.shape[:-1], 2 * array.shape[-1]), dtype=array.dtype)
     grown[..., : array.shape[-1]] = array
     return grown
-
-
-@njit(cache=True)
-def _emit(a, b, pa, pb, npieces):
-    """Append [a, b] (rad, may cross 0 or 2 pi) as pieces within [0, 2 pi]."""
-    if b - a >= TWO_PI:
-        pa[npieces] = 0.0
-        pb[npieces] = TWO_PI
-        return npieces + 1
-    if a < 0.0:
-        pa[npieces] = 0.0
-        pb[npieces] = b
-        pa[npieces + 1] = a + TWO_PI
-        pb[npieces + 1] = TWO_PI
-        return npieces + 2
-    if b > TWO_PI:
-        pa[npieces] = a
-        pb[npieces] = TWO_PI
-        pa[npieces + 1] = 0.0
-        pb[npieces + 1] = b - TWO_PI
-        return npieces + 2
-    pa[npieces] = a
-    pb[npieces] = b
-    return npieces + 1
-
-
-@njit(cache=True)
-def _positive_sine(a, b):
-    """(integral, maximum) of max(sin(phi), 0) over [a, b] within [0, 2 pi]."""
-    if a >= math.pi:
-        return 0.0, 0.0
-    bb = min(b, math.pi)
-    peak = 1.0 if a <= 0.5 * math.pi <= bb else max(math.sin(a), math.sin(bb))
-    return math.cos(a) - math.cos(bb), peak
-
-
-@njit(cache=True, inline="always")
-def _joins(end, start, gap, gap_across, boundary):
-    """Whether an arc ending at ``end`` and one starting at ``start`` (rad, ``start`` after
-    ``end`` unwrapped) belong to one contact region: closer than ``gap``, or than
-    ``gap_across`` where the gap spans a family boundary (``boundary`` modulo pi/2)."""
-    space = start - end
-    if space <= gap:
-        return True
-    if space > gap_across:
-        return False
-    quarter = 0.5 * math.pi
-    return math.floor((start - boundary) / quarter) != math.floor((end - boundary) / quarter)
-
-
-@njit(cache=True)
-def _sort_pairs(a, b, m):
-    """Sort the first m entries of a (and b alongside) by a: insertion sort, few entries."""
-    for q in range(1, m):
-        ka = a[q]
-        kb = b[q]
-        w = q - 1
-        while w >= 0 and a[w] > ka:
-            a[w + 1] = a[w]
-            b[w + 1] = b[w]
-            w -= 1
-        a[w + 1] = ka
-        b[w + 1] = kb
-
-
-@kernel
-def _engage(
-    prm,
-    ints,
-    arc_slice,
-    arc_lo,
-    arc_hi,
-    n_arcs,
-    widen_mm,
-    first,
-    order,
-    ra,
-    rb,
-    pa,
-    pb,
-    slices,
-    out_slice,
-    out_angles,
-    stats,
-):
-    """Contact arcs to intervals per slice (module notes), lengths in mm, angles in rad.
-
-    Writes the used slices' (height above the tip, dz, radius) into ``slices`` columns, the
-    intervals (index of their slice among the used ones, start, end) into ``out_slice`` and
-    ``out_angles``, and ``stats`` = (integral of max(sin phi, 0) sin kappa over phi and z,
-    engaged area in rad mm, max of sin phi sin kappa, slices used, intervals).
-    """
-    first_level = ints[I_K0]
-    n_slices = ints[I_NSLICES]
-    tip_z, pz = prm[P_TZ], prm[P_PZ]
-    for q in range(5):
-        stats[q] = 0.0
-    big, rc, length = prm[P_R], prm[P_RC], prm[P_L]
-    inner, slope = prm[P_INNER], prm[P_SLOPE]
-    # On a cone sin(kappa) = cos(theta / 2) (Cutter.sin_kappa_at).
-    cone_sin_kappa = 1.0 / math.sqrt(1.0 + slope * slope)
-    gap_mm = prm[P_GAP]
-    pitch = max(prm[P_PX], prm[P_PY])
-    # The row families' contact points meet at 45 degrees to the grid axes, at these angles
-    # modulo pi/2 in the feed frame (the point at phi lies at alpha + pi/2 - phi, alpha the
-    # feed direction's angle).
-    boundary = math.atan2(prm[P_FY], prm[P_FX]) + 0.25 * math.pi
-    for s in range(n_slices + 1):
-        first[s] = 0
-    for q in range(n_arcs):
-        first[arc_slice[q] + 1] += 1
-    for s in range(n_slices):
-        first[s + 1] += first[s]
-    for q in range(n_arcs):
-        # Counting sort by slice; `first` is restored below.
-        s = arc_slice[q]
-        order[first[s]] = q
-        first[s] += 1
-    for s in range(n_slices - 1, 0, -1):
-        first[s] = first[s - 1]
-    if n_slices > 0:
-        first[0] = 0
-    count = 0
-    used = 0
-    # The previous slice with contact: index, radius, first interval, sums per mm of height.
-    prev_s = -1
-    prev_r = -1.0
-    prev_first = 0
-    prev_integral = prev_area = 0.0
-    for s in range(n_slices):
-        m = first[s + 1] - first[s]
-        if m == 0:
-            continue
-        level_z = (first_level + s + 0.5) * pz
-        height = level_z - tip_z
-        r = big
-        sin_kappa = 1.0
-        if height < rc:
-            w = math.sqrt(max(rc * rc - (rc - max(height, 0.0)) ** 2, 0.0))
-            r = big - rc + w
-            sin_kappa = w / rc
-        elif slope > 0.0 and inner + height * slope < big:
-            r = inner + max(height, 0.0) * slope
-            sin_kappa = cone_sin_kappa
-        if r <= 0.0:
-            continue
-        low = tip_z if s == 0 else max(level_z - 0.5 * pz, tip_z)
-        dz = max(min(level_z + 0.5 * pz, tip_z + length) - low, 0.0)
-        slices[0, used] = height
-        slices[1, used] = dz
-        slices[2, used] = r
-        if r == prev_r and m == first[prev_s + 1] - first[prev_s]:
-            # The same arcs as the previous slice (the cylinder of a 2.5D cut): same intervals.
-            same = True
-            for q in range(m):
-                a = order[first[s] + q]
-                b = order[first[prev_s] + q]
-                if arc_lo[a] != arc_lo[b] or arc_hi[a] != arc_hi[b]:
-                    same = False
-                    break
-            if same:
-                n_prev = count - prev_first
-                for q in range(n_prev):
-                    out_slice[count] = used
-                    out_angles[0, count] = out_angles[0, prev_first + q]
-                    out_angles[1, count] = out_angles[1, prev_first + q]
-                    count += 1
-                prev_first = count - n_prev
-                prev_s = s
-                stats[0] += prev_integral * dz
-                stats[1] += prev_area * dz
-                used += 1
-                continue
-        prev_s = s
-        prev_r = r
-        prev_first = count
-        prev_integral = prev_area = 0.0
-        gap = gap_mm / r
-        gap_across = gap + _ACROSS_PITCHES * pitch / r
-        widen = widen_mm / r
-        for q in range(m):
-            ra[q] = arc_lo[order[first[s] + q]]
-            rb[q] = arc_hi[order[first[s] + q]]
-        _sort_pairs(ra, rb, m)
-        # Join arcs closer than the gap (angles unwrapped: hi may exceed 2 pi).
-        nrun = 0
-        for q in range(m):
-            if nrun > 0 and _joins(rb[nrun - 1], ra[q], gap, gap_across, boundary):
-                rb[nrun - 1] = max(rb[nrun - 1], rb[q])
-            else:
-                ra[nrun] = ra[q]
-                rb[nrun] = rb[q]
-                nrun += 1
-        lo_run = 0
-        while lo_run < nrun - 1 and _joins(
-            rb[nrun - 1], ra[lo_run] + TWO_PI, gap, gap_across, boundary
-        ):
-            # The first runs continue the last one across phi = 0 (it may reach past several).
-            rb[nrun - 1] = max(rb[nrun - 1], rb[lo_run] + TWO_PI)
-            lo_run += 1
-        npieces = 0
-        for q in range(lo_run, nrun):
-            a = ra[q] - widen
-            b = rb[q] + widen
-            if b - a + gap >= TWO_PI:
-                a = 0.0
-                b = TWO_PI
-            npieces = _emit(a, b, pa, pb, npieces)
-        _sort_pairs(pa, pb, npieces)
-        merged = 0
-        for q in range(npieces):
-            if merged > 0 and pa[q] <= pb[merged - 1]:
-                pb[merged - 1] = max(pb[merged - 1], pb[q])
-            else:
-                pa[merged] = pa[q]
-                pb[merged] = pb[q]
-                merged += 1
-        for q in range(merged):
-            a = pa[q]
-            b = pb[q]
-            out_slice[count] = used
-            out_angles[0, count] = a
-            out_angles[1, count] = b
-            count += 1
-            integral, peak = _positive_sine(a, b)
-            prev_integral += integral * sin_kappa
-            prev_area += b - a
-            stats[2] = max(stats[2], peak * sin_kappa)
-        stats[0] += prev_integral * dz
-        stats[1] += prev_area * dz
-        used += 1
-    stats[3] = used
-    stats[4] = count
-
-
-@kernel
-def _path(
-    prm,
-    ints,
-    tips,
-    fz,
-    cycle_s,
-    state,
-    prev_tip,
-    old_tip,
-    z_count,
-    z_start,
-    z_block,
-    z_rows,
-    z_heap_top,
-    x_count,
-    x_start,
-    x_block,
-    x_rows,
-    x_heap_top,
-    y_count,
-    y_start,
-    y_block,
-    y_rows,
-    y_heap_top,
-    arc_slice,
-    arc_lo,
-    arc_hi,
-    table,
-    acc,
-    widen_mm,
-    first,
-    order,
-    ra,
-    rb,
-    pa,
-    pb,
-    slices,
-    iv_slice,
-    iv_angles,
-    stats,
-    out,
-    slice_offsets,
-    out_slices,
-    interval_offsets,
-    out_interval_slice,
-    out_intervals,
-):
-    """Removal (:func:`cnctwin.geometry.removal._cut`) then engagement (:func:`_engage`) at
-    every tip (``tips``, (n, 3), grid coordinates, mm) from ``state[0]`` on.
-
-    ``state``: next position, whether its removal is partly done (a resumed call keeps its
-    accumulators), whether ``prev_tip`` is the position before the first, whether ``old_tip``
-    is the stock's last cut with this cutter. Writes a row of ``out`` per position and its
-    slices and intervals at the offsets. Returns 0 when all are done, else the status of a
-    full heap or arc buffer or ``_OUT_FULL``, with ``state`` set to resume (the caller grows
-    the buffer and calls again).
-    """
-    n = tips.shape[0]
-    px, py, pz = prm[P_PX], prm[P_PY], prm[P_PZ]
-    diameter, length = 2.0 * prm[P_R], prm[P_L]
-    i = state[0]
-    while i < n:
-        tx, ty, tz = tips[i, 0], tips[i, 1], tips[i, 2]
-        has_prev = i > 0 or state[2] != 0
-        if i > 0:
-            qx, qy, qz = tips[i - 1, 0], tips[i - 1, 1], tips[i - 1, 2]
-        else:
-            qx, qy, qz = prev_tip[0], prev_tip[1], prev_tip[2]
-        fx, fy = 1.0, 0.0
-        feed = math.nan
-        if has_prev:
-            dx, dy, dz = tx - qx, ty - qy, tz - qz
-            feed = math.sqrt(dx * dx + dy * dy + dz * dz) / cycle_s * 60.0
-            horizontal = math.sqrt(dx * dx + dy * dy)
-            if horizontal > _MIN_FEED_MOVE_MM:
-                fx, fy = dx / horizontal, dy / horizontal
-        if i > 0:
-            reaches = place(prm, ints, tx, ty, tz, qx, qy, qz, True, fx, fy)
-        else:
-            reaches = place(
-                prm, ints, tx, ty, tz, old_tip[0], old_tip[1], old_tip[2], state[3] != 0, fx, fy
-            )
-        if state[1] == 0:
-            reset_accumulators(acc)
-        if reaches:
-            status = _cut(
-                prm, ints, z_count, z_start, z_block, z_rows, z_heap_top, x_count, x_start,
-                x_block, x_rows, x_heap_top, y_count, y_start, y_block, y_rows, y_heap_top,
-                arc_slice, arc_lo, arc_hi, table, acc,
-            )  # fmt: skip
-            if status != 0:
-                state[0] = i
-                state[1] = 1
-                return status
-            _engage(
-                prm, ints, arc_slice, arc_lo, arc_hi, int(acc[A_ARCS]), widen_mm, first, order,
-                ra, rb, pa, pb, slices, iv_slice, iv_angles, stats,
-            )  # fmt: skip
-        else:
-            for q in range(5):
-                stats[q] = 0.0
-        used = int(stats[3])
-        count = int(stats[4])
-        s0 = slice_offsets[i]
-        c0 = interval_offsets[i]
-        if s0 + used > out_slices.shape[1] or c0 + count > out_intervals.shape[1]:
-            state[0] = i
-            state[1] = 1
-            return _OUT_FULL
-        for q in range(used):
-            out_slices[0, s0 + q] = slices[0, q]
-            out_slices[1, s0 + q] = slices[1, q]
-            out_slices[2, s0 + q] = slices[2, q]
-        for q in range(count):
-            out_interval_slice[c0 + q] = iv_slice[q]
-            out_intervals[0, c0 + q] = iv_angles[0, q]
-            out_intervals[1, c0 + q] = iv_angles[1, q]
-        slice_offsets[i + 1] = s0 + used
-        interval_offsets[i + 1] = c0 + count
-        removed = (acc[A_LEN_Z] * px * py + acc[A_LEN_X] * py * pz + acc[A_LEN_Y] * px * pz) / 3.0
-        removed = max(removed, 0.0)
-        integral, area, peak = stats[0], stats[1], stats[2]
-        out[i, _O_CONTACT] = 1.0 if removed > 0.0 else 0.0
-        out[i, _O_REMOVED] = removed
-        out[i, _O_MRR] = removed / cycle_s
-        out[i, _O_AE] = min(max(acc[A_NMAX] - acc[A_NMIN], 0.0), diameter) if removed > 0 else 0.0
-        out[i, _O_AP] = min(max(acc[A_ZMAX] - acc[A_ZMIN], 0.0), length) if removed > 0 else 0.0
-        out[i, _O_FEED] = feed
-        out[i, _O_FDX] = fx
-        out[i, _O_FDY] = fy
-        out[i, _O_HMEAN] = fz[i] * integral / area if area > 0.0 else 0.0
-        out[i, _O_HMAX] = fz[i] * peak
-        out[i, _O_BOTTOM] = acc[A_BOTTOM]
-        out[i, _O_ABOVE] = acc[A_ABOVE]
-        state[1] = 0
-        i += 1
-    state[0] = n
-    return 0

@@ -55,12 +55,12 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from cnctwin.config.limits import check_memory
 from cnctwin.errors import ConfigError, DataError, NCError
+from cnctwin.geometry._workspace import xyz_mm
 from cnctwin.geometry.cutter import Cutter
 from cnctwin.geometry.dexel import DexelStock
 from cnctwin.geometry.engagement import Engagement, cut
-from cnctwin.geometry.removal import xyz_mm
+from cnctwin.memory import check_memory
 from cnctwin.nc.sampler import TrajectorySampler
 from cnctwin.nc.segments import MotionKind, Segment
 

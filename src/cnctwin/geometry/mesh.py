@@ -161,15 +161,15 @@ def stock_mesh(stock: DexelStock) -> NDArray[np.float32]:
 
     Triangles wind counter-clockwise seen from outside (normals point out of the material).
     """
-    count, start, _block, rows, _heap_top = stock.family_arrays("z")
+    z = stock.family_arrays("z")
     grid = stock.grid
     nx, ny, _ = grid.shape
     px, py, _ = grid.pitch_mm
     ox, oy, oz = grid.origin_mm
     dummy = np.empty((0, 3, 3), np.float32)
-    n = _build(count, start, rows, nx, ny, px, py, ox, oy, oz, dummy, False)
+    n = _build(z.count, z.start, z.rows, nx, ny, px, py, ox, oy, oz, dummy, False)
     tris = np.empty((n, 3, 3), np.float32)
-    _build(count, start, rows, nx, ny, px, py, ox, oy, oz, tris, True)
+    _build(z.count, z.start, z.rows, nx, ny, px, py, ox, oy, oz, tris, True)
     return tris
 
 

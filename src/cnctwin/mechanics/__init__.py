@@ -2,22 +2,23 @@
 
 Public API::
 
+    from cnctwin.geometry import Cutter
     from cnctwin.mechanics import (
-        CuttingCoefficients, EndMill, Engagement, milling_forces, mean_forces,
+        CuttingCoefficients, ImmersionIntervals, milling_forces, mean_forces,
     )
 
-    cutter = EndMill(diameter_m=0.012, teeth=3, helix_rad=0.52)
-    cut = Engagement.from_depths(cutter, width_m=0.003, depth_m=0.005, down_milling=True)
+    cutter = Cutter.flat(diameter_mm=12.0, flute_length_mm=25.0, flutes=3, helix_rad=0.52)
+    cut = ImmersionIntervals.from_depths(cutter, width_m=0.003, depth_m=0.005, down_milling=True)
     k = CuttingCoefficients.from_n_mm(745.1, 360.98, 0.0, 31.49, 21.85, 0.0)
     wave = milling_forces(cutter, k, cut, feed_per_tooth_m=5e-5, spindle_rad_s=1047.2)
 
-SI units throughout (m, N, Pa, N/m, rad, rad/s, N m, W). Frame and sign conventions are in
-:mod:`cnctwin.mechanics.engagement` and :mod:`cnctwin.mechanics.milling`.
+SI units throughout (m, N, Pa, N/m, rad, rad/s, N m, W); the cutter
+(:class:`cnctwin.geometry.Cutter`, mm) is read through its SI views. Frame and sign
+conventions are in :mod:`cnctwin.mechanics.engagement` and :mod:`cnctwin.mechanics.milling`.
 """
 
 from cnctwin.mechanics.coefficients import CuttingCoefficients
-from cnctwin.mechanics.cutter import CutterKind, CutterSlices, EndMill
-from cnctwin.mechanics.engagement import Engagement, immersion_angles
+from cnctwin.mechanics.engagement import ImmersionIntervals, immersion_angles
 from cnctwin.mechanics.milling import (
     ForceWaveform,
     MeanForces,
@@ -27,12 +28,9 @@ from cnctwin.mechanics.milling import (
 )
 
 __all__ = [
-    "CutterKind",
-    "CutterSlices",
     "CuttingCoefficients",
-    "EndMill",
-    "Engagement",
     "ForceWaveform",
+    "ImmersionIntervals",
     "MeanForces",
     "flat_end_mill_mean_forces",
     "immersion_angles",

@@ -1,4 +1,5 @@
-"""Cutter-workpiece engagement as the force model integrates it: contact angles per axial slice.
+"""Immersion intervals: the cutter-workpiece contact as the force model integrates it, the
+angular intervals of contact of each axial slice.
 
 Frame and angles (Altintas 2012, ch. 2): x is the feed direction, z the tool axis pointing
 from the tip to the spindle, y = z x x (to the left of the feed, seen from the spindle). The
@@ -8,11 +9,14 @@ clockwise from +y, so a tooth at phi sits at ``r (sin phi, cos phi)`` and moves 
 ``h = f_z sin(phi) sin(kappa)`` is positive. Up-milling enters at phi = 0 (material on the +y
 side), down-milling exits at phi = pi (material on the -y side), a slot spans 0..pi.
 
-An :class:`Engagement` holds, for each axial slice between heights ``z_bounds_m``, any number
-of angular intervals ``[entry, exit]`` in which the slice is in contact with the workpiece: from
-analytic widths and depths (:meth:`Engagement.from_depths`), from given entry and exit angles
-(:meth:`Engagement.from_angles`), or from a material-removal simulation
-(:meth:`Engagement.from_intervals`). Parts of an interval outside 0..pi cut nothing.
+An :class:`ImmersionIntervals` holds, for each axial slice between heights ``z_bounds_m``, any
+number of angular intervals ``[entry, exit]`` in which the slice is in contact with the
+workpiece: from analytic widths and depths (:meth:`ImmersionIntervals.from_depths`), from given
+entry and exit angles (:meth:`ImmersionIntervals.from_angles`), or from a material-removal
+simulation (:meth:`ImmersionIntervals.from_slices`, which the dexel engagement of one step,
+:class:`cnctwin.geometry.Engagement`, feeds through
+:func:`cnctwin.simulation.signals.immersion_intervals`). Parts of an interval outside 0..pi cut
+nothing. SI units: heights in m, angles in rad.
 """
 
 from __future__ import annotations
@@ -24,9 +28,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from cnctwin.errors import ConfigError
-from cnctwin.mechanics.cutter import EndMill
+from cnctwin.geometry.cutter import Cutter
 
-__all__ = ["Engagement", "immersion_angles"]
+__all__ = ["ImmersionIntervals", "immersion_angles"]
 
 _TWO_PI = 2.0 * math.pi
 
@@ -52,8 +56,8 @@ def immersion_angles(diameter_m: float, width_m: float, down_milling: bool) -> t
 
 
 @dataclass(frozen=True)
-class Engagement:
-    """Contact intervals per axial slice.
+class ImmersionIntervals:
+    """Contact (immersion) intervals per axial slice, for the force model.
 
     Attributes
     ----------
@@ -85,8 +89,8 @@ class Engagement:
         cls,
         z_bounds_m: Sequence[float] | np.ndarray,
         intervals: Sequence[Sequence[tuple[float, float]]],
-    ) -> Engagement:
-        """Engagement from contact intervals given per slice.
+    ) -> ImmersionIntervals:
+        """Immersion intervals given per slice.
 
         Parameters
         ----------
@@ -146,8 +150,9 @@ class Engagement:
         interval_slice: np.ndarray,
         entry_rad: np.ndarray,
         exit_rad: np.ndarray,
-    ) -> Engagement:
-        """Engagement from a table of slices and intervals, such as a dexel simulation gives.
+    ) -> ImmersionIntervals:
+        """Immersion intervals from a table of slices and intervals, such as a dexel simulation
+        gives.
 
         Slice i stands for heights ``heights_m[i] -+ thickness_m[i] / 2`` above the tip
         (clipped at the tip); the slices must not overlap, and gaps between them become slices
@@ -197,7 +202,7 @@ class Engagement:
     @classmethod
     def from_angles(
         cls, entry_rad: float, exit_rad: float, depth_m: float, slices: int = 50
-    ) -> Engagement:
+    ) -> ImmersionIntervals:
         """The same interval ``[entry_rad, exit_rad]`` on ``slices`` equal slices of ``depth_m``.
 
         Parameters
@@ -215,13 +220,13 @@ class Engagement:
     @classmethod
     def from_depths(
         cls,
-        cutter: EndMill,
+        cutter: Cutter,
         width_m: float,
         depth_m: float,
         down_milling: bool = False,
         slices: int = 50,
-    ) -> Engagement:
-        """Engagement of a straight cut at radial depth ``width_m`` and axial depth ``depth_m``.
+    ) -> ImmersionIntervals:
+        """Immersion intervals of a straight cut, radial depth ``width_m``, axial ``depth_m``.
 
         The material is the band of width ``ae`` next to the cutter's side at full radius
         (``R - ae <= y <= R`` when up-milling, ``-R <= y <= -R + ae`` when down-milling),
@@ -231,7 +236,7 @@ class Engagement:
         Parameters
         ----------
         cutter
-            The end mill.
+            The cutter (its SI views are read).
         width_m
             Radial depth ae in m, 0 < ae <= D.
         depth_m

@@ -3,8 +3,8 @@
 The model (Altintas, *Manufacturing Automation*, 2nd ed., 2012, ch. 2; Royandi 2026,
 Eq. 8-12; Ward 2021, Eq. 1-2) cuts the engaged part of the cutter into axial slices. A tooth
 of a slice at immersion angle phi removes a chip of thickness ``h = f_z sin(phi) sin(kappa)``
-(plus the runout term, see :class:`~cnctwin.mechanics.cutter.EndMill`) and feels, per unit chip
-width ``db``,
+(plus the runout term, see :meth:`~cnctwin.geometry.Cutter.tooth_radius_offsets_m`) and
+feels, per unit chip width ``db``,
 
     dFt = (Ktc h + Kte) db,   dFr = (Krc h + Kre) db,   dFa = (Kac h + Kae) db,
 
@@ -36,10 +36,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from cnctwin.errors import ConfigError
+from cnctwin.geometry.cutter import Cutter
 from cnctwin.mechanics import _milling_kernels as _k
 from cnctwin.mechanics.coefficients import CuttingCoefficients
-from cnctwin.mechanics.cutter import EndMill
-from cnctwin.mechanics.engagement import Engagement
+from cnctwin.mechanics.engagement import ImmersionIntervals
 
 __all__ = [
     "ForceWaveform",
@@ -117,9 +117,9 @@ class ForceWaveform:
 
 
 def milling_forces(
-    cutter: EndMill,
+    cutter: Cutter,
     coefficients: CuttingCoefficients,
-    engagement: Engagement,
+    immersion: ImmersionIntervals,
     feed_per_tooth_m: float,
     spindle_rad_s: float,
     *,
@@ -131,11 +131,11 @@ def milling_forces(
     Parameters
     ----------
     cutter
-        The end mill (shape, teeth, helix, runout).
+        The cutter (shape, flutes, helix, runout; its SI views are read).
     coefficients
         Shear (Pa) and edge (N/m) coefficients.
-    engagement
-        Contact intervals per axial slice; the slices are those of the engagement.
+    immersion
+        Contact intervals per axial slice; the slices are those of the intervals.
     feed_per_tooth_m
         Feed per tooth f_z in m, >= 0.
     spindle_rad_s
@@ -153,7 +153,7 @@ def milling_forces(
     _check_cut(feed_per_tooth_m, spindle_rad_s)
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
         raise ConfigError(f"steps={steps!r}; give an integer >= 1")
-    geometry = cutter.slices(engagement.z_bounds_m)
+    geometry = cutter.slices(immersion.z_bounds_m)
     theta = np.arange(steps, dtype=np.float64) * (2.0 * math.pi / steps)
     out = np.zeros((4, steps))
     _k.waveform(
@@ -162,9 +162,9 @@ def milling_forces(
         geometry.kappa_rad,
         geometry.width_m,
         geometry.lag_rad,
-        engagement.offsets,
-        engagement.entry_rad,
-        engagement.exit_rad,
+        immersion.offsets,
+        immersion.entry_rad,
+        immersion.exit_rad,
         cutter.pitch_rad,
         cutter.tooth_radius_offsets_m(),
         float(feed_per_tooth_m),
@@ -183,15 +183,15 @@ def milling_forces(
 
 
 def mean_forces(
-    cutter: EndMill,
+    cutter: Cutter,
     coefficients: CuttingCoefficients,
-    engagement: Engagement,
+    immersion: ImmersionIntervals,
     feed_per_tooth_m: float,
     spindle_rad_s: float,
     *,
     helical_edge: bool = False,
 ) -> MeanForces:
-    """Per-revolution mean forces, torque and power of any engagement, in closed form.
+    """Per-revolution mean forces, torque and power of any immersion, in closed form.
 
     Integrates the elemental forces of :func:`milling_forces` exactly over each slice's
     contact intervals (Altintas 2012, ch. 2, generalised to a lead angle per slice). The
@@ -201,7 +201,7 @@ def mean_forces(
 
     Parameters
     ----------
-    cutter, coefficients, engagement, feed_per_tooth_m, spindle_rad_s, helical_edge
+    cutter, coefficients, immersion, feed_per_tooth_m, spindle_rad_s, helical_edge
         As for :func:`milling_forces`.
 
     Returns
@@ -210,15 +210,15 @@ def mean_forces(
         Mean Fx, Fy, Fz (N), torque (N m) and power (W).
     """
     _check_cut(feed_per_tooth_m, spindle_rad_s)
-    geometry = cutter.slices(engagement.z_bounds_m)
+    geometry = cutter.slices(immersion.z_bounds_m)
     fx, fy, fz, torque = _k.mean(
         geometry.radius_m,
         geometry.kappa_rad,
         geometry.width_m,
-        engagement.offsets,
-        engagement.entry_rad,
-        engagement.exit_rad,
-        cutter.teeth,
+        immersion.offsets,
+        immersion.entry_rad,
+        immersion.exit_rad,
+        cutter.flutes,
         float(feed_per_tooth_m),
         coefficients.as_array(),
         _edge_scale(cutter, helical_edge),
@@ -292,7 +292,7 @@ def flat_end_mill_mean_forces(
     return MeanForces(fx, fy, fz, torque, torque * spindle_rad_s)
 
 
-def _edge_scale(cutter: EndMill, helical_edge: bool) -> float:
+def _edge_scale(cutter: Cutter, helical_edge: bool) -> float:
     return 1.0 / math.cos(cutter.helix_rad) if helical_edge else 1.0
 
 

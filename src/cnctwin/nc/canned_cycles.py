@@ -5,6 +5,8 @@ plane at the clearance level, a rapid along the drilling axis to the R plane, th
 cycle's own motion, and a retract to the clearance level (the initial level under G98,
 the R plane under G99). Moves that would not move the tool are dropped, as LinuxCNC does.
 Positions are machine coordinates in mm; the drilling axis is the plane's normal.
+:class:`CycleModes` holds the cycles' sticky words (R, hole bottom, Q, P) and retract mode
+and turns a cycle block into a :class:`CycleSpec`.
 """
 
 from __future__ import annotations
@@ -13,10 +15,18 @@ import math
 from dataclasses import dataclass
 
 from cnctwin.errors import NCError
-from cnctwin.nc.limits import MAX_PECKS
-from cnctwin.nc.segments import MotionKind
+from cnctwin.nc.cursor import ProgramCursor
+from cnctwin.nc.limits import MAX_CYCLE_REPEATS, MAX_PECKS, MAX_SEGMENTS_PER_BLOCK
+from cnctwin.nc.segments import PLANE_AXES, FeedMode, MachineState, MotionKind, Plane
 
-__all__ = ["CycleMove", "CycleSpec", "expand_cycle", "peck_count", "PECK_CLEARANCE_MM"]
+__all__ = [
+    "CycleModes",
+    "CycleMove",
+    "CycleSpec",
+    "expand_cycle",
+    "peck_count",
+    "PECK_CLEARANCE_MM",
+]
 
 #: Retract of G73 chip breaking and the stop short of the previous depth in G83, in mm
 #: (LinuxCNC uses 0.010 inch, i.e. 0.254 mm).
@@ -197,3 +207,159 @@ def expand_cycle(
     else:
         raise ValueError(f"not a drilling cycle: G{code}")
     return moves
+
+
+class CycleModes:
+    """The sticky words of the drilling cycles and the retract mode.
+
+    Parameters
+    ----------
+    where
+        Where errors are reported.
+
+    Attributes
+    ----------
+    retract_to_r
+        G99 (retract to the R plane); False under G98 (retract to the initial level).
+        LinuxCNC and RS274/NGC start in the R-plane mode until G98.
+    r_word_mm, bottom_word_mm
+        The last R and hole-bottom words, mm (program frame, or increments under G91);
+        ``None`` until given or after G80.
+    peck_mm
+        The last Q word (G73, G83), mm.
+    dwell_s
+        The last P word, s.
+    """
+
+    __slots__ = ("retract_to_r", "r_word_mm", "bottom_word_mm", "peck_mm", "dwell_s", "_where")
+
+    def __init__(self, where: ProgramCursor) -> None:
+        self.retract_to_r = True
+        self.r_word_mm: float | None = None
+        self.bottom_word_mm: float | None = None
+        self.peck_mm = 0.0
+        self.dwell_s = 0.0
+        self._where = where
+
+    def cancel(self) -> None:
+        """G80: forget the R and hole-bottom words."""
+        self.r_word_mm = None
+        self.bottom_word_mm = None
+
+    def plan(
+        self,
+        code: int,
+        words: dict[str, float],
+        state: MachineState,
+        factor: float,
+        incremental: bool,
+        level_mm: float,
+        offset_mm: float,
+    ) -> tuple[CycleSpec, int]:
+        """The hole of cycle G``code`` and its repeat count (L word) for a block's ``words``
+        (program units, ``factor`` mm each) under the modal ``state``.
+
+        ``level_mm`` is the tool's machine position along the drilling axis before the
+        block and ``offset_mm`` the program-to-machine offset on that axis.
+
+        Raises
+        ------
+        NCError
+            For a cycle the modes forbid (G93, feed 0, G18/G19 rotated, G84/G86 without the
+            spindle), a bad L or Q word, a missing R or hole bottom, or a bottom above R.
+        """
+        self._check_modes(code, state)
+        normal = PLANE_AXES[state.plane][2]
+        letter = "xyz"[normal]
+        repeats = words.get("l", 1.0)
+        if not 1 <= repeats <= MAX_CYCLE_REPEATS or repeats != int(repeats):
+            raise self._where.error(
+                f"canned cycle repeat L{repeats:g} must be a whole number from 1 to "
+                f"{MAX_CYCLE_REPEATS}"
+            )
+        self._check_spindle(code, state.spindle_direction)
+        r_word, bottom_word = self._levels(code, words, letter, factor)
+        if code in (73, 83):
+            if "q" in words:
+                self.peck_mm = words["q"] * factor
+            if self.peck_mm <= 0:
+                raise self._where.error(f"G{code} needs Q<peck depth> > 0")
+        if "p" in words:
+            self.dwell_s = words["p"]
+        if incremental:
+            r_mm = level_mm + r_word
+            bottom_mm = r_mm + bottom_word
+        else:
+            r_mm = r_word + offset_mm
+            bottom_mm = bottom_word + offset_mm
+        if bottom_mm > r_mm:
+            raise self._where.error(
+                f"canned cycle G{code}: hole bottom {letter.upper()} is above the R plane"
+            )
+        start = max(level_mm, r_mm)
+        spec = CycleSpec(
+            code,
+            normal,
+            r_mm,
+            bottom_mm,
+            r_mm if self.retract_to_r else start,
+            self.peck_mm,
+            self.dwell_s if code in (82, 84, 86, 89) else 0.0,
+            state.spindle_direction or 1,
+        )
+        return spec, int(repeats)
+
+    def check_size(self, spec: CycleSpec, repeats: int) -> None:
+        """Refuse a cycle block of more than
+        :data:`~cnctwin.nc.limits.MAX_SEGMENTS_PER_BLOCK` moves."""
+        moves = repeats * (3 * peck_count(spec) + 6)
+        if moves > MAX_SEGMENTS_PER_BLOCK:
+            raise self._where.error(
+                f"canned cycle G{spec.code} L{repeats:g} would make about {moves} moves in one "
+                f"block; at most {MAX_SEGMENTS_PER_BLOCK} are allowed (fewer repeats or "
+                "larger Q pecks)"
+            )
+
+    def _check_modes(self, code: int, state: MachineState) -> None:
+        if state.plane != Plane.XY and state.xy_rotation_deg:
+            raise self._where.error(
+                f"canned cycle G{code} in G18/G19 with a rotated coordinate system is not supported"
+            )
+        if state.feed_mode == FeedMode.INVERSE_TIME:
+            raise self._where.error(
+                f"canned cycle G{code} cannot run in G93 inverse time mode: use G94 or G95"
+            )
+        if state.programmed_feed <= 0.0:
+            raise self._where.error(
+                f"canned cycle G{code} with feed rate 0: program F (e.g. F100) first"
+            )
+
+    def _check_spindle(self, code: int, direction: int) -> None:
+        if code == 84 and direction != 1:
+            raise self._where.error(
+                "G84 right-hand tapping needs the spindle turning clockwise (M3) before the cycle"
+            )
+        if code == 86 and direction == 0:
+            raise self._where.error("G86 boring needs the spindle turning (M3/M4) before the cycle")
+
+    def _levels(
+        self, code: int, words: dict[str, float], letter: str, factor: float
+    ) -> tuple[float, float]:
+        """The R and hole-bottom words in mm, from the block or the sticky ones."""
+        if "r" in words:
+            r_word = words["r"] * factor
+        elif self.r_word_mm is not None:
+            r_word = self.r_word_mm
+        else:
+            raise self._where.error(f"canned cycle G{code} needs an R word (retract plane)")
+        if letter in words:
+            bottom_word = words[letter] * factor
+        elif self.bottom_word_mm is not None:
+            bottom_word = self.bottom_word_mm
+        else:
+            raise self._where.error(
+                f"canned cycle G{code} needs a {letter.upper()} word (hole bottom)"
+            )
+        self.r_word_mm = r_word
+        self.bottom_word_mm = bottom_word
+        return r_word, bottom_word

@@ -55,6 +55,7 @@ __all__ = [
     "MAX_PARAMETER",
     "SUBROUTINE_PARAMETERS",
     "Parameters",
+    "expand_parameters",
     "read_assignment",
     "read_value",
 ]
@@ -347,6 +348,45 @@ def read_value(text: str, pos: int, params: Parameters) -> tuple[float, int]:
     if not 0 <= pos <= n:
         raise NCError(f"start index {pos} is outside the text (0 to {n})")
     return _value(text, pos, n, params, 0)
+
+
+def expand_parameters(text: str, params: Parameters) -> str:
+    """``(DEBUG, ...)``/``(PRINT, ...)`` text with each ``#n``, ``#<name>`` or ``#[expr]``
+    replaced by its value written ``%.6f`` (LinuxCNC); a reference that cannot be read
+    is left as written.
+
+    Examples
+    --------
+    >>> params = Parameters()
+    >>> params[1] = 2.5
+    >>> expand_parameters("X is #1", params)
+    'X is 2.500000'
+    """
+    out: list[str] = []
+    pos = 0
+    while True:
+        at = text.find("#", pos)
+        if at < 0:
+            out.append(text[pos:])
+            return "".join(out)
+        out.append(text[pos:at])
+        end = at + 1
+        if text[end : end + 1] == "<":
+            close = text.find(">", end)
+            end = close + 1 if close > 0 else len(text)
+        elif text[end : end + 1] == "[":
+            close = text.find("]", end)
+            end = close + 1 if close > 0 else len(text)
+        else:
+            while end < len(text) and text[end] in "0123456789.":
+                end += 1
+        ref = "".join(text[at:end].split()).lower()
+        try:
+            value, used = read_value(ref, 0, params)
+            out.append(f"{value:.6f}" + ref[used:])
+        except NCError:
+            out.append(text[at:end])
+        pos = end
 
 
 def read_assignment(text: str, pos: int, params: Parameters) -> tuple[int | str, float, int]:

@@ -3,16 +3,17 @@ while/endwhile, if/elseif/else/endif, repeat/endrepeat, break/continue.
 
 Control flow works on the :class:`~cnctwin.nc.source.LineSource` being read: jumps back seek
 to remembered byte offsets, jumps forward read ahead to the matching statement, so a program
-is never held in memory. :class:`OWordControl` is mixed into the interpreter, which provides
-the attributes listed in its docstring.
+is never held in memory. The interpreter hands each O-word statement to
+:meth:`OWordControl.execute` and reads from the top of :attr:`OWordControl.sources`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from cnctwin.errors import NCError
+from cnctwin.nc.cursor import ProgramCursor
 from cnctwin.nc.expressions import Parameters, read_value
 from cnctwin.nc.lexer import OWord, lex_block, strip_comments
 from cnctwin.nc.source import LineSource
@@ -28,136 +29,184 @@ MAX_CALL_DEPTH = 9
 
 
 class OWordControl:
-    """O-word statements, for the interpreter to inherit.
+    """O-word statements: subroutines, loops and conditionals.
 
-    The interpreter provides: ``params`` (:class:`Parameters`), ``_file`` and ``_line``
-    (where it reads), ``_line_start`` (byte offset of the current line), ``_sources``
-    (the stack of sources: the program, then subroutine files), ``_frames`` (open
-    call/loop/if frames), ``_subs`` (subroutine label -> (source, offset, line)) and
-    ``_error(message) -> NCError``.
+    Parameters
+    ----------
+    params
+        The program's parameters (conditions, call arguments, ``#<_value>``).
+    where
+        The file and line being read: errors name it, and reading ahead moves its line.
+
+    Attributes
+    ----------
+    sources
+        The sources being read: the program, then the subroutine files called (the
+        interpreter reads from the last one).
     """
 
-    params: Parameters
-    _file: str
-    _line: int
-    _line_start: int
-    _sources: list[LineSource]
-    _frames: list[tuple]
-    _subs: dict[str, tuple[LineSource, int, int]]
-    _error: Callable[[str], NCError]
+    __slots__ = ("sources", "_params", "_where", "_frames", "_subs", "_handlers")
 
-    def _control(self, ow: OWord, src: LineSource) -> bool:
-        """Execute an O-word statement. Returns True if the current source changed."""
-        kw = ow.keyword
+    def __init__(self, params: Parameters, where: ProgramCursor) -> None:
+        self.sources: list[LineSource] = []
+        self._params = params
+        self._where = where
+        # Open frames: ("call", label, source, offset, line, file), ("if", label, True),
+        # ("do" | "while" | "repeat", label, offset, line, count).
+        self._frames: list[tuple[Any, ...]] = []
+        # Subroutine label -> (source, offset, line) of its body.
+        self._subs: dict[str, tuple[LineSource, int, int]] = {}
+        self._handlers = {
+            "sub": self._sub,
+            "call": self._call,
+            "endsub": self._return,
+            "return": self._return,
+            "if": self._if,
+            "elseif": self._else,
+            "else": self._else,
+            "endif": self._endif,
+            "do": self._do,
+            "while": self._while,
+            "endwhile": self._endwhile,
+            "repeat": self._repeat,
+            "endrepeat": self._endrepeat,
+            "break": self._break,
+            "continue": self._continue,
+        }
+
+    def execute(self, ow: OWord, src: LineSource, line_start: int) -> bool:
+        """Execute an O-word statement read from ``src`` on a line that starts at byte
+        ``line_start``. Returns True if the source to read from changed (a call into, or
+        a return from, a subroutine file).
+
+        Raises
+        ------
+        NCError
+            For a statement without its match, a runaway loop, a call too deep or to an
+            unknown subroutine, and bad conditions or arguments.
+        """
+        handler = self._handlers.get(ow.keyword)
+        if handler is None:  # pragma: no cover - the lexer accepts only the keywords above
+            raise self._where.error(f"o-word keyword '{ow.keyword}' is not supported")
+        return handler(ow, src, line_start)
+
+    # ------------------------------------------------------------------ statements
+    def _sub(self, ow: OWord, src: LineSource, line_start: int) -> bool:
         label = ow.label
-        if kw == "sub":
-            known = self._subs.get(label)
-            if known is not None and known[0] is src and known[1] != src.offset:
-                raise self._error(f"o{label} sub is defined twice")
-            self._subs[label] = (src, src.offset, src.lineno)
-            self._skip_to(src, label, ("endsub",))
-            return False
-        if kw == "call":
-            return self._call(ow, src)
-        if kw in ("endsub", "return"):
-            return self._return(ow, src)
-        if kw == "if":
-            if self._condition(ow):
-                self._frames.append(("if", label, True))
-            else:
-                self._branch(src, label)
-            return False
-        if kw in ("elseif", "else"):
-            frame = self._top_frame("if", label, kw)
-            if frame[2]:
-                self._skip_to(src, label, ("endif",))
-                self._frames.pop()
-            else:
-                raise self._error(f"o{label} {kw} without a matching o{label} if")
-            return False
-        if kw == "endif":
-            self._top_frame("if", label, kw)
-            self._frames.pop()
-            return False
-        if kw == "do":
-            self._frames.append(("do", label, src.offset, src.lineno, 0))
-            return False
-        if kw == "while":
-            if self._frames and self._frames[-1][0] == "do" and self._frames[-1][1] == label:
-                frame = self._frames[-1]
-                if self._condition(ow):
-                    self._loop_back(src, frame)
-                else:
-                    self._frames.pop()
-                return False
-            if not (
-                self._frames and self._frames[-1][0] == "while" and self._frames[-1][1] == label
-            ):
-                # Remember where the while statement starts, to evaluate it again.
-                self._frames.append(("while", label, self._line_start, src.lineno - 1, 0))
-            if not self._condition(ow):
-                self._frames.pop()
-                self._skip_to(src, label, ("endwhile",))
-            return False
-        if kw == "endwhile":
-            frame = self._top_frame("while", label, kw)
-            self._loop_back(src, frame)
-            return False
-        if kw == "repeat":
-            count = self._argument(ow)
-            if count != int(count) or not 0 <= count <= MAX_LOOP_ITERATIONS:
-                raise self._error(
-                    f"o{label} repeat count {count:g} must be a whole number from 0 to "
-                    f"{MAX_LOOP_ITERATIONS}"
-                )
-            if count == 0:
-                self._skip_to(src, label, ("endrepeat",))
-            else:
-                self._frames.append(("repeat", label, src.offset, src.lineno, int(count)))
-            return False
-        if kw == "endrepeat":
-            frame = self._top_frame("repeat", label, kw)
-            remaining = frame[4] - 1
-            self._frames.pop()
-            if remaining > 0:
-                self._frames.append((frame[0], frame[1], frame[2], frame[3], remaining))
-                src.seek(frame[2], frame[3])
-            return False
-        if kw == "break":
-            while self._frames:
-                frame = self._frames.pop()
-                if frame[1] == label and frame[0] in ("while", "do", "repeat"):
-                    end = {"while": ("endwhile",), "do": ("while",), "repeat": ("endrepeat",)}
-                    self._skip_to(src, label, end[frame[0]])
-                    return False
-                if frame[0] == "call":
-                    break
-            raise self._error(f"o{label} break outside an o{label} loop")
-        if kw == "continue":
-            for index in range(len(self._frames) - 1, -1, -1):
-                frame = self._frames[index]
-                if frame[1] == label and frame[0] in ("while", "do", "repeat"):
-                    del self._frames[index + 1 :]
-                    if frame[0] == "while":
-                        self._loop_back(src, frame)
-                        return False
-                    closing = ("endrepeat",) if frame[0] == "repeat" else ("while",)
-                    self._skip_to(src, label, closing, stop_before=True)
-                    return False
-                if frame[0] == "call":
-                    break
-            raise self._error(f"o{label} continue outside an o{label} loop")
-        raise self._error(f"o-word keyword '{kw}' is not supported")  # pragma: no cover
+        known = self._subs.get(label)
+        if known is not None and known[0] is src and known[1] != src.offset:
+            raise self._where.error(f"o{label} sub is defined twice")
+        self._subs[label] = (src, src.offset, src.lineno)
+        self._skip_to(src, label, ("endsub",))
+        return False
 
-    def _top_frame(self, kind: str, label: str, keyword: str) -> tuple:
+    def _if(self, ow: OWord, src: LineSource, line_start: int) -> bool:
+        if self._condition(ow):
+            self._frames.append(("if", ow.label, True))
+        else:
+            self._branch(src, ow.label)
+        return False
+
+    def _else(self, ow: OWord, src: LineSource, line_start: int) -> bool:
+        label = ow.label
+        frame = self._top_frame("if", label, ow.keyword)
+        if not frame[2]:
+            raise self._where.error(f"o{label} {ow.keyword} without a matching o{label} if")
+        self._skip_to(src, label, ("endif",))
+        self._frames.pop()
+        return False
+
+    def _endif(self, ow: OWord, src: LineSource, line_start: int) -> bool:
+        self._top_frame("if", ow.label, ow.keyword)
+        self._frames.pop()
+        return False
+
+    def _do(self, ow: OWord, src: LineSource, line_start: int) -> bool:
+        self._frames.append(("do", ow.label, src.offset, src.lineno, 0))
+        return False
+
+    def _while(self, ow: OWord, src: LineSource, line_start: int) -> bool:
+        label = ow.label
+        frames = self._frames
+        if frames and frames[-1][0] == "do" and frames[-1][1] == label:
+            if self._condition(ow):
+                self._loop_back(src, frames[-1])
+            else:
+                frames.pop()
+            return False
+        if not (frames and frames[-1][0] == "while" and frames[-1][1] == label):
+            # Remember where the while statement starts, to evaluate it again.
+            frames.append(("while", label, line_start, src.lineno - 1, 0))
+        if not self._condition(ow):
+            frames.pop()
+            self._skip_to(src, label, ("endwhile",))
+        return False
+
+    def _endwhile(self, ow: OWord, src: LineSource, line_start: int) -> bool:
+        self._loop_back(src, self._top_frame("while", ow.label, ow.keyword))
+        return False
+
+    def _repeat(self, ow: OWord, src: LineSource, line_start: int) -> bool:
+        label = ow.label
+        count = self._argument(ow)
+        if count != int(count) or not 0 <= count <= MAX_LOOP_ITERATIONS:
+            raise self._where.error(
+                f"o{label} repeat count {count:g} must be a whole number from 0 to "
+                f"{MAX_LOOP_ITERATIONS}"
+            )
+        if count == 0:
+            self._skip_to(src, label, ("endrepeat",))
+        else:
+            self._frames.append(("repeat", label, src.offset, src.lineno, int(count)))
+        return False
+
+    def _endrepeat(self, ow: OWord, src: LineSource, line_start: int) -> bool:
+        frame = self._top_frame("repeat", ow.label, ow.keyword)
+        remaining = frame[4] - 1
+        self._frames.pop()
+        if remaining > 0:
+            self._frames.append((frame[0], frame[1], frame[2], frame[3], remaining))
+            src.seek(frame[2], frame[3])
+        return False
+
+    def _break(self, ow: OWord, src: LineSource, line_start: int) -> bool:
+        label = ow.label
+        while self._frames:
+            frame = self._frames.pop()
+            if frame[1] == label and frame[0] in ("while", "do", "repeat"):
+                end = {"while": ("endwhile",), "do": ("while",), "repeat": ("endrepeat",)}
+                self._skip_to(src, label, end[frame[0]])
+                return False
+            if frame[0] == "call":
+                break
+        raise self._where.error(f"o{label} break outside an o{label} loop")
+
+    def _continue(self, ow: OWord, src: LineSource, line_start: int) -> bool:
+        label = ow.label
+        for index in range(len(self._frames) - 1, -1, -1):
+            frame = self._frames[index]
+            if frame[1] == label and frame[0] in ("while", "do", "repeat"):
+                del self._frames[index + 1 :]
+                if frame[0] == "while":
+                    self._loop_back(src, frame)
+                    return False
+                closing = ("endrepeat",) if frame[0] == "repeat" else ("while",)
+                self._skip_to(src, label, closing, stop_before=True)
+                return False
+            if frame[0] == "call":
+                break
+        raise self._where.error(f"o{label} continue outside an o{label} loop")
+
+    # ------------------------------------------------------------------ helpers
+    def _top_frame(self, kind: str, label: str, keyword: str) -> tuple[Any, ...]:
         if not self._frames or self._frames[-1][0] != kind or self._frames[-1][1] != label:
-            raise self._error(f"o{label} {keyword} without a matching o{label} {kind}")
+            raise self._where.error(f"o{label} {keyword} without a matching o{label} {kind}")
         return self._frames[-1]
 
-    def _loop_back(self, src: LineSource, frame: tuple) -> None:
+    def _loop_back(self, src: LineSource, frame: tuple[Any, ...]) -> None:
         count = frame[4] + 1
         if count > MAX_LOOP_ITERATIONS:
-            raise self._error(
+            raise self._where.error(
                 f"o{frame[1]} loop ran {MAX_LOOP_ITERATIONS} times: stopped as a runaway loop"
             )
         self._frames[-1] = (frame[0], frame[1], frame[2], frame[3], count)
@@ -168,10 +217,10 @@ class OWordControl:
 
     def _argument(self, ow: OWord) -> float:
         if ow.args_pos >= len(ow.text):
-            raise self._error(f"o{ow.label} {ow.keyword} needs a [condition]")
-        value, pos = read_value(ow.text, ow.args_pos, self.params)
+            raise self._where.error(f"o{ow.label} {ow.keyword} needs a [condition]")
+        value, pos = read_value(ow.text, ow.args_pos, self._params)
         if pos != len(ow.text):
-            raise self._error(
+            raise self._where.error(
                 f"unexpected text '{ow.text[pos:]}' after o{ow.label} {ow.keyword} [...]"
             )
         return value
@@ -193,9 +242,9 @@ class OWordControl:
         self, src: LineSource, label: str, keywords: tuple[str, ...], stop_before: bool = False
     ) -> OWord:
         """Read forward to the O-word ``o<label> <keyword>``; return it."""
-        start_line = self._line
+        start_line = self._where.line
         for lineno, start, raw in src:
-            self._line = lineno
+            self._where.line = lineno
             low = raw.lower()
             if "o" not in low:
                 continue
@@ -205,17 +254,17 @@ class OWordControl:
                 continue
             if not text.startswith("o"):
                 continue
-            block = lex_block(text, self.params) if text[1:2] else None
+            block = lex_block(text, self._params) if text[1:2] else None
             if block is None or block.oword is None or block.oword.label != label:
                 continue
             if block.oword.keyword in keywords:
                 if stop_before:
                     src.seek(start, lineno - 1)
                 return block.oword
-        self._line = start_line
-        raise self._error(f"o{label}: no matching o{label} {' or '.join(keywords)} found")
+        self._where.line = start_line
+        raise self._where.error(f"o{label}: no matching o{label} {' or '.join(keywords)} found")
 
-    def _call(self, ow: OWord, src: LineSource) -> bool:
+    def _call(self, ow: OWord, src: LineSource, line_start: int) -> bool:
         label = ow.label
         return_to = (src.offset, src.lineno)
         args: list[float] = []
@@ -223,43 +272,45 @@ class OWordControl:
         text = ow.text
         while pos < len(text):
             if text[pos] != "[":
-                raise self._error(
+                raise self._where.error(
                     f"o{label} call arguments must be bracketed expressions like [1.5]"
                 )
-            value, pos = read_value(text, pos, self.params)
+            value, pos = read_value(text, pos, self._params)
             args.append(value)
         if len(args) > 30:
-            raise self._error(f"o{label} call has {len(args)} arguments; at most 30 are allowed")
+            raise self._where.error(
+                f"o{label} call has {len(args)} arguments; at most 30 are allowed"
+            )
         if sum(1 for fr in self._frames if fr[0] == "call") >= MAX_CALL_DEPTH:
-            raise self._error(f"o{label} call nested deeper than {MAX_CALL_DEPTH} levels")
+            raise self._where.error(f"o{label} call nested deeper than {MAX_CALL_DEPTH} levels")
         target = self._subs.get(label)
         if target is None:
             target = self._find_sub(label, src)
         sub_src, offset, lineno = target
-        self._frames.append(("call", label, src, return_to[0], return_to[1], self._file))
-        self.params.push_call(args)
+        self._frames.append(("call", label, src, return_to[0], return_to[1], self._where.file))
+        self._params.push_call(args)
         if sub_src is not src:
-            self._sources.append(sub_src)
+            self.sources.append(sub_src)
         sub_src.seek(offset, lineno)
         return sub_src is not src
 
     def _find_sub(self, label: str, src: LineSource) -> tuple[LineSource, int, int]:
         """Find a subroutine defined later in the file or in a file named after it."""
         here = (src.offset, src.lineno)
-        line = self._line
+        line = self._where.line
         try:
             self._skip_to(src, label, ("sub",))
             found = (src, src.offset, src.lineno)
             self._subs[label] = found
             src.seek(*here)
-            self._line = line
+            self._where.line = line
             return found
         except NCError:
             src.seek(*here)
-            self._line = line
+            self._where.line = line
         if label.startswith("<"):
             name = label[1:-1]
-            folder = Path(self._file).parent
+            folder = Path(self._where.file).parent
             for candidate in (folder / f"{name}.ngc", folder / f"{name.upper()}.ngc"):
                 if candidate.is_file():
                     sub_src = LineSource.from_path(candidate, src.max_bytes, src.budget)
@@ -270,21 +321,21 @@ class OWordControl:
                             self._subs[label] = found
                             return found
                     sub_src.close()
-        raise self._error(f"o{label} call: no subroutine o{label} is defined")
+        raise self._where.error(f"o{label} call: no subroutine o{label} is defined")
 
-    def _return(self, ow: OWord, src: LineSource) -> bool:
+    def _return(self, ow: OWord, src: LineSource, line_start: int) -> bool:
         while self._frames and self._frames[-1][0] != "call":
             self._frames.pop()
         if not self._frames:
             if ow.keyword == "endsub":
-                raise self._error(f"o{ow.label} endsub without a matching o{ow.label} sub")
-            raise self._error(f"o{ow.label} return outside a subroutine")
+                raise self._where.error(f"o{ow.label} endsub without a matching o{ow.label} sub")
+            raise self._where.error(f"o{ow.label} return outside a subroutine")
         if ow.args_pos < len(ow.text):
-            self.params["_value"] = self._argument(ow)
+            self._params["_value"] = self._argument(ow)
         _, _, ret_src, offset, lineno, _file = self._frames.pop()
-        self.params.pop_call()
+        self._params.pop_call()
         ret_src.seek(offset, lineno)
         if ret_src is not src:
-            self._sources.pop()
+            self.sources.pop()
             return True
         return False

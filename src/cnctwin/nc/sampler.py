@@ -467,9 +467,9 @@ def sample_program(
     ------
     ConfigError
         When the samples (kept, then joined: twice their size) would exceed the memory limit
-        (:mod:`cnctwin.config.limits`): the program is too long for one chunk at this cycle.
+        (:mod:`cnctwin.memory`): the program is too long for one chunk at this cycle.
     """
-    from cnctwin.config.limits import check_memory
+    from cnctwin.memory import check_memory
 
     sampler = TrajectorySampler(
         segments,

@@ -16,10 +16,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from cnctwin.config.limits import check_memory
 from cnctwin.errors import NCError
 from cnctwin.geometry import Cutter, DexelStock, Engagement
 from cnctwin.geometry.engagement import cut_path
+from cnctwin.memory import check_memory
 from cnctwin.nc.sampler import AxisLimits, TrajectorySampler
 from cnctwin.nc.segments import MotionKind, Segment
 
@@ -98,7 +98,7 @@ class StepTable:
     row_bytes
         Memory a row costs the computation that fills the table, bytes: the table's own
         8 per column by default, more where the rows feed further arrays. The rows so far
-        times this are checked against the memory limit (:mod:`cnctwin.config.limits`) before
+        times this are checked against the memory limit (:mod:`cnctwin.memory`) before
         each block is kept: the number of positions of a program (its duration over the cycle
         time) is known only once it has been sampled.
     """

@@ -47,8 +47,12 @@ from cnctwin.drives import (
 from cnctwin.errors import ConfigError
 from cnctwin.geometry import Cutter, DexelStock
 from cnctwin.geometry import Engagement as DexelEngagement
-from cnctwin.mechanics import CuttingCoefficients, EndMill, mean_forces, milling_forces
-from cnctwin.mechanics import Engagement as ForceEngagement
+from cnctwin.mechanics import (
+    CuttingCoefficients,
+    ImmersionIntervals,
+    mean_forces,
+    milling_forces,
+)
 from cnctwin.nc.sampler import AxisLimits
 from cnctwin.nc.segments import Segment
 from cnctwin.simulation.cut import CutStep, StepTable, simulate_cut
@@ -57,7 +61,7 @@ __all__ = [
     "SIGNAL_COLUMNS",
     "MachineSignals",
     "StepForces",
-    "force_engagement",
+    "immersion_intervals",
     "simulate_signals",
     "spindle_drive_parameters",
     "step_forces",
@@ -281,16 +285,20 @@ def spindle_drive_parameters(spindle: SpindleConfig) -> SpindleDriveParameters:
     return SpindleDriveParameters(motor, controller)
 
 
-def force_engagement(engagement: DexelEngagement, pitch_z_mm: float) -> ForceEngagement | None:
-    """The force model's engagement (m) of a dexel cut's engagement (mm); None without intervals.
+def immersion_intervals(
+    engagement: DexelEngagement, pitch_z_mm: float
+) -> ImmersionIntervals | None:
+    """The force model's immersion intervals (m) of a dexel cut's engagement (mm); None without
+    intervals.
 
     The dexel engagement gives, per slice with contact, its sampling height ``h`` above the tip
     and the height ``dz`` of tool it stands for: ``[max(h - p/2, 0), max(h - p/2, 0) + dz]``
     with ``p`` the grid's z pitch (:mod:`cnctwin.geometry.engagement`, "Intervals"); its
     intervals are sorted and disjoint within a slice, in ``[0, 2 pi]``. The force model's
-    :class:`~cnctwin.mechanics.Engagement` takes the same slices (a gap between two becomes a
-    slice without contact) and intervals, built here with array operations (what
-    :meth:`~cnctwin.mechanics.Engagement.from_slices` does slice by slice, 30 times slower).
+    :class:`~cnctwin.mechanics.ImmersionIntervals` takes the same slices (a gap between two
+    becomes a slice without contact) and intervals, built here with array operations (what
+    :meth:`~cnctwin.mechanics.ImmersionIntervals.from_slices` does slice by slice, 30 times
+    slower).
 
     Parameters
     ----------
@@ -301,7 +309,7 @@ def force_engagement(engagement: DexelEngagement, pitch_z_mm: float) -> ForceEng
 
     Returns
     -------
-    cnctwin.mechanics.Engagement or None
+    cnctwin.mechanics.ImmersionIntervals or None
         Slices and contact intervals in m and rad; None when the cut has no contact interval
         (no contact, or only the bottom face of the tool cut).
     """
@@ -331,7 +339,7 @@ def force_engagement(engagement: DexelEngagement, pitch_z_mm: float) -> ForceEng
     entry = engagement.interval_start_rad[own_kept]
     exit_ = engagement.interval_end_rad[own_kept]
     order = np.lexsort((entry, owner))
-    return ForceEngagement(
+    return ImmersionIntervals(
         z_bounds_m=bounds * 1e-3,
         offsets=np.concatenate(([0], np.cumsum(counts))),
         entry_rad=entry[order].astype(np.float64),
@@ -341,7 +349,6 @@ def force_engagement(engagement: DexelEngagement, pitch_z_mm: float) -> ForceEng
 
 def step_forces(
     step: CutStep,
-    end_mill: EndMill,
     coefficients: CuttingCoefficients,
     pitch_z_mm: float,
     *,
@@ -352,9 +359,7 @@ def step_forces(
     Parameters
     ----------
     step
-        The step (engagement, feed per tooth in mm, spindle speed in rpm).
-    end_mill
-        The step's tool for the force model (m).
+        The step (cutter, engagement, feed per tooth in mm, spindle speed in rpm).
     coefficients
         Cutting coefficients of the workpiece material (Pa, N/m).
     pitch_z_mm
@@ -375,13 +380,13 @@ def step_forces(
     the dexel engagement's angles; so ``F_X = F_x f_x + F_y n_x``, ``F_Y = F_x f_y + F_y n_y``,
     and ``F_Z = F_z`` for a tool whose axis is machine +Z.
     """
-    cut = force_engagement(step.engagement, pitch_z_mm)
+    cut = immersion_intervals(step.engagement, pitch_z_mm)
     if cut is None:
         return StepForces(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     fz_m = step.feed_per_tooth_mm * 1e-3
     omega = step.spindle_rpm * RAD_S_PER_RPM
-    mean = mean_forces(end_mill, coefficients, cut, fz_m, omega)
-    wave = milling_forces(end_mill, coefficients, cut, fz_m, omega, steps=waveform_steps)
+    mean = mean_forces(step.cutter, coefficients, cut, fz_m, omega)
+    wave = milling_forces(step.cutter, coefficients, cut, fz_m, omega, steps=waveform_steps)
     fx, fy = step.engagement.feed_dir
     nx, ny = -fy, fx
     return StepForces(
@@ -452,25 +457,12 @@ def simulate_signals(
         When the program moves a tool that has no geometry.
     """
     pitch_z = stock.grid.pitch_mm[2]
-    end_mills: dict[Cutter, EndMill] = {}
     index: list[int] = []
     loads: list[tuple[float, ...]] = []
 
     def observe(step: CutStep) -> None:
-        cutter = step.cutter
-        end_mill = end_mills.get(cutter)
-        if end_mill is None:
-            end_mill = end_mills[cutter] = EndMill(
-                diameter_m=cutter.diameter_mm * 1e-3,
-                teeth=cutter.flutes,
-                helix_rad=cutter.helix_rad,
-                kind=cutter.kind,
-                corner_radius_m=cutter.corner_radius_mm * 1e-3,
-                tip_angle_rad=cutter.tip_angle_rad,
-                tip_diameter_m=cutter.tip_diameter_mm * 1e-3,
-            )
         index.append(step.index)
-        loads.append(step_forces(step, end_mill, coefficients, pitch_z).values())
+        loads.append(step_forces(step, coefficients, pitch_z).values())
 
     table = StepTable(row_bytes=_ROW_BYTES)
     for rows in simulate_cut(

@@ -29,10 +29,12 @@ from collections.abc import Callable, Coroutine, Sequence
 from dataclasses import asdict, dataclass
 from types import TracebackType
 from typing import Any
+from urllib.parse import urlsplit, urlunsplit
 
 import numpy as np
 
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import ConfigError, DataError, InputError
+from cnctwin.thread.config import ConnectionConfig
 from cnctwin.thread.connection import MachineConnection
 from cnctwin.thread.signals import COMMANDS
 
@@ -40,6 +42,7 @@ __all__ = [
     "JitterProxy",
     "LatencyResult",
     "LatencyStats",
+    "measure_endpoint_latency",
     "measure_latency",
 ]
 
@@ -360,3 +363,77 @@ class JitterProxy:
             pass
         finally:
             writer.close()
+
+
+def _polling_connection(transport: str, endpoint: str, timeout_s: float) -> MachineConnection:
+    """A connection of ``transport`` (``"opcua"`` or ``"modbus"``) that reads by request."""
+    config = ConnectionConfig(
+        transport=transport,  # type: ignore[arg-type]
+        endpoint=endpoint,
+        timeout_s=timeout_s,
+    )
+    if transport == "opcua":
+        from cnctwin.thread.opcua import OpcUaConnection
+
+        # Reads by request: the round trip measures the protocol, not a subscription's cache.
+        return OpcUaConnection(config, subscription_ms=None)
+    from cnctwin.thread.modbus import ModbusConnection
+
+    return ModbusConnection(config)
+
+
+async def measure_endpoint_latency(
+    transport: str,
+    endpoint: str,
+    *,
+    n: int,
+    interval_s: float,
+    jitter_ms: float = 0.0,
+    seed: int = 0,
+) -> LatencyResult:
+    """Connect to a machine server and measure its write-to-read-back latency.
+
+    Parameters
+    ----------
+    transport
+        ``"opcua"`` or ``"modbus"``; OPC UA reads by request, without a subscription.
+    endpoint
+        ``opc.tcp://HOST:PORT/PATH`` or ``modbus://HOST:PORT``.
+    n
+        Round trips.
+    interval_s
+        Pause between round trips, s.
+    jitter_ms
+        One-way jitter J, ms: with J > 0 every request passes a :class:`JitterProxy` that
+        delays it by U(0, 2J) ms.
+    seed
+        Seed of the jitter.
+
+    Raises
+    ------
+    InputError
+        For a transport other than ``"opcua"`` and ``"modbus"``, or jitter on an endpoint
+        without ``HOST:PORT``.
+    """
+    if transport not in ("opcua", "modbus"):
+        raise InputError(f"transport {transport!r}; valid: opcua, modbus")
+    timeout_s = 2.0 + 4.0 * jitter_ms / 1e3
+
+    async def once(url: str) -> LatencyResult:
+        async with _polling_connection(transport, url, timeout_s) as connection:
+            return await measure_latency(
+                connection,
+                n=n,
+                interval_s=interval_s,
+                timeout_s=timeout_s,
+                jitter_ms=jitter_ms,
+            )
+
+    if jitter_ms <= 0:
+        return await once(endpoint)
+    parts = urlsplit(endpoint)
+    if parts.hostname is None or parts.port is None:
+        raise InputError(f"endpoint {endpoint!r} has no host:port; valid: SCHEME://HOST:PORT")
+    async with JitterProxy(parts.hostname, parts.port, jitter_ms, seed=seed) as proxy:
+        via = parts._replace(netloc=f"{proxy.host}:{proxy.port}")
+        return await once(urlunsplit(via))

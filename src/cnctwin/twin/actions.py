@@ -25,6 +25,7 @@ import asyncio
 import logging
 import math
 import time
+from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -151,12 +152,23 @@ class ActionStage:
         self.decision_count = 0
         self._online = True
         self._anomaly_s: float | None = None
+        self._submitted: deque[Decision] = deque(maxlen=16)
+
+    def submit(self, decision: Decision) -> None:
+        """Queue a decision made outside the rules (an operator on the dashboard) for the
+        next cycle, where it passes the safety filter, the write, the read-back and the
+        record like a rule's. Safe from another thread; at most 16 wait (then the oldest is
+        dropped), and none is kept while the machine is lost."""
+        self._submitted.append(decision)
 
     # ------------------------------------------------------------------ the stage
     async def process(self, state: CycleState) -> CycleState:
         """Filter, write and verify this cycle's decisions; record each with its reason."""
         if not state.connected:
+            self._submitted.clear()
             return state
+        while self._submitted:
+            state.commands.append(self._submitted.popleft())
         if state.predicted.get("force_out_of_band", 0.0) >= 0.5:
             if self._anomaly_s is None:
                 self._anomaly_s = state.received_s

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from cnctwin.config.machining import MachiningConfig
 from cnctwin.errors import ConfigError
 from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
-from cnctwin.mechanics import CuttingCoefficients, EndMill
+from cnctwin.mechanics import CuttingCoefficients
 from cnctwin.simulation.cut import CutStep
 from cnctwin.simulation.signals import StepForces, step_forces
 
@@ -71,17 +71,8 @@ class TwinPhysics:
         except ConfigError as err:
             raise ConfigError(f"material.name: {err}") from None
         self.coefficients: CuttingCoefficients = material.coefficients
+        #: The cutter of every configured tool (geometry and force model), by tool number.
         self.cutters = {tool.number: Cutter.from_tool_config(tool) for tool in config.tools}
-        self._end_mills = {
-            number: EndMill(
-                diameter_m=c.diameter_mm * 1e-3,
-                teeth=c.flutes,
-                helix_rad=c.helix_rad,
-                kind=c.kind,
-                corner_radius_m=c.corner_radius_mm * 1e-3,
-            )
-            for number, c in self.cutters.items()
-        }
         density = config.simulation.density_per_mm if density_per_mm is None else density_per_mm
         self._box = (config.stock.min_mm, config.stock.max_mm)
         self._density = density
@@ -211,7 +202,6 @@ class TwinPhysics:
         )
         return step_forces(
             step,
-            self._end_mills[tool],
             self.coefficients,
             self._pitch_z_mm,
             waveform_steps=self._waveform_steps,

@@ -35,12 +35,15 @@ from cnctwin.virtual.machine import VirtualMachine
 if TYPE_CHECKING:
     from cnctwin.virtual.modbus_server import ModbusMachineServer
     from cnctwin.virtual.opcua_server import OpcUaMachineServer, OpcUaServerSecurity
+    from cnctwin.virtual.spawned import virtual_machine_server
 
-# The servers load asyncua and pymodbus: imported on first use.
+# The servers load asyncua and pymodbus, the child process multiprocessing: imported on
+# first use.
 _LAZY = {
     "ModbusMachineServer": "cnctwin.virtual.modbus_server",
     "OpcUaMachineServer": "cnctwin.virtual.opcua_server",
     "OpcUaServerSecurity": "cnctwin.virtual.opcua_server",
+    "virtual_machine_server": "cnctwin.virtual.spawned",
 }
 
 __all__ = [
@@ -61,6 +64,7 @@ __all__ = [
     "VirtualMachineConfig",
     "WearFault",
     "blank_with_holes",
+    "virtual_machine_server",
 ]
 
 

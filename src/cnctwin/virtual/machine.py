@@ -9,8 +9,8 @@ Each :meth:`VirtualMachine.step` of ``dt`` seconds (the tick):
    Sec. 2.2), which may have holes the twin does not know of (:mod:`cnctwin.virtual.faults`);
 3. the engagement of the cut gives the per-revolution mean cutting forces, torque and power of
    the mechanistic model with the tool's teeth and helix and the material's coefficients
-   (:func:`cnctwin.mechanics.mean_forces` on the engagement of
-   :func:`cnctwin.simulation.signals.force_engagement`, as
+   (:func:`cnctwin.mechanics.mean_forces` on the immersion intervals of
+   :func:`cnctwin.simulation.signals.immersion_intervals`, as
    :func:`cnctwin.simulation.signals.step_forces` does: Altintas 2012 ch. 2, Royandi 2026
    Eq. 8-12);
 4. the cutting torque loads the spindle drive (Christiand 2024, Eq. 10-18,
@@ -44,11 +44,11 @@ from cnctwin.drives import RAD_S_PER_RPM, EventState, SpindleDrive
 from cnctwin.errors import ConfigError, NCError
 from cnctwin.examples import example_file
 from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
-from cnctwin.mechanics import EndMill, mean_forces
+from cnctwin.mechanics import mean_forces
 from cnctwin.mechanics.materials import milling_material
 from cnctwin.nc.interpreter import Interpreter
 from cnctwin.nc.segments import Segment
-from cnctwin.simulation.signals import force_engagement, spindle_drive_parameters
+from cnctwin.simulation.signals import immersion_intervals, spindle_drive_parameters
 from cnctwin.thread.signals import COMMANDS, SIGNALS, RunState
 from cnctwin.virtual._motion import PathFollower
 from cnctwin.virtual.config import HoleFault, VirtualMachineConfig
@@ -82,14 +82,13 @@ _SPINDLE_OFF_RPM = 5.0
 
 
 class _Tool:
-    """A tool's geometry for the cut and the force model (mm and m)."""
+    """A tool's cutter (for the cut and the force model) and its breakage."""
 
-    __slots__ = ("config", "cutter", "end_mill", "broken")
+    __slots__ = ("config", "cutter", "broken")
 
     def __init__(self, config: ToolConfig) -> None:
         self.config = config
         self.cutter = Cutter.from_tool_config(config)
-        self.end_mill = EndMill.from_tool(config)
         #: (lost length, the stub's cutter or None when nothing is left) once broken.
         self.broken: tuple[float, Cutter | None] | None = None
 
@@ -418,7 +417,7 @@ class VirtualMachine:
                 engagement = cut(self._stock, cutter, cut_tcp, self._prev_tcp, fz, dt_s)
                 if engagement.contact:
                     contact = True
-                    fx, fy, fz_n, torque, mean_n = self._mean_load(engagement, tool, fz, rpm)
+                    fx, fy, fz_n, torque, mean_n = self._mean_load(engagement, cutter, fz, rpm)
                     scale = self._faults.load_scale()
                     chatter = self._faults.vibration_n(self._t, mean_n * scale)
                     forces = (
@@ -480,17 +479,15 @@ class VirtualMachine:
         v["feed_mm_min"] = speed_mm_min
 
     def _mean_load(
-        self, engagement: Engagement, tool: _Tool, fz_mm: float, rpm: float
+        self, engagement: Engagement, cutter: Cutter, fz_mm: float, rpm: float
     ) -> tuple[float, float, float, float, float]:
         """Per-revolution mean force on the tool (machine X, Y, Z; N), torque (N m) and force
         magnitude (N) of a cut: :func:`cnctwin.simulation.signals.step_forces` without its peak
         force (Altintas 2012 ch. 2; the tool frame turned by the feed direction)."""
-        cut_engagement = force_engagement(engagement, self._pitch_z)
-        if cut_engagement is None:
+        immersion = immersion_intervals(engagement, self._pitch_z)
+        if immersion is None:
             return (0.0, 0.0, 0.0, 0.0, 0.0)
-        mean = mean_forces(
-            tool.end_mill, self._coefficients, cut_engagement, fz_mm * 1e-3, rpm * RAD_S_PER_RPM
-        )
+        mean = mean_forces(cutter, self._coefficients, immersion, fz_mm * 1e-3, rpm * RAD_S_PER_RPM)
         fx, fy = engagement.feed_dir
         return (
             mean.fx_n * fx - mean.fy_n * fy,
@@ -517,7 +514,14 @@ class VirtualMachine:
         if tool.broken is None or tool.broken[0] != lost:
             remaining = tool.cutter.flute_length_mm - lost
             stub = (
-                replace(tool.cutter, kind="flat", corner_radius_mm=0.0, flute_length_mm=remaining)
+                replace(
+                    tool.cutter,
+                    kind="flat",
+                    flute_length_mm=remaining,
+                    corner_radius_mm=0.0,
+                    tip_diameter_mm=0.0,
+                    tip_angle_rad=0.0,
+                )
                 if remaining > 1e-3
                 else None
             )

@@ -18,8 +18,7 @@ from typing import Annotated, Any, Literal, TypeVar
 from pydantic import Field, ValidationError, model_validator
 
 from cnctwin.config.base import Section
-from cnctwin.config.limits import check_memory
-from cnctwin.config.loading import _describe_validation_error
+from cnctwin.config.loading import describe_validation_error
 from cnctwin.config.machine import MAX_SPINDLE_RPM
 from cnctwin.dynamics.stability import (
     MillingProcess,
@@ -31,6 +30,7 @@ from cnctwin.dynamics.stability import (
 )
 from cnctwin.errors import ConfigError
 from cnctwin.mechanics.coefficients import CuttingCoefficients
+from cnctwin.memory import check_memory
 
 __all__ = [
     "CutSection",
@@ -157,7 +157,7 @@ class LobesSection(Section):
     steps
         Semi-discretization: steps per period, 2 to 10,000, or ``"auto"`` (20 per cycle of
         the highest mode, at least 40). The work of the whole diagram must fit the work
-        limit (:mod:`cnctwin.config.limits`).
+        limit (:mod:`cnctwin.memory`).
     """
 
     method: Literal["zoa", "sdm"] = "zoa"
@@ -279,7 +279,7 @@ class StabilityConfig(Section):
         Raises
         ------
         ConfigError
-            Naming the steps, the matrix and what would fit (:mod:`cnctwin.config.limits`).
+            Naming the steps, the matrix and what would fit (:mod:`cnctwin.memory`).
         """
         if self.lobes.method != "sdm":
             return
@@ -373,4 +373,4 @@ def _validate(model: type[_Model], data: dict[str, Any], source: str) -> _Model:
     try:
         return model.model_validate(data)
     except ValidationError as err:
-        raise ConfigError(_describe_validation_error(err, model), source) from err
+        raise ConfigError(describe_validation_error(err, model), source) from err

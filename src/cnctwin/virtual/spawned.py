@@ -1,0 +1,115 @@
+"""The virtual machine and its server in a child process, as a separate machine would be.
+
+:func:`virtual_machine_server` starts the virtual machine (the packaged demo program, in real
+time on its :class:`~cnctwin.virtual.MachineClock`) behind an OPC UA or Modbus TCP server in a
+spawned child process and yields the server's endpoint on loopback; leaving the context stops
+the child. Used to measure the digital thread (``cnctwin bench latency``,
+benchmarks/bench_opcua_latency.py) without the client and the machine sharing a process.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import multiprocessing
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from multiprocessing.connection import Connection
+
+from cnctwin.errors import CnctwinError, InputError
+
+__all__ = ["TRANSPORTS", "virtual_machine_server"]
+
+#: The protocols the virtual machine serves.
+TRANSPORTS = ("opcua", "modbus")
+_START_TIMEOUT_S = 120.0
+
+
+def _serve_child(transport: str, pipe: Connection) -> None:
+    """Child process: the virtual machine on its clock behind a server, until told to stop."""
+    try:
+        asyncio.run(_serve(transport, pipe))
+    except Exception as err:  # reported to the parent in one line
+        pipe.send(("error", f"virtual machine server failed: {type(err).__name__}: {err}"))
+
+
+async def _serve(transport: str, pipe: Connection) -> None:
+    from cnctwin.virtual import MachineClock, ModbusMachineServer, VirtualMachine
+    from cnctwin.virtual.config import VirtualMachineConfig
+    from cnctwin.virtual.opcua_server import OpcUaMachineServer
+    from cnctwin.virtual.users import UserTable
+
+    logging.getLogger("asyncua").setLevel(logging.ERROR)  # policy-None notices
+    vm = VirtualMachine(VirtualMachineConfig())
+    vm.step(vm.tick_s)  # the first step loads the compiled kernels (~0.5 s): not on the clock
+    server: OpcUaMachineServer | ModbusMachineServer
+    if transport == "opcua":  # on loopback; the bench writes the feed override anonymously
+        server = OpcUaMachineServer(vm, users=UserTable(anonymous="operator"))
+    else:
+        server = ModbusMachineServer(vm)
+    async with server:
+        clock = MachineClock(vm, vm.tick_s)
+        clock.add_listener(server.publish)
+        async with clock:
+            pipe.send(("ready", server.endpoint))
+            await asyncio.get_running_loop().run_in_executor(None, _wait_for_parent, pipe)
+
+
+def _wait_for_parent(pipe: Connection) -> None:
+    try:
+        pipe.recv()
+    except EOFError:  # the parent is gone
+        pass
+
+
+@asynccontextmanager
+async def virtual_machine_server(transport: str) -> AsyncIterator[str]:
+    """Run the virtual machine (demo program, real time) and its server in a child process.
+
+    Parameters
+    ----------
+    transport
+        ``"opcua"`` or ``"modbus"``.
+
+    Yields
+    ------
+    str
+        The server's endpoint on 127.0.0.1.
+
+    Raises
+    ------
+    InputError
+        For a transport other than those of :data:`TRANSPORTS`.
+    CnctwinError
+        When the server does not start within 120 s, or fails.
+    """
+    if transport not in TRANSPORTS:
+        raise InputError(f"transport {transport!r}; valid: {', '.join(TRANSPORTS)}")
+    context = multiprocessing.get_context("spawn")
+    parent, child = context.Pipe()
+    process = context.Process(
+        target=_serve_child, args=(transport, child), name=f"cnctwin-vm-{transport}", daemon=True
+    )
+    process.start()
+    child.close()
+    loop = asyncio.get_running_loop()
+    try:
+        ready = await loop.run_in_executor(None, parent.poll, _START_TIMEOUT_S)
+        if not ready:
+            raise CnctwinError(
+                f"virtual machine {transport} server did not start within {_START_TIMEOUT_S} s"
+            )
+        kind, text = parent.recv()
+        if kind != "ready":
+            raise CnctwinError(text)
+        yield text
+    finally:
+        try:
+            parent.send("stop")
+        except OSError:
+            pass
+        await loop.run_in_executor(None, process.join, 10.0)
+        if process.is_alive():
+            process.terminate()
+            process.join(5.0)
+        parent.close()
