@@ -182,7 +182,8 @@ def accelerance_to_receptance(omega: ArrayLike, accelerance: ArrayLike) -> NDArr
     w = np.asarray(omega, dtype=float)
     if np.any(w <= 0.0):
         raise DataError("accelerance_to_receptance: omega must be > 0 rad/s (drop the 0 bin)")
-    return -np.asarray(accelerance, dtype=complex) / w**2
+    receptance: NDArray[np.complex128] = -np.asarray(accelerance, dtype=complex) / w**2
+    return receptance
 
 
 def force_window(
@@ -271,7 +272,8 @@ def exponential_window(n: int, dt: float, tau: float) -> NDArray[np.float64]:
     """
     if not (tau > 0.0 and np.isfinite(tau)):
         raise DataError(f"exponential window: tau {tau!r} s; give a time constant > 0")
-    return np.exp(-np.arange(n) * dt / tau)
+    window: NDArray[np.float64] = np.exp(-np.arange(n) * dt / tau)
+    return window
 
 
 def window_damping_correction(

@@ -436,7 +436,8 @@ class _Problem:
         d_basis, q, coefficients, _ = self._solve(params)
         half = params.size // 2
         scaled = d_basis * np.concatenate([coefficients[:half], coefficients[:half]])
-        return scaled - q @ (q.T @ scaled)
+        projected: NDArray[np.float64] = scaled - q @ (q.T @ scaled)
+        return projected
 
 
 def _peaks(

@@ -346,7 +346,8 @@ class MillingProcess:
         low = np.clip(starts, self.entry_rad, self.exit_rad)
         high = np.clip(starts + width, self.entry_rad, self.exit_rad)
         total = self._integral(low, high) / width
-        return total.reshape(self.teeth, steps, 2, 2).sum(axis=0)
+        matrices: np.ndarray = total.reshape(self.teeth, steps, 2, 2).sum(axis=0)
+        return matrices
 
     def mean_matrix(self) -> np.ndarray:
         """Mean directional matrix ``H0 = N / (2 pi) int_entry^exit M(phi) dphi`` in N/m^2.
@@ -354,7 +355,8 @@ class MillingProcess:
         Equal to Altintas & Budak's ``N Kt / (4 pi) [alpha]`` (Altintas 2012, Eq. 3.53).
         """
         integral = self._integral(np.array([self.entry_rad]), np.array([self.exit_rad]))[0]
-        return self.teeth / _TWO_PI * integral
+        mean: np.ndarray = self.teeth / _TWO_PI * integral
+        return mean
 
     def spindle_rad_s(self, delay_s: np.ndarray | float) -> np.ndarray:
         """Spindle speed in rad/s whose tooth period is ``delay_s``."""

@@ -27,7 +27,8 @@ class Family(NamedTuple):
     """The packed arrays of one ray family (see :mod:`cnctwin.geometry.dexel`, "Layout")."""
 
     #: int32 (n_rays,): number of intervals of each ray.
-    count: np.ndarray
+    # The field shadows tuple.count (a method); the kernels and dexel.py read it by this name.
+    count: np.ndarray  # type: ignore[assignment]
     #: int32 (n_rays,): the ray's first row.
     start: np.ndarray
     #: int32 (n_rays,): the capacity of the ray's block, rows.
@@ -159,7 +160,7 @@ def subtract_interval(r, fa, fb, hint, family):
         j += 1
     right_hi = rows[_u(base + j), 1]
     keep_right = right_hi > fb
-    removed = 0.0
+    removed = np.float64(0.0)
     for q in range(i, j + 1):
         removed += np.float64(min(rows[_u(base + q), 1], fb)) - np.float64(
             max(rows[_u(base + q), 0], fa)

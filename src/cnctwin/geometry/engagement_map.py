@@ -375,14 +375,18 @@ class EngagementMap:
         locations = 0
         for chunk in sampler:
             locations += chunk.t_s.size
+
+            def remedy(fraction: float, n: int = locations) -> str:
+                return (
+                    f"at most {n * fraction:.3g} locations fit: use a step of at least "
+                    f"{step_mm / fraction:.3g} mm or a shorter program"
+                )
+
             check_memory(
                 f"an engagement map {step_mm:g} mm a location is more than {locations:.3g} "
                 "locations",
                 float(locations) * _LOCATION_BYTES,
-                lambda fraction, n=locations: (
-                    f"at most {n * fraction:.3g} locations fit: use a step of at least "
-                    f"{step_mm / fraction:.3g} mm or a shorter program"
-                ),
+                remedy,
             )
             writer.add_path(chunk.t_s * step_mm, chunk.tcp_mm)
             for i in range(chunk.t_s.size):
@@ -883,7 +887,9 @@ def _first_run(pieces: np.ndarray, dist: np.ndarray, pick: np.ndarray, tie: floa
 
 
 @njit(cache=True)
-def _piece_distance(points, joined, j, lo, x, y, z):  # pragma: no cover - numba
+def _piece_distance(
+    points: np.ndarray, joined: np.ndarray, j: int, lo: float, x: float, y: float, z: float
+) -> tuple[float, float]:  # pragma: no cover - numba
     """(distance, fraction) from (x, y, z) to piece j: the segment from location j to j + 1
     from fraction ``lo`` on, or location j alone when it does not join the next."""
     ax = points[j, 0]
@@ -906,12 +912,22 @@ def _piece_distance(points, joined, j, lo, x, y, z):  # pragma: no cover - numba
 
 
 @njit(cache=True)
-def _window_match(points, s, joined, x, y, z, hint, s_end, tie):  # pragma: no cover - numba
+def _window_match(
+    points: np.ndarray,
+    s: np.ndarray,
+    joined: np.ndarray,
+    x: float,
+    y: float,
+    z: float,
+    hint: float,
+    s_end: float,
+    tie: float,
+) -> tuple[int, float, float]:  # pragma: no cover - numba
     """Best (piece, fraction, distance) in the window from path parameter ``hint`` (never
     before it) to the last piece starting at or before ``s_end``: the nearest point of the
     first run of consecutive pieces whose distance is within ``tie`` of the window's smallest."""
     n = points.shape[0]
-    j0 = np.searchsorted(s, hint, side="right") - 1
+    j0 = int(np.searchsorted(s, hint, side="right")) - 1
     u0 = 0.0
     if j0 < 0:
         j0 = 0
@@ -946,7 +962,16 @@ def _window_match(points, s, joined, x, y, z, hint, s_end, tie):  # pragma: no c
 
 
 @njit(cache=True)
-def _piece_distances(points, joined, pieces, x, y, z, dist, frac):  # pragma: no cover - numba
+def _piece_distances(
+    points: np.ndarray,
+    joined: np.ndarray,
+    pieces: np.ndarray,
+    x: float,
+    y: float,
+    z: float,
+    dist: np.ndarray,
+    frac: np.ndarray,
+) -> None:  # pragma: no cover - numba
     """Distances and fractions of the given pieces (see :func:`_piece_distance`)."""
     for k in range(pieces.size):
         dist[k], frac[k] = _piece_distance(points, joined, pieces[k], 0.0, x, y, z)
@@ -954,21 +979,21 @@ def _piece_distances(points, joined, pieces, x, y, z, dist, frac):  # pragma: no
 
 @njit(cache=True)
 def _bands(
-    height,
-    dz,
-    iv_slice,
-    iv_start,
-    iv_end,
-    pz,
-    flute_length,
-    band_mm,
-    lo,
-    hi,
-    ptr,
-    starts,
-    ends,
-    hull,
-):  # pragma: no cover - numba
+    height: np.ndarray,
+    dz: np.ndarray,
+    iv_slice: np.ndarray,
+    iv_start: np.ndarray,
+    iv_end: np.ndarray,
+    pz: float,
+    flute_length: float,
+    band_mm: float,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    ptr: np.ndarray,
+    starts: np.ndarray,
+    ends: np.ndarray,
+    hull: np.ndarray,
+) -> tuple[int, int]:  # pragma: no cover - numba
     """Merge an engagement's slices into bands; returns (bands, intervals).
 
     Slice k of :func:`cnctwin.geometry.cut` samples the envelope at ``height[k]`` above the tip

@@ -23,8 +23,10 @@ __all__ = ["stock_mesh", "mesh_volume_mm3"]
 
 
 @njit(cache=True)
-def _intervals(count, start, rows, ray, out):  # pragma: no cover - numba
-    n = count[ray]
+def _intervals(
+    count: np.ndarray, start: np.ndarray, rows: np.ndarray, ray: int, out: np.ndarray
+) -> int:  # pragma: no cover - numba
+    n: int = count[ray]
     first = start[ray]
     for k in range(n):
         out[k, 0] = rows[first + k, 0]
@@ -33,7 +35,9 @@ def _intervals(count, start, rows, ray, out):  # pragma: no cover - numba
 
 
 @njit(cache=True)
-def _difference(a, na, b, nb, out):  # pragma: no cover - numba
+def _difference(
+    a: np.ndarray, na: int, b: np.ndarray, nb: int, out: np.ndarray
+) -> int:  # pragma: no cover - numba
     """Parts of the sorted intervals a[:na] not covered by b[:nb]; returns how many."""
     m = 0
     j = 0
@@ -62,7 +66,9 @@ def _difference(a, na, b, nb, out):  # pragma: no cover - numba
 
 
 @njit(cache=True)
-def _quad(tris, t, p0, p1, p2, p3):  # pragma: no cover - numba
+def _quad(
+    tris: np.ndarray, t: int, p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray
+) -> int:  # pragma: no cover - numba
     """Two triangles (p0, p1, p2) and (p0, p2, p3); counter-clockwise seen from outside."""
     for c in range(3):
         tris[t, 0, c] = p0[c]
@@ -75,7 +81,20 @@ def _quad(tris, t, p0, p1, p2, p3):  # pragma: no cover - numba
 
 
 @njit(cache=True)
-def _build(count, start, rows, nx, ny, px, py, ox, oy, oz, tris, emit):  # pragma: no cover
+def _build(
+    count: np.ndarray,
+    start: np.ndarray,
+    rows: np.ndarray,
+    nx: int,
+    ny: int,
+    px: float,
+    py: float,
+    ox: float,
+    oy: float,
+    oz: float,
+    tris: np.ndarray,
+    emit: bool,
+) -> int:  # pragma: no cover
     """Emit the mesh's triangles into ``tris`` (or only count them when ``emit`` is False)."""
     maxn = 1
     for r in range(count.size):

@@ -66,13 +66,15 @@ class CoefficientFit:
     @property
     def residuals_n(self) -> np.ndarray:
         """Measured minus predicted mean forces in N, shape (n, 3)."""
-        return self.measured_n - self.predicted_n
+        residuals: np.ndarray = self.measured_n - self.predicted_n
+        return residuals
 
     @property
     def relative_residuals(self) -> np.ndarray:
         """Residuals divided by the measured magnitudes (a fraction), shape (n, 3)."""
         with np.errstate(divide="ignore", invalid="ignore"):
-            return self.residuals_n / np.abs(self.measured_n)
+            relative: np.ndarray = self.residuals_n / np.abs(self.measured_n)
+        return relative
 
 
 def identify_coefficients(

@@ -103,7 +103,8 @@ class ForceWaveform:
     @property
     def resultant_n(self) -> np.ndarray:
         """Magnitude of the force vector in N at each angle."""
-        return np.sqrt(self.fx_n**2 + self.fy_n**2 + self.fz_n**2)
+        resultant: np.ndarray = np.sqrt(self.fx_n**2 + self.fy_n**2 + self.fz_n**2)
+        return resultant
 
     def mean(self) -> MeanForces:
         """Per-revolution means (the average of the uniformly spaced samples)."""

@@ -356,7 +356,8 @@ def _junction_speed(
 def _target(geo: np.ndarray, j: int, feed_ov: float, rapid_ov: float) -> float:
     """Target path speed of segment j in mm/s under the given overrides."""
     ov = rapid_ov if int(geo[j, G_KIND]) == KIND_RAPID else feed_ov
-    return min(geo[j, G_SPEED] * ov, geo[j, G_VCAP])
+    speed: float = min(geo[j, G_SPEED] * ov, geo[j, G_VCAP])
+    return speed
 
 
 @njit(cache=True)

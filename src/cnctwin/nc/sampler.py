@@ -485,14 +485,18 @@ def sample_program(
     for chunk in sampler:
         samples += chunk.t_s.size
         nbytes += sum(part.nbytes for part in chunk)
+
+        def remedy(fraction: float, n: int = samples) -> str:
+            return (
+                f"at most {n * fraction:.3g} samples fit: iterate a TrajectorySampler, or use "
+                "a longer cycle time or a shorter program"
+            )
+
         check_memory(
             f"sampling the program at {cycle_s:g} s into one chunk is more than {samples:.3g} "
             "samples",
             2.0 * nbytes,
-            lambda fraction, n=samples: (
-                f"at most {n * fraction:.3g} samples fit: iterate a TrajectorySampler, or use "
-                "a longer cycle time or a shorter program"
-            ),
+            remedy,
         )
         chunks.append(chunk)
     if not chunks:

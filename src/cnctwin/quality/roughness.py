@@ -208,7 +208,8 @@ class PowerLawModel:
                 bad = float(x[~(np.isfinite(x) & (x > 0))].flat[0])
                 raise DataError(f"'{name}' is {bad!r}; the power law needs finite values > 0")
             log_y = log_y + exponent * np.log(x)
-        return np.exp(log_y)
+        roughness: NDArray[np.float64] = np.exp(log_y)
+        return roughness
 
 
 @dataclass(frozen=True, slots=True)
@@ -451,7 +452,8 @@ def _dish_tangent(dish_angle_rad: ArrayLike) -> NDArray[np.float64]:
     angle = np.asarray(dish_angle_rad, dtype=float)
     if not np.all(np.isfinite(angle) & (angle >= 0) & (angle < 0.5 * math.pi)):
         raise ConfigError(f"dish_angle_rad={dish_angle_rad!r}; give 0 <= angle < pi/2 rad")
-    return np.tan(angle)
+    tangent: NDArray[np.float64] = np.tan(angle)
+    return tangent
 
 
 def flat_end_mill_rt(feed_per_tooth_m: ArrayLike, dish_angle_rad: ArrayLike) -> FloatOrArray:

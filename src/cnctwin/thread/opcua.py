@@ -25,10 +25,14 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from asyncua import Client, Node, ua
+from asyncua import ua
+from asyncua.client.client import Client
 from asyncua.client.ua_client import UaClientState
+from asyncua.common.node import Node
 from asyncua.common.subscription import DataChangeNotif, Subscription
 from asyncua.crypto import security_policies
+from asyncua.ua.attribute_ids import AttributeIds
+from asyncua.ua.uaerrors import UaError, UaStatusCodeError
 
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.thread.config import ConnectionConfig, OpcUaSecurityConfig
@@ -207,7 +211,7 @@ class OpcUaConnection(MachineConnection):
             # on a new secure channel, TransferSubscriptions and Republish of the missed
             # notifications; a new session only when the server refuses (Part 4, 6.7)
             await client.connect(auto_reconnect=True, reconnect_max_delay=self.backoff.max_s)
-        except ua.UaError as err:
+        except UaError as err:
             raise ConnectionLost(f"{self.endpoint} refused the session: {err}") from err
         client.connection_lost_callback = self._link_lost
         self._token = client.uaclient.session.authentication_token
@@ -220,14 +224,14 @@ class OpcUaConnection(MachineConnection):
         params = ua.ReadParameters()
         params.TimestampsToReturn = ua.TimestampsToReturn.Both
         params.NodesToRead = [
-            ua.ReadValueId(NodeId=t.node_id, AttributeId=ua.AttributeIds.Value)
+            ua.ReadValueId(NodeId=t.node_id, AttributeId=AttributeIds.Value)
             for t in self._targets.values()
         ]
         self._read_params = params
         if self.subscription_ms is not None:
             try:
                 self._cache = await self._subscribe(client, self.subscription_ms)
-            except ua.UaStatusCodeError as err:  # the server offers no (more) subscriptions
+            except UaStatusCodeError as err:  # the server offers no (more) subscriptions
                 logger.warning(
                     "no subscription at %s (%s): reading with one Read request per cycle",
                     self.endpoint,
@@ -260,7 +264,7 @@ class OpcUaConnection(MachineConnection):
         else:
             try:
                 results = await client.uaclient.read(params)
-            except ua.UaError as err:
+            except UaError as err:
                 raise ConnectionLost(f"read at {self.endpoint}: {err}") from err
             received = now_s()
         values: dict[str, float] = {}
@@ -364,12 +368,10 @@ class OpcUaConnection(MachineConnection):
     async def _read_node(self, client: Client, name: str, target: _Target) -> ua.DataValue:
         params = ua.ReadParameters()
         params.TimestampsToReturn = ua.TimestampsToReturn.Both
-        params.NodesToRead = [
-            ua.ReadValueId(NodeId=target.node_id, AttributeId=ua.AttributeIds.Value)
-        ]
+        params.NodesToRead = [ua.ReadValueId(NodeId=target.node_id, AttributeId=AttributeIds.Value)]
         try:
             (result,) = await client.uaclient.read(params)
-        except ua.UaError as err:
+        except UaError as err:
             raise ConnectionLost(f"read of {name} at {self.endpoint}: {err}") from err
         return result
 
@@ -389,13 +391,13 @@ class OpcUaConnection(MachineConnection):
         params.NodesToWrite = [
             ua.WriteValue(
                 NodeId=target.node_id,
-                AttributeId=ua.AttributeIds.Value,
+                AttributeId=AttributeIds.Value,
                 Value=ua.DataValue(Value=variant),
             )
         ]
         try:
             (status,) = await client.uaclient.write(params)
-        except ua.UaError as err:
+        except UaError as err:
             raise ConnectionLost(f"write of {name} at {self.endpoint}: {err}") from err
         if not status.is_good():
             raise CommandRejected(
@@ -455,7 +457,7 @@ class OpcUaConnection(MachineConnection):
                 server_certificate=server_cert,
                 mode=mode,
             )
-        except ua.UaError as err:
+        except UaError as err:
             raise ConnectionLost(f"security setup with {self.endpoint}: {err}") from err
 
     async def _subscribe(self, client: Client, interval_ms: float) -> _Cache:
@@ -519,7 +521,7 @@ class OpcUaConnection(MachineConnection):
             else:
                 try:
                     node = await client.nodes.objects.get_child(address.split("/"))
-                except ua.UaStatusCodeError as err:
+                except UaStatusCodeError as err:
                     raise ConfigError(
                         f"[connection] mapping of {name!r}: browse path {address!r} not found "
                         f"below Objects at {self.endpoint} ({err}); valid: 'ns=2;s=...' or "
@@ -579,7 +581,7 @@ def _is_node_id(address: str) -> bool:
 def _parse_node_id(name: str, address: str) -> ua.NodeId:
     try:
         return ua.NodeId.from_string(address)
-    except (ValueError, ua.UaError) as err:
+    except (ValueError, UaError) as err:
         raise ConfigError(
             f"[connection] mapping of {name!r}: {address!r} is not a NodeId ({err}); "
             "valid: 'ns=2;s=Machine.X' or a browse path '2:Machines/2:Machine/...'"

@@ -111,7 +111,7 @@ class TrustList:
                 "%s certificate %s refused: %s (trust folder %s)",
                 self.peer,
                 certificate.subject.rfc4514_string(),
-                ua.StatusCode(err.code).name,
+                ua.StatusCode(ua.UInt32(err.code)).name,
                 self.folder,
             )
             raise
