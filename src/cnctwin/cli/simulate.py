@@ -59,6 +59,7 @@ def simulate_report(
     created) and return the summary (:meth:`~cnctwin.simulation.ProgramCut.summary`).
     ``progress_bar`` shows a progress bar on stderr."""
     from cnctwin.geometry.mesh import stock_mesh
+    from cnctwin.geometry.stl import write_stl
     from cnctwin.simulation import COLUMNS, simulate_program
 
     with progress("simulating", progress_bar) as on_chunk:
@@ -74,25 +75,9 @@ def simulate_report(
             data = np.column_stack([cut.table.column(name) for name in COLUMNS])
             for row in data:
                 writer.writerow([f"{v:.6g}" for v in row])
-        _write_stl(out / "stock.stl", stock_mesh(cut.stock), program.name)
+        write_stl(out / "stock.stl", stock_mesh(cut.stock), f"cnctwin stock after {program.name}")
         (out / "summary.json").write_text(finite_json.dumps(report, indent=2) + "\n")
     return report
-
-
-def _write_stl(path: Path, triangles: np.ndarray, name: str) -> None:
-    """Binary STL: 80-byte header, triangle count, then normal, 3 vertices, attribute."""
-    tri = np.asarray(triangles, dtype=np.float32)
-    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
-    normals = np.divide(normals, lengths, out=np.zeros_like(normals), where=lengths > 0)
-    record = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
-    data = np.zeros(len(tri), dtype=record)
-    data["n"] = normals
-    data["v"] = tri
-    with path.open("wb") as handle:
-        handle.write(f"cnctwin stock after {name}"[:80].ljust(80).encode("ascii", "replace"))
-        handle.write(np.uint32(len(tri)).tobytes())
-        handle.write(data.tobytes())
 
 
 def simulate(
