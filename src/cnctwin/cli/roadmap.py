@@ -25,6 +25,7 @@ from rich.table import Table
 from cnctwin import finite_json
 from cnctwin.cli.stability import parse_rpm_range
 from cnctwin.errors import CnctwinError, ConfigError, InputError, NCError
+from cnctwin.report import check_report_path
 
 if TYPE_CHECKING:
     from cnctwin.config import MachiningConfig
@@ -248,6 +249,10 @@ def roadmap(
         Path | None, typer.Option("--plot", help="Write the roadmap and lobes to this PNG.")
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+    html: Annotated[
+        Path | None,
+        typer.Option("--report", help="Write a self-contained HTML report (interactive plots)."),
+    ] = None,
 ) -> None:
     """Stability roadmap: stable spindle speeds per program segment and a speed schedule.
 
@@ -260,6 +265,8 @@ def roadmap(
 
     if not (math.isfinite(margin) and 1.0 <= margin <= MAX_MARGIN):
         raise InputError(f"--margin {margin!r}; give a factor >= 1 and <= {MAX_MARGIN:g}")
+    if html is not None:
+        check_report_path(html)
     overrides: dict[str, dict[str, Any]] = {}
     if method is not None:
         if method not in ("zoa", "sdm"):
@@ -273,6 +280,10 @@ def roadmap(
     )  # fmt: skip
     if plot is not None:
         _plot(plot, result, program.name)
+    if html is not None:
+        from cnctwin.report.stability import roadmap_report as write_roadmap_report
+
+        write_roadmap_report(html, report, result, program.name)
     if as_json:
         sys.stdout.write(finite_json.dumps(report) + "\n")
         return

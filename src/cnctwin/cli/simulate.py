@@ -22,6 +22,7 @@ from cnctwin.config.simulation import (
     MIN_DENSITY_PER_MM,
 )
 from cnctwin.errors import InputError
+from cnctwin.report import check_report_path
 
 __all__ = ["resolution", "simulate", "simulate_report"]
 
@@ -53,11 +54,13 @@ def simulate_report(
     cycle_s: float,
     out: Path | None = None,
     progress_bar: bool = False,
+    html: Path | None = None,
 ) -> dict[str, Any]:
     """Run the program through the stock (:func:`~cnctwin.simulation.simulate_program`),
     write the outputs to ``out`` (``engagement.csv``, ``stock.stl``, ``summary.json``;
     created) and return the summary (:meth:`~cnctwin.simulation.ProgramCut.summary`).
-    ``progress_bar`` shows a progress bar on stderr."""
+    ``progress_bar`` shows a progress bar on stderr; ``html`` is the file of the HTML report
+    (:func:`~cnctwin.report.simulation.simulation_report`)."""
     from cnctwin.geometry.mesh import stock_mesh
     from cnctwin.geometry.stl import write_stl
     from cnctwin.simulation import COLUMNS, simulate_program
@@ -77,6 +80,10 @@ def simulate_report(
                 writer.writerow([f"{v:.6g}" for v in row])
         write_stl(out / "stock.stl", stock_mesh(cut.stock), f"cnctwin stock after {program.name}")
         (out / "summary.json").write_text(finite_json.dumps(report, indent=2) + "\n")
+    if html is not None:
+        from cnctwin.report.simulation import simulation_report
+
+        simulation_report(html, report, cut.table, cut.stock)
     return report
 
 
@@ -95,8 +102,14 @@ def simulate(
     cycle_ms: Annotated[
         float | None, typer.Option("--cycle-ms", help="Cycle time in ms (overrides the config).")
     ] = None,
+    html: Annotated[
+        Path | None,
+        typer.Option("--report", help="Write a self-contained HTML report (interactive plots)."),
+    ] = None,
 ) -> None:
     """Cut the stock along a program: engagement per step, removed volume, final stock."""
+    if html is not None:
+        check_report_path(html)
     settings = load_config(config)
     rho, cycle_s = resolution(settings, density, cycle_ms)
     report = simulate_report(
@@ -106,6 +119,7 @@ def simulate(
         cycle_s=cycle_s,
         out=out,
         progress_bar=not as_json and sys.stderr.isatty(),
+        html=html,
     )
     if as_json:
         sys.stdout.write(finite_json.dumps(report) + "\n")

@@ -25,6 +25,7 @@ from rich.table import Table
 from cnctwin import finite_json
 from cnctwin.cli._options import check_number
 from cnctwin.errors import InputError
+from cnctwin.report import check_report_path
 
 __all__ = ["app", "lobes", "lobes_report", "parse_rpm_list", "parse_rpm_range"]
 
@@ -221,6 +222,10 @@ def lobes(
         Path | None, typer.Option("--plot", help="Write the lobe diagram to this PNG file.")
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+    html: Annotated[
+        Path | None,
+        typer.Option("--report", help="Write a self-contained HTML report (interactive plot)."),
+    ] = None,
     high_rpm: Annotated[
         list[str] | None, typer.Argument(hidden=True, help="HIGH of --rpm LOW HIGH.")
     ] = None,
@@ -239,6 +244,8 @@ def lobes(
     path = config if config is not None else modes_file
     if path is None or (config is not None and modes_file is not None):
         raise InputError("give either --config FILE or --modes-file FILE")
+    if html is not None:
+        check_report_path(html)
     span, speeds = _speeds(rpm, rpm_range, points, high_rpm or [])
     overrides = _overrides(
         immersion=immersion,
@@ -257,6 +264,10 @@ def lobes(
     report = lobes_report(settings, speeds)
     if plot is not None:
         _plot(plot, report, path.stem)
+    if html is not None:
+        from cnctwin.report.stability import lobes_report as write_lobes_report
+
+        write_lobes_report(html, report, path.stem)
     if as_json:
         sys.stdout.write(finite_json.dumps(report) + "\n")
         return

@@ -16,6 +16,7 @@ from rich.table import Table
 from cnctwin import finite_json
 from cnctwin.cli._options import check_count
 from cnctwin.errors import InputError
+from cnctwin.report import check_report_path
 
 __all__ = ["app", "dexel", "dexel_report"]
 
@@ -31,7 +32,12 @@ def _study() -> None:
 
 
 def dexel_report(
-    out: Path, *, quick: bool = False, workers: int | None = None, progress: bool = False
+    out: Path,
+    *,
+    quick: bool = False,
+    workers: int | None = None,
+    progress: bool = False,
+    html: Path | None = None,
 ) -> dict[str, Any]:
     """Run the dexel study, write its outputs into ``out`` and return the summary.
 
@@ -46,6 +52,8 @@ def dexel_report(
         Processes, >= 1; ``None`` for the number of CPUs.
     progress
         Show a progress bar on stderr.
+    html
+        File of the HTML report (:func:`~cnctwin.report.study.dexel_study_report`), or None.
 
     Returns
     -------
@@ -59,6 +67,8 @@ def dexel_report(
     check_count("--workers", n, 1, MAX_WORKERS, unit="processes")
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: not a folder; give a folder for the results")
+    if html is not None:
+        check_report_path(html)
     study = DexelStudy.quick() if quick else DexelStudy.paper()
     started = time.perf_counter()
     if progress:
@@ -75,7 +85,12 @@ def dexel_report(
     else:
         results = run_study(study, workers=n)
     wall = time.perf_counter() - started
-    return write_outputs(out, study, results, workers=n, wall_s=wall)
+    summary = write_outputs(out, study, results, workers=n, wall_s=wall)
+    if html is not None:
+        from cnctwin.report.study import dexel_study_report
+
+        dexel_study_report(html, summary, study, results)
+    return summary
 
 
 def dexel(
@@ -91,10 +106,14 @@ def dexel(
         typer.Option("--workers", help="Parallel processes (default: the number of CPUs)."),
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print summary.json to stdout.")] = False,
+    html: Annotated[
+        Path | None,
+        typer.Option("--report", help="Write a self-contained HTML report (interactive maps)."),
+    ] = None,
 ) -> None:
     """Heide 2025's dexel density x cycle time study: accuracy, runtime, score, optimum."""
     summary = dexel_report(
-        out, quick=quick, workers=workers, progress=not as_json and sys.stderr.isatty()
+        out, quick=quick, workers=workers, progress=not as_json and sys.stderr.isatty(), html=html
     )
     if as_json:
         sys.stdout.write(finite_json.dumps(summary) + "\n")

@@ -17,6 +17,7 @@ from cnctwin import finite_json
 from cnctwin.cli._options import MAX_SEED, check_count, check_number
 from cnctwin.errors import DataError
 from cnctwin.measurements import read_torque_csv
+from cnctwin.report import check_report_path
 from cnctwin.wear.ekf import CHRISTIAND2024, EKFPreset
 from cnctwin.wear.stages import StageMonitor
 from cnctwin.wear.torque_series import (
@@ -127,9 +128,15 @@ def ekf(
     ] = None,
     plot: Annotated[Path | None, typer.Option("--plot", help="Draw the estimate to a PNG.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+    html: Annotated[
+        Path | None,
+        typer.Option("--report", help="Write a self-contained HTML report (interactive plots)."),
+    ] = None,
 ) -> None:
     """Estimate flank wear from spindle torque with the EKF of Christiand 2024."""
     check_count("--seed", seed, 0, MAX_SEED)
+    if html is not None:
+        check_report_path(html)
     check_number("--vb0-mm", vb0_mm, 0.0, MAX_WEAR_MM, low_open=True, unit="mm")
     for value in stages_mm:
         check_number("--stages-mm", value, 0.0, MAX_WEAR_MM, low_open=True, unit="mm")
@@ -154,6 +161,10 @@ def ekf(
         _write_estimate(out, series, run)
     if plot is not None:
         _plot(plot, series, run, stages)
+    if html is not None:
+        from cnctwin.report.wear import wear_ekf_report
+
+        wear_ekf_report(html, report, series, run, stages)
     if as_json:
         sys.stdout.write(finite_json.dumps(report) + "\n")
         return

@@ -6,7 +6,7 @@ lobes|roadmap`` and ``cnctwin wear ekf`` writes one file holding plotly.js (from
 (docs/reports.md). Each module imports plotly only when a report is written.
 """
 
-from cnctwin.report.document import Report
+from cnctwin.report.document import Report, check_report_path
 from cnctwin.report.downsample import Downsampled, minmax_buckets
 
-__all__ = ["Downsampled", "Report", "minmax_buckets"]
+__all__ = ["Downsampled", "Report", "check_report_path", "minmax_buckets"]

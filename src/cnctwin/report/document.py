@@ -10,17 +10,19 @@ from __future__ import annotations
 
 import html
 import math
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from cnctwin import __version__, finite_json
+from cnctwin.errors import InputError
 
 if TYPE_CHECKING:
     import plotly.graph_objects as go
 
-__all__ = ["Report", "scalar_rows"]
+__all__ = ["Report", "check_report_path", "scalar_rows"]
 
 #: Rows of the key-figure table at most (long lists stay in the embedded JSON).
 MAX_ROWS = 60
@@ -36,6 +38,38 @@ table.figures td { padding: 2px 10px; border-bottom: 1px solid #eee; }
 table.figures td.v { text-align: right; font-variant-numeric: tabular-nums; }
 div.plot { height: 480px; margin: 0.5em 0 1em; }
 """
+
+
+def check_report_path(path: Path, option: str = "--report") -> Path:
+    """``path`` if an HTML report can be written there, checked before any work is done.
+
+    The folder must exist and the path must not be a folder; a file that does not exist yet
+    is created and removed again, so a folder that refuses new files (read-only, no
+    permission) is found even where permission bits do not tell (root).
+
+    Raises
+    ------
+    InputError
+        Naming ``option``, the path and what would be valid.
+    """
+    if path.is_dir():
+        raise InputError(f"{option} {path}: is a folder; give a file name, e.g. report.html")
+    folder = path.parent
+    if not folder.is_dir():
+        raise InputError(f"{option} {path}: folder {folder} does not exist; create it first")
+    try:
+        if path.exists():
+            if not os.access(path, os.W_OK):
+                raise PermissionError(13, "Permission denied")
+        else:
+            with path.open("x", encoding="utf-8"):
+                pass
+            path.unlink()
+    except OSError as err:
+        raise InputError(
+            f"{option} {path}: cannot write there ({err.strerror or err}); give a writable file"
+        ) from None
+    return path
 
 
 def _text(value: Any) -> str:
@@ -134,6 +168,18 @@ class Report:
         )
 
     def write(self, path: Path) -> Path:
-        """Write the page to ``path`` (UTF-8) and return the path."""
-        path.write_text(self.render(), encoding="utf-8")
+        """Write the page to ``path`` (UTF-8) and return the path.
+
+        Raises
+        ------
+        InputError
+            When the file cannot be written (a one-line message naming it).
+        """
+        text = self.render()
+        try:
+            path.write_text(text, encoding="utf-8")
+        except OSError as err:
+            raise InputError(
+                f"--report {path}: cannot write the report ({err.strerror or err})"
+            ) from None
         return path

@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 
 from cnctwin.geometry import DexelStock
-from cnctwin.process.simulation import StepTable
 from cnctwin.report.document import Report
 from cnctwin.report.downsample import minmax_buckets
+from cnctwin.simulation import StepTable
 
 __all__ = ["simulation_report"]
 
@@ -39,7 +39,7 @@ def simulation_report(
     result
         The command's JSON result (``cnctwin simulate --json``).
     table
-        The simulation's steps (:class:`~cnctwin.process.simulation.StepTable`; times in s).
+        The simulation's steps (:class:`~cnctwin.simulation.cut.StepTable`; times in s).
     stock
         The stock after the program.
     """

@@ -12,7 +12,7 @@ import numpy as np
 from cnctwin.report.document import Report
 
 if TYPE_CHECKING:
-    from cnctwin.dynamics.roadmap import StabilityRoadmap
+    from cnctwin.dynamics import StabilityRoadmap
 
 __all__ = ["lobes_report", "roadmap_report"]
 
@@ -145,6 +145,7 @@ def roadmap_report(
                 zmin=0,
                 zmax=1,
                 showscale=False,
+                name=f"#{seg.lobes}",
                 hoverinfo="skip",
             )  # fmt: skip
         )
@@ -176,11 +177,18 @@ def roadmap_report(
             )
     road.update_layout(xaxis_title="path length s [mm]", yaxis_title="spindle speed [rpm]")
     report.figure(road)
-    report.section("Lobes per engagement", "x: programmed speed and depth of each segment.")
+    report.section(
+        "Lobes per engagement",
+        "#i: the i-th engagement of the JSON result; x: programmed speed and depth of each "
+        "segment.",
+    )
     lobes = go.Figure()
     for index in sorted({seg.lobes for seg in segments}):
         lobe = roadmap.lobes[index]
-        label = f"{math.degrees(lobe.entry_rad):.0f}-{math.degrees(lobe.exit_rad):.0f} deg"
+        label = (
+            f"#{index}: {math.degrees(lobe.entry_rad):.0f}-"
+            f"{math.degrees(lobe.exit_rad):.0f} deg, {lobe.teeth} teeth"
+        )
         depth = np.where(np.isfinite(lobe.critical_depth_mm), lobe.critical_depth_mm, np.nan)
         lobes.add_trace(go.Scatter(x=grid, y=depth, mode="lines", name=label))
         mine = [seg for seg in segments if seg.lobes == index]
