@@ -7,7 +7,6 @@ output is the model file that ``predict --model`` reads. Guide: docs/roughness.m
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from pathlib import Path
@@ -18,11 +17,12 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.errors import CnctwinError, DataError
+from cnctwin.errors import DataError
 from cnctwin.measurements import read_columns
-from cnctwin.quality import PowerLawFit, PowerLawModel, fit_power_law
+from cnctwin.quality import PowerLawFit, fit_power_law
+from cnctwin.quality.roughness import read_power_law_model
 
-__all__ = ["app", "fit", "fit_report", "load_model", "predict"]
+__all__ = ["app", "fit", "fit_report", "predict"]
 
 app = typer.Typer(
     help="Surface roughness: fit the power-law model to cuts, predict with it.",
@@ -73,40 +73,6 @@ def fit_report(fitted: PowerLawFit, source: str) -> dict[str, Any]:
         "samples": metrics.samples,
         "source": source,
     }
-
-
-def load_model(path: Path) -> PowerLawModel:
-    """Read a model file written by ``cnctwin roughness fit --json``.
-
-    Only ``b0``, ``exponents`` and ``target`` are read.
-
-    Raises
-    ------
-    cnctwin.errors.DataError
-        ``"FILE: ..."`` for a file that is not JSON or not such a model.
-    """
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise DataError(f"{path}: not a JSON model file ({err})") from None
-    if not isinstance(document, dict):
-        raise DataError(f"{path}: not a roughness model; give the JSON of 'roughness fit --json'")
-    b0, exponents = document.get("b0"), document.get("exponents")
-    target = document.get("target", DEFAULT_TARGET)
-    if not isinstance(b0, int | float) or isinstance(b0, bool):
-        raise DataError(f"{path}: b0 is {b0!r}; give a number (the JSON of 'roughness fit --json')")
-    if not isinstance(exponents, dict) or not all(
-        isinstance(v, int | float) and not isinstance(v, bool) for v in exponents.values()
-    ):
-        raise DataError(f"{path}: exponents is {exponents!r}; give a number per feature name")
-    if not isinstance(target, str):
-        raise DataError(f"{path}: target is {target!r}; give a name such as 'ra_um'")
-    try:
-        return PowerLawModel(
-            b0=float(b0), exponents={str(k): float(v) for k, v in exponents.items()}, target=target
-        )
-    except CnctwinError as err:
-        raise DataError(f"{path}: {err}") from None
 
 
 @app.command()
@@ -185,7 +151,7 @@ def predict(
             raise DataError(
                 f"{_OPTIONS[name]}: {name!r} is {value!r}; give 0 < value <= {MAX_FEATURE:g}"
             )
-    model = load_model(model_file)
+    model = read_power_law_model(model_file, DEFAULT_TARGET)
     for item in values or []:
         name, sep, text = item.partition("=")
         try:

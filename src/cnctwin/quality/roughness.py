@@ -17,14 +17,16 @@ Two kinds of model live here.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import CnctwinError, ConfigError, DataError
 
 __all__ = [
     "FitMetrics",
@@ -36,6 +38,7 @@ __all__ = [
     "flat_end_mill_rt",
     "milling_cusp_height",
     "milling_cusp_ra",
+    "read_power_law_model",
     "turning_ra",
     "turning_rt",
 ]
@@ -210,6 +213,43 @@ class PowerLawModel:
             log_y = log_y + exponent * np.log(x)
         roughness: NDArray[np.float64] = np.exp(log_y)
         return roughness
+
+
+def read_power_law_model(path: Path, default_target: str = "ra_um") -> PowerLawModel:
+    """Read a power-law model from a JSON file: an object with ``b0`` (a number), ``exponents``
+    (a number per feature name) and optionally ``target`` (a name, ``default_target`` if absent),
+    as ``cnctwin roughness fit --json`` writes it; other keys are ignored. The numbers are in the
+    units the model was fitted in (see :class:`PowerLawModel`).
+
+    Raises
+    ------
+    cnctwin.errors.DataError
+        ``"FILE: ..."`` for a file that is not JSON or not such a model.
+    OSError
+        If the file cannot be read.
+    """
+    try:
+        document = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise DataError(f"{path}: not a JSON model file ({err})") from None
+    if not isinstance(document, dict):
+        raise DataError(f"{path}: not a roughness model; give the JSON of 'roughness fit --json'")
+    b0, exponents = document.get("b0"), document.get("exponents")
+    target = document.get("target", default_target)
+    if not isinstance(b0, int | float) or isinstance(b0, bool):
+        raise DataError(f"{path}: b0 is {b0!r}; give a number (the JSON of 'roughness fit --json')")
+    if not isinstance(exponents, dict) or not all(
+        isinstance(v, int | float) and not isinstance(v, bool) for v in exponents.values()
+    ):
+        raise DataError(f"{path}: exponents is {exponents!r}; give a number per feature name")
+    if not isinstance(target, str):
+        raise DataError(f"{path}: target is {target!r}; give a name such as 'ra_um'")
+    try:
+        return PowerLawModel(
+            b0=float(b0), exponents={str(k): float(v) for k, v in exponents.items()}, target=target
+        )
+    except CnctwinError as err:
+        raise DataError(f"{path}: {err}") from None
 
 
 @dataclass(frozen=True, slots=True)
