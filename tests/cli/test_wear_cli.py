@@ -77,3 +77,17 @@ def test_table_and_plot(tmp_path: Path) -> None:
 def test_bad_options_are_usage_errors(argv: list[str]) -> None:
     code, _ = invoke(*argv)
     assert code == 2
+
+
+def test_a_tool_mounted_twice_is_exit_2_with_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from cnctwin.cli.app import run
+
+    mount = ["wear", "mount", "--db", str(tmp_path / "w.db"), "--tool", "T7", "--target-mm", "20"]
+    assert run(mount) == 0
+    capsys.readouterr()
+    assert run(mount) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "internal error" not in err
+    assert "'T7'" in err and "already mounted" in err

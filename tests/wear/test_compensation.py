@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import ConfigError, DataError, InputError
 from cnctwin.wear import (
     STABILITY_CRITERION,
     LatheTwin,
@@ -49,8 +49,10 @@ def test_rounding_to_the_lathe_resolution(value_um: float, expected_um: float) -
 
 def test_zero_resolution_leaves_the_value_and_negative_is_refused() -> None:
     assert round_to_resolution(1.234e-6, 0.0) == 1.234e-6
-    with pytest.raises(ConfigError, match="resolution"):
+    with pytest.raises(InputError, match="resolution"):
         round_to_resolution(1e-6, -5e-6)
+    with pytest.raises(InputError, match="value nan"):
+        round_to_resolution(math.nan, 5e-6)
 
 
 def test_drift_fit_is_least_squares_through_the_origin() -> None:
@@ -202,7 +204,7 @@ def test_end_of_life_needs_two_windows_of_parts() -> None:
     for part in range(1, 20):
         twin.observe(3e-6 * part)
     assert twin.end_of_life(window=10) is None
-    with pytest.raises(ConfigError, match="window"):
+    with pytest.raises(InputError, match="window"):
         twin.end_of_life(window=2)
 
 
@@ -271,7 +273,7 @@ def test_heritage_is_the_last_trusted_slope_and_needs_one() -> None:
 def test_lathe_refuses_unknown_and_duplicate_tools() -> None:
     lathe = LatheTwin(resolution=5 * UM)
     lathe.mount("T1", CONDITIONS)
-    with pytest.raises(ConfigError, match="already mounted"):
+    with pytest.raises(InputError, match="already mounted"):
         lathe.mount("T1", CONDITIONS)
     with pytest.raises(DataError, match="not mounted"):
         lathe.measure("T2", 1e-6)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.wear import TESTS, LatheRun, LatheTwin, run_test, simulate
 from cnctwin.wear.lathe_simulator import DEFAULT_PARTS, scenario
 
@@ -68,13 +68,13 @@ def test_scenarios_are_tables_2_and_3() -> None:
 
 
 def test_unknown_test_and_bad_arguments_are_refused() -> None:
-    with pytest.raises(ConfigError, match="Tests 1-6"):
+    with pytest.raises(InputError, match="Tests 1-6"):
         scenario(7)
-    with pytest.raises(ConfigError, match="parts"):
+    with pytest.raises(InputError, match="parts"):
         run_test(1, parts=0)
-    with pytest.raises(ConfigError, match="seed"):
+    with pytest.raises(InputError, match="seed"):
         run_test(1, seed=-1)
-    with pytest.raises(ConfigError, match="resolution"):
+    with pytest.raises(InputError, match="resolution"):
         simulate(TESTS[1], np.random.default_rng(0), lathe=LatheTwin(resolution=1 * UM))
 
 

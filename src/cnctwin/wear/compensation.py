@@ -37,7 +37,7 @@ from typing import Any, Literal, SupportsIndex
 
 import numpy as np
 
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import ConfigError, DataError, InputError
 
 __all__ = [
     "STABILITY_CRITERION",
@@ -85,9 +85,11 @@ def round_to_resolution(value: float, resolution: float) -> float:
 
     Raises
     ------
-    ConfigError
-        If ``resolution`` is negative or not finite.
+    InputError
+        If ``value`` is not finite, or ``resolution`` is negative or not finite.
     """
+    if not (isinstance(value, int | float) and math.isfinite(value)):
+        raise InputError(f"value {value!r}: give a finite length in metres")
     _check_resolution(resolution, "resolution")
     if resolution == 0.0:
         return value
@@ -572,15 +574,15 @@ class ToolTwin:
 
         Raises
         ------
-        ConfigError
+        InputError
             If ``window`` or ``confidence`` is out of range.
         """
         from scipy import stats  # only this method needs scipy
 
         if not (isinstance(window, int) and window >= 4):
-            raise ConfigError(f"end-of-life window must be an integer >= 4; got {window!r}")
+            raise InputError(f"end-of-life window must be an integer >= 4; got {window!r}")
         if not 0.5 < confidence < 1.0:
-            raise ConfigError(f"end-of-life confidence must be in (0.5, 1); got {confidence!r}")
+            raise InputError(f"end-of-life confidence must be in (0.5, 1); got {confidence!r}")
         if self.count < 2 * window:
             return None
         x = np.asarray(self.parts, dtype=float)
@@ -764,11 +766,11 @@ class LatheTwin:
 
         Raises
         ------
-        ConfigError
+        InputError
             If ``tool_id`` is already active.
         """
         if tool_id in self.active:
-            raise ConfigError(f"tool {tool_id!r} is already mounted; retire it first")
+            raise InputError(f"tool {tool_id!r} is already mounted; retire it first")
         heritage = self.select_heritage(parameters) if inherit and parameters is not None else None
         twin = ToolTwin(
             tool_id,
@@ -838,7 +840,7 @@ class LatheTwin:
 
 def _check_resolution(value: float, name: str) -> None:
     if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-        raise ConfigError(f"{name} must be a length >= 0 in metres; got {value!r}")
+        raise InputError(f"{name} must be a length >= 0 in metres; got {value!r}")
 
 
 def _finite(value: object, what: str) -> float:

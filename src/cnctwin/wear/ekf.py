@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import ConfigError, InputError
 
 __all__ = [
     "CHRISTIAND2024",
@@ -250,11 +250,16 @@ class WearEKF:
         Returns
         -------
         EKFStep
+
+        Raises
+        ------
+        InputError
+            If ``dmr_mm3`` is negative or not finite, or ``torque_base_nm`` is not finite.
         """
         if not (math.isfinite(dmr_mm3) and dmr_mm3 >= 0.0):
-            raise ConfigError(f"dmr_mm3 must be a finite number >= 0; got {dmr_mm3!r}")
+            raise InputError(f"dmr_mm3 must be a finite number >= 0; got {dmr_mm3!r}")
         if not math.isfinite(torque_base_nm):
-            raise ConfigError(f"torque_base_nm must be finite (N m); got {torque_base_nm!r}")
+            raise InputError(f"torque_base_nm must be finite (N m); got {torque_base_nm!r}")
         law = self.propagation
         vb = self.vb_mm
         prior = law.propagate(vb, dmr_mm3)

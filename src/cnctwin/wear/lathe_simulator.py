@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import ConfigError, InputError
 from cnctwin.wear.compensation import (
     Heritage,
     LatheTwin,
@@ -145,13 +145,13 @@ def scenario(test: int) -> LatheScenario:
 
     Raises
     ------
-    ConfigError
+    InputError
         If there is no such test.
     """
     try:
         return TESTS[test]
     except (KeyError, TypeError):
-        raise ConfigError(f"no lathe test {test!r}; the paper has Tests 1-6") from None
+        raise InputError(f"no lathe test {test!r}; the paper has Tests 1-6") from None
 
 
 @dataclass(frozen=True, slots=True)
@@ -267,16 +267,16 @@ def simulate(
 
     Raises
     ------
-    ConfigError
+    InputError
         If ``parts`` < 1, the lathe's resolution differs from the scenario's, or the lathe
         already has a tool ``"tool"`` mounted.
     """
     if not (isinstance(parts, int) and parts >= 1):
-        raise ConfigError(f"parts must be an integer >= 1; got {parts!r}")
+        raise InputError(f"parts must be an integer >= 1; got {parts!r}")
     if lathe is None:
         lathe = LatheTwin(resolution=case.lathe_resolution)
     elif lathe.resolution != case.lathe_resolution:
-        raise ConfigError(
+        raise InputError(
             f"lathe resolution {lathe.resolution!r} m differs from the scenario's "
             f"{case.lathe_resolution!r} m"
         )
@@ -327,12 +327,12 @@ def run_test(test: int, seed: int = 0, parts: int = DEFAULT_PARTS) -> LatheRun:
 
     Raises
     ------
-    ConfigError
+    InputError
         For an unknown test, a negative seed or fewer than 1 part.
     """
     case = scenario(test)
     if not (isinstance(seed, int) and seed >= 0):
-        raise ConfigError(f"seed must be an integer >= 0; got {seed!r}")
+        raise InputError(f"seed must be an integer >= 0; got {seed!r}")
     lathe = None
     if case.heritage:
         previous = run_test(test - 1, seed)

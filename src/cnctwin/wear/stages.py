@@ -14,7 +14,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.wear.ekf import LogisticWear
 
 __all__ = ["RemainingLife", "StageEvent", "StageMonitor", "remaining_life"]
@@ -77,19 +77,19 @@ class StageMonitor:
     def __init__(
         self, boundaries_mm: Sequence[float], expected_entry_s: Sequence[float] | None = None
     ) -> None:
-        bounds = tuple(float(b) for b in boundaries_mm)
+        bounds = _floats(boundaries_mm, "boundaries_mm")
         if len(bounds) != 3 or not (0 < bounds[0] < bounds[1] < bounds[2] < math.inf):
-            raise ConfigError(
+            raise InputError(
                 "boundaries_mm must be three increasing positive wear values (entry of "
                 f"stages II, III, IV); got {tuple(boundaries_mm)!r}"
             )
         expected = (
             (math.nan,) * 3
             if expected_entry_s is None
-            else tuple(float(t) for t in expected_entry_s)
+            else _floats(expected_entry_s, "expected_entry_s")
         )
         if len(expected) != 3:
-            raise ConfigError(f"expected_entry_s needs 3 times; got {expected_entry_s!r}")
+            raise InputError(f"expected_entry_s needs 3 times, s; got {expected_entry_s!r}")
         self.boundaries_mm = bounds
         self.expected_entry_s = expected
         self.stage = 1
@@ -152,10 +152,21 @@ def remaining_life(
     removal_rate_mm3_s
         Planned material removal rate to convert material into time, mm^3/s.
     sigmas
-        Width of the band in standard deviations.
+        Width of the band in standard deviations (finite, >= 0).
+
+    Raises
+    ------
+    InputError
+        If ``limit_mm`` is outside (0, the law's saturation), ``vb_mm`` or ``var_mm2`` is not
+        finite, or ``sigmas`` is negative or not finite.
     """
     if not (0 < limit_mm < law.vb_max_mm):
-        raise ConfigError(f"limit_mm must lie in (0, vb_max_mm={law.vb_max_mm}); got {limit_mm!r}")
+        raise InputError(f"limit_mm must lie in (0, vb_max_mm={law.vb_max_mm}); got {limit_mm!r}")
+    for name, value in (("vb_mm", vb_mm), ("var_mm2", var_mm2)):
+        if not math.isfinite(value):
+            raise InputError(f"{name} {value!r}: give a finite estimate")
+    if not (math.isfinite(sigmas) and sigmas >= 0.0):
+        raise InputError(f"sigmas {sigmas!r}: give a finite number of standard deviations >= 0")
     spread = sigmas * math.sqrt(max(var_mm2, 0.0))
     floor = 1e-6 * law.vb_max_mm
     mid = law.material_to_reach_mm3(max(vb_mm, floor), limit_mm)
@@ -166,3 +177,11 @@ def remaining_life(
     else:
         times = (mid / removal_rate_mm3_s, low / removal_rate_mm3_s, high / removal_rate_mm3_s)
     return RemainingLife(mid, low, high, *times)
+
+
+def _floats(values: Sequence[float], name: str) -> tuple[float, ...]:
+    """``values`` as a tuple of floats; InputError naming ``name`` when one is not a number."""
+    try:
+        return tuple(float(v) for v in values)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} {values!r}: give a sequence of numbers") from None

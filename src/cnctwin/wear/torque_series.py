@@ -14,6 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cnctwin.drives import spindle_preset
+from cnctwin.errors import InputError
+from cnctwin.memory import check_memory
 from cnctwin.wear.ekf import EKFPreset, WearEKF, material_removed_mm3
 from cnctwin.wear.stages import StageEvent, StageMonitor
 
@@ -80,12 +82,34 @@ def synthetic_session(
         Standard deviation of the torque noise, N m.
     vb0_mm
         Wear of the tool at the start, mm.
+
+    Raises
+    ------
+    InputError
+        If ``seed`` is not an integer >= 0, ``slots`` not an integer >= 1, ``rate_hz`` or
+        ``vb0_mm`` not finite and > 0, ``noise_nm`` not finite and >= 0, or the session would
+        not fit in memory.
     """
+    if not (isinstance(seed, int) and seed >= 0):
+        raise InputError(f"seed {seed!r}: give an integer >= 0")
+    if not (isinstance(slots, int) and slots >= 1):
+        raise InputError(f"slots {slots!r}: give an integer >= 1")
+    for name, value, unit in (("rate_hz", rate_hz, "Hz"), ("vb0_mm", vb0_mm, "mm")):
+        if not (math.isfinite(value) and value > 0.0):
+            raise InputError(f"{name} {value!r}: give a finite value > 0 {unit}")
+    if not (math.isfinite(noise_nm) and noise_nm >= 0.0):
+        raise InputError(f"noise_nm {noise_nm!r}: give a finite value >= 0 N m")
     rng = np.random.default_rng(seed)
     dt = 1.0 / rate_hz
     rpm = 20_000.0
     feed_per_tooth_mm = 4.0 / (2.0 * rpm / 60.0)
     dmr = material_removed_mm3(feed_per_tooth_mm, 2, 1.0, 0.01, rpm / 60.0 * dt)
+    per_slot = 14.0 / 4.0 * rate_hz
+    check_memory(
+        f"a synthetic session of {slots} slots at {rate_hz:g} Hz is {slots * per_slot:.3g} samples",
+        slots * per_slot * 8.0 * 6,
+        lambda fraction: f"use at most {slots * fraction:.3g} slots or a lower rate_hz",
+    )
     n = slots * int(round(14.0 / 4.0 / dt))
     law = preset.propagation
     vb = np.empty(n)
