@@ -51,7 +51,7 @@ class OWordControl:
         self.sources: list[LineSource] = []
         self._params = params
         self._where = where
-        # Open frames: ("call", label, source, offset, line, file), ("if", label, True),
+        # Open frames: ("call", label, source, offset, line), ("if", label, True),
         # ("do" | "while" | "repeat", label, offset, line, count).
         self._frames: list[tuple[Any, ...]] = []
         # Subroutine label -> (source, offset, line) of its body.
@@ -281,13 +281,13 @@ class OWordControl:
             raise self._where.error(
                 f"o{label} call has {len(args)} arguments; at most 30 are allowed"
             )
-        if sum(1 for fr in self._frames if fr[0] == "call") >= MAX_CALL_DEPTH:
+        if self._params.call_depth >= MAX_CALL_DEPTH:
             raise self._where.error(f"o{label} call nested deeper than {MAX_CALL_DEPTH} levels")
         target = self._subs.get(label)
         if target is None:
             target = self._find_sub(label, src)
         sub_src, offset, lineno = target
-        self._frames.append(("call", label, src, return_to[0], return_to[1], self._where.file))
+        self._frames.append(("call", label, src, return_to[0], return_to[1]))
         self._params.push_call(args)
         if sub_src is not src:
             self.sources.append(sub_src)
@@ -332,7 +332,7 @@ class OWordControl:
             raise self._where.error(f"o{ow.label} return outside a subroutine")
         if ow.args_pos < len(ow.text):
             self._params["_value"] = self._argument(ow)
-        _, _, ret_src, offset, lineno, _file = self._frames.pop()
+        _, _, ret_src, offset, lineno = self._frames.pop()
         self._params.pop_call()
         ret_src.seek(offset, lineno)
         if ret_src is not src:
