@@ -84,7 +84,7 @@ DASHBOARD_RULE = "dashboard"
 TOKEN_COOKIE = "cnctwin_token"
 
 #: Cells a side of the live 3D view's height map (:func:`cnctwin.web.stock.height_map`).
-STOCK_CELLS = 80
+STOCK_CELLS = 60
 
 #: Lines of the program text the page gets (a longer program is cut there).
 MAX_PROGRAM_LINES = 20_000
@@ -483,6 +483,10 @@ class LiveDashboard:
             if self.token_for_view and given and secrets.compare_digest(given, self.token):
                 response.set_cookie(TOKEN_COOKIE, given, httponly=True, samesite="strict")
             return response
+
+        @app.get("/favicon.ico")
+        def favicon() -> Response:
+            return Response(status_code=204)
 
         @app.get("/static/plotly.min.js", dependencies=view)
         def plotly() -> Response:

@@ -5,7 +5,7 @@
 const MAX_POINTS = 2400;      // samples kept per plot trace (30 s at 80 cycles/s)
 const MAX_TIMELINE = 500;     // timeline rows kept
 const live = {                // read by the tests and the benchmark
-  messages: 0, arrivals: [], snapshot: null, info: null, timeline: [], stockUpdates: 0,
+  messages: 0, draws: 0, arrivals: [], snapshot: null, info: null, timeline: [], stockUpdates: 0,
   rateHz() {
     const a = this.arrivals;
     return a.length < 2 ? 0 : (a.length - 1) / ((a[a.length - 1] - a[0]) / 1000);
@@ -255,10 +255,10 @@ function addTimeline(items) {
 
 // ------------------------------------------------------------------ 3D stock
 function showStock(stock) {
-  // CnctwinStock: static/stock.js (the 3D view shared with the run pages)
-  if (!stock || typeof CnctwinStock === "undefined") return;
-  CnctwinStock.draw($("stock3d"), stock);
+  // CnctwinStock: static/stock.js (the 3D view shared with the run pages); a promise
+  if (!stock || typeof CnctwinStock === "undefined") return null;
   live.stockUpdates += 1;
+  return CnctwinStock.draw($("stock3d"), stock);
 }
 
 // ------------------------------------------------------------------ control
@@ -292,6 +292,48 @@ $("btn-feed").addEventListener("click", () =>
 $("btn-stop").addEventListener("click", () => command({ command: "stop" }));
 
 // ------------------------------------------------------------------ stream
+// Messages are only merged when they arrive; the page draws at most once per animation
+// frame (the plots at most every PLOT_MS, the 3D view once its previous drawing is done), so
+// a slow computer draws less often instead of falling behind the stream.
+const PLOT_MS = 250;
+let pending = null;           // what arrived since the last drawing
+let plotsDrawn = 0;           // performance.now() of the last plot update
+let stockBusy = false;
+
+function merge(into, message) {
+  for (const [name, values] of Object.entries(message.series || {})) {
+    const column = (into.series[name] = (into.series[name] || []).concat(values));
+    if (column.length > MAX_POINTS) column.splice(0, column.length - MAX_POINTS);
+  }
+  into.timeline.push(...(message.timeline || []));
+  into.snapshot = message.snapshot;
+  if (message.stock) into.stock = message.stock;
+}
+
+function draw(now) {
+  requestAnimationFrame(draw);
+  if (pending === null) return;
+  const update = pending;
+  if (now - plotsDrawn >= PLOT_MS) {
+    extendPlots(update.series);
+    plotsDrawn = now;
+    update.series = {};
+  }
+  if (update.timeline.length) addTimeline(update.timeline);
+  update.timeline = [];
+  if (update.snapshot) showSnapshot(update.snapshot);
+  update.snapshot = null;
+  if (update.stock && !stockBusy) {
+    stockBusy = true;
+    const stock = update.stock;
+    update.stock = null;
+    Promise.resolve(showStock(stock)).finally(() => { stockBusy = false; });
+  }
+  const empty = !update.stock && Object.keys(update.series).length === 0;
+  pending = empty ? null : update;
+  live.draws += 1;
+}
+
 function handle(message) {
   live.messages += 1;
   const now = performance.now();
@@ -308,15 +350,17 @@ function handle(message) {
     drawPlots(message.series);
     $("timeline").tBodies[0].replaceChildren();
     live.timeline = [];
+    pending = null;
     addTimeline(message.timeline);
-  } else {
-    extendPlots(message.series);
-    addTimeline(message.timeline);
+    showSnapshot(message.snapshot);
+    showStock(message.stock);
+    return;
   }
-  showSnapshot(message.snapshot);
-  showStock(message.stock);
+  if (pending === null) pending = { series: {}, timeline: [], snapshot: null, stock: null };
+  merge(pending, message);
 }
 
+requestAnimationFrame(draw);
 const source = new EventSource("api/stream");
 source.onmessage = (event) => handle(JSON.parse(event.data));
 source.onerror = () => {
