@@ -18,6 +18,7 @@ from cnctwin.control import (
     OverrideLimits,
     SafetyFilter,
 )
+from cnctwin.errors import InputError
 
 ON = ControlConfig(enabled=True)
 
@@ -243,3 +244,8 @@ def test_after_reconnect_rebases_on_the_machine() -> None:
     assert flt.commanded["spindle_override_pct"].value == 100.0  # rate limit from here
     verdict = flt.check(decision("spindle_override", 90.0, 5.2), 5.2)
     assert verdict.value == pytest.approx(98.0)  # 10 %/s x 0.2 s from the machine's 100 %
+
+
+def test_escalation_to_a_command_that_does_not_latch_is_an_input_error() -> None:
+    with pytest.raises(InputError, match="escalation to 'feed_override'; valid: stop"):
+        SafetyFilter(ON).escalate("feed_override", 0.0, "test")

@@ -5,6 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from cnctwin.errors import InputError
 from cnctwin.report.downsample import minmax_buckets
 
 
@@ -71,11 +72,11 @@ def test_a_single_spike_survives_any_zoom() -> None:
 
 
 def test_bad_arguments() -> None:
-    with pytest.raises(ValueError, match="buckets=0"):
+    with pytest.raises(InputError, match="buckets=0"):
         minmax_buckets([0.0], [1.0], 0.0, 1.0, 0)
-    with pytest.raises(ValueError, match="give finite t0 <= t1"):
+    with pytest.raises(InputError, match="give finite t0 <= t1"):
         minmax_buckets([0.0], [1.0], 1.0, 0.0, 5)
-    with pytest.raises(ValueError, match="one length"):
+    with pytest.raises(InputError, match="one length"):
         minmax_buckets([0.0, 1.0], [1.0], 0.0, 1.0, 5)
 
 

@@ -17,6 +17,7 @@ import pytest
 from twin_helpers import load_demo_config
 
 from cnctwin.control.config import RuleConfig
+from cnctwin.errors import InputError
 from cnctwin.store.historian import Historian
 from cnctwin.thread.signals import RunState
 from cnctwin.twin.config import RunConfig
@@ -164,7 +165,7 @@ def test_overload_needs_a_full_window_and_clears_with_hysteresis() -> None:
     assert [monitor.update(False) for _ in range(3)] == [None, None, "cleared"]
     assert monitor.level == 0 and not monitor.overloaded
     assert monitor.episodes == 1
-    with pytest.raises(ValueError, match="exit < enter"):
+    with pytest.raises(InputError, match="exit < enter"):
         OverloadMonitor(window=4, enter_fraction=0.2, exit_fraction=0.3)
 
 

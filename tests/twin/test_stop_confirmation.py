@@ -13,6 +13,7 @@ import sqlite3
 import pytest
 from twin_helpers import STEP_S
 
+from cnctwin.errors import InputError
 from cnctwin.store.historian import Historian
 from cnctwin.thread.signals import RunState
 from cnctwin.twin.config import RunConfig
@@ -209,3 +210,8 @@ def test_emergency_stop_latches_a_fault_and_brings_the_axes_to_rest(
     assert vm.snapshot()["emergency_stop"] == 1.0 and vm.run_state == RunState.FAULT
     vm.restart()
     assert vm.snapshot()["emergency_stop"] == 0.0 and vm.run_state == RunState.RUNNING
+
+
+def test_an_unknown_stop_step_is_an_input_error_naming_it() -> None:
+    with pytest.raises(InputError, match="stop step 'halt'; valid: feed_hold"):
+        StopWatch("halt", 0.0, StopConfirmationConfig())

@@ -37,6 +37,7 @@ from typing import Literal
 
 from cnctwin.control.config import ControlConfig
 from cnctwin.control.rules import Decision
+from cnctwin.errors import InputError
 
 __all__ = [
     "ESCALATION_RULE",
@@ -470,7 +471,7 @@ class SafetyFilter:
             Why the step is taken, one line.
         """
         if command not in _LATCHING:
-            raise ValueError(f"escalation to {command!r}; valid: {', '.join(_LATCHING)}")
+            raise InputError(f"escalation to {command!r}; valid: {', '.join(_LATCHING)}")
         decision = Decision(now_s, ESCALATION_RULE, command, 1.0, reason)
         if not self.config.enabled:
             return self._count(Verdict(decision, "blocked", command, None, DISABLED_NOTE))

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
+from cnctwin.errors import InputError
 from cnctwin.nc.segments import PLANE_AXES, MotionKind, Segment
 
 __all__ = ["CanonicalMove", "canonical_moves", "format_trace"]
@@ -64,7 +65,7 @@ def canonical_moves(segments: Iterable[Segment], frame: str = "program") -> Iter
     CanonicalMove
     """
     if frame not in ("program", "machine"):
-        raise ValueError(f"frame must be 'program' or 'machine', not {frame!r}")
+        raise InputError(f"frame must be 'program' or 'machine', not {frame!r}")
     program = frame == "program"
     for seg in segments:
         state = seg.state

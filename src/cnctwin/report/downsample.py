@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cnctwin.errors import InputError
+
 __all__ = ["MAX_BUCKETS", "Downsampled", "minmax_buckets"]
 
 #: Most buckets one call may ask for (a very wide screen has ~8000 pixel columns).
@@ -65,18 +67,18 @@ def minmax_buckets(t: ArrayLike, y: ArrayLike, t0: float, t1: float, buckets: in
 
     Raises
     ------
-    ValueError
+    InputError
         On arrays of different lengths, a window that is not finite and ordered, or a bucket
         count out of range.
     """
     times = np.asarray(t, dtype=np.float64)
     values = np.asarray(y, dtype=np.float64)
     if times.shape != values.shape or times.ndim != 1:
-        raise ValueError(f"t and y must be 1-D of one length; got {times.shape} and {values.shape}")
+        raise InputError(f"t and y must be 1-D of one length; got {times.shape} and {values.shape}")
     if not (np.isfinite(t0) and np.isfinite(t1) and t0 <= t1):
-        raise ValueError(f"window [{t0}, {t1}]: give finite t0 <= t1")
+        raise InputError(f"window [{t0}, {t1}]: give finite t0 <= t1")
     if not 1 <= buckets <= MAX_BUCKETS:
-        raise ValueError(f"buckets={buckets}; give 1 <= buckets <= {MAX_BUCKETS}")
+        raise InputError(f"buckets={buckets}; give 1 <= buckets <= {MAX_BUCKETS}")
     lo = int(np.searchsorted(times, t0, side="left"))
     hi = int(np.searchsorted(times, t1, side="right"))
     window_t, window_y = times[lo:hi], values[lo:hi]

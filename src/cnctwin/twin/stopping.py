@@ -22,6 +22,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Literal
 
+from cnctwin.errors import InputError
 from cnctwin.twin.settings import StopConfirmationConfig
 
 __all__ = ["LADDER", "StopStatus", "StopWatch", "Verdict"]
@@ -78,7 +79,7 @@ class StopWatch:
 
     def __init__(self, step: str, started_s: float, config: StopConfirmationConfig) -> None:
         if step not in LADDER:
-            raise ValueError(f"stop step {step!r}; valid: {', '.join(LADDER)}")
+            raise InputError(f"stop step {step!r}; valid: {', '.join(LADDER)}")
         self.step = step
         self.step_s = started_s
         self.started_s = started_s

@@ -8,6 +8,8 @@ from typing import Literal
 
 import numpy as np
 
+from cnctwin.errors import InputError
+
 __all__ = ["OverloadMonitor", "TimingSeries"]
 
 
@@ -78,7 +80,7 @@ class OverloadMonitor:
         self, window: int, enter_fraction: float, exit_fraction: float, levels: int = 0
     ) -> None:
         if not 0.0 <= exit_fraction < enter_fraction <= 1.0 or window < 2:
-            raise ValueError(
+            raise InputError(
                 f"overload window={window}, enter={enter_fraction}, exit={exit_fraction}; "
                 "give window >= 2 and 0 <= exit < enter <= 1"
             )
