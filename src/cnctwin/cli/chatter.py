@@ -11,7 +11,6 @@ docs/chatter.md. The physics works in SI; this edge speaks rpm, mm, um, g and N/
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 import time
@@ -28,7 +27,7 @@ from cnctwin.cli._options import check_count, check_number
 from cnctwin.cli.chatter_detect import detect
 from cnctwin.config.machine import MAX_SPINDLE_RPM
 from cnctwin.config.tools import MAX_TOOL_DIAMETER_MM
-from cnctwin.errors import ConfigError, DataError, InputError
+from cnctwin.errors import ConfigError, InputError
 
 if TYPE_CHECKING:
     from cnctwin.dynamics.config import StabilityConfig
@@ -178,38 +177,6 @@ def _cutter(
             raise InputError("--helix-deg needs the cutter diameter: give --diameter-mm")
         return None
     return _end_mill(teeth, diameter_mm, helix_deg, depth_mm)
-
-
-def load_damping_model(path: Path) -> ProcessDampingModel:
-    """Read the Gamma fits of ``cnctwin chatter calibrate-damping --json`` (key ``fits``).
-
-    Raises
-    ------
-    cnctwin.errors.DataError
-        ``"FILE: ..."`` for a file that is not such JSON.
-    """
-    from cnctwin.dynamics.process_damping import GammaFit, ProcessDampingModel
-
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-        fits = tuple(
-            GammaFit(
-                float(row["spindle_rpm"]) * _RPM,
-                float(row["a_n"]),
-                float(row["b_n"]),
-                float(row["a0_mm"]) * 1e-3,
-            )
-            for row in document["fits"]
-        )
-    except (UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
-        raise DataError(
-            f"{path}: not a damping model ({type(err).__name__}: {err}); give the JSON of "
-            "'chatter calibrate-damping --json'"
-        ) from None
-    try:
-        return ProcessDampingModel(fits)
-    except ConfigError as err:
-        raise DataError(f"{path}: {err}") from None
 
 
 def simulation_report(
@@ -398,10 +365,11 @@ def simulate(
 ) -> None:
     """Simulate one milling cut in time: vibration RMS, chatter, and the SDM's verdict."""
     from cnctwin.dynamics.config import load_stability_config
+    from cnctwin.dynamics.process_damping import read_damping_model
 
     check_time_options(seconds, transient_s, kte_n_mm, kre_n_mm, steps, diameter_mm, helix_deg)
     settings = load_stability_config(config)
-    model = load_damping_model(damping_model) if damping_model is not None else None
+    model = read_damping_model(damping_model) if damping_model is not None else None
     report, result = simulation_report(
         settings,
         rpm=rpm,

@@ -22,10 +22,12 @@ for accelerations. The paper quotes a_p and a0 in mm.
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -46,6 +48,7 @@ __all__ = [
     "fit_gamma",
     "fit_process_damping_model",
     "match_cpd",
+    "read_damping_model",
     "relative_error",
 ]
 
@@ -454,6 +457,40 @@ class ProcessDampingModel:
         """The :class:`~cnctwin.dynamics.ProcessDamping` of one cut (diameter in m)."""
         cpd = self.cpd_pa(depth_m, feed_per_tooth_m, spindle_rad_s)
         return ProcessDamping(cpd, feed_per_tooth_m, diameter_m)
+
+
+def read_damping_model(path: Path) -> ProcessDampingModel:
+    """Read a :class:`ProcessDampingModel` from the JSON that ``cnctwin chatter
+    calibrate-damping --json`` prints: its ``fits`` rows, each with ``spindle_rpm`` (rpm),
+    ``a_n`` and ``b_n`` (A and B of Eq. 17-19, N) and ``a0_mm`` (mm); other keys are ignored.
+
+    Raises
+    ------
+    cnctwin.errors.DataError
+        ``"FILE: ..."`` for a file that is not such JSON.
+    OSError
+        If the file cannot be read.
+    """
+    try:
+        document = json.loads(Path(path).read_text(encoding="utf-8"))
+        fits = tuple(
+            GammaFit(
+                float(row["spindle_rpm"]) * _RPM,
+                float(row["a_n"]),
+                float(row["b_n"]),
+                float(row["a0_mm"]) * 1e-3,
+            )
+            for row in document["fits"]
+        )
+    except (UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
+        raise DataError(
+            f"{path}: not a damping model ({type(err).__name__}: {err}); give the JSON of "
+            "'chatter calibrate-damping --json'"
+        ) from None
+    try:
+        return ProcessDampingModel(fits)
+    except ConfigError as err:
+        raise DataError(f"{path}: {err}") from None
 
 
 def cut_process_damping(
