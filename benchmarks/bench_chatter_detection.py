@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from cnctwin.dynamics.chatter_detection import (
+from cnctwin.dynamics import (
     DetectorSettings,
     StreamingChatterDetector,
     detect_chatter,
@@ -86,14 +86,11 @@ def bench_detection(seconds: float) -> list[str]:
 
 
 def bench_roadmap() -> str:
-    from cnctwin.config.tools import ToolConfig
-    from cnctwin.dynamics.roadmap import stability_roadmap
-    from cnctwin.dynamics.stability import ToolDynamics, ToolMode
-    from cnctwin.geometry import Cutter, DexelStock
-    from cnctwin.geometry.engagement_map import EngagementMap
+    from cnctwin.config import ToolConfig
+    from cnctwin.dynamics import ToolDynamics, ToolMode, stability_roadmap
+    from cnctwin.geometry import Cutter, DexelStock, EngagementMap
     from cnctwin.mechanics import CuttingCoefficients
-    from cnctwin.nc.interpreter import Interpreter
-    from cnctwin.nc.setup import NCSetup
+    from cnctwin.nc import Interpreter, NCSetup
 
     tool = ToolConfig(number=1, diameter_mm=10.0, flutes=2, helix_deg=0.0, flute_length_mm=20.0)
     speeds: dict[int, float] = {}

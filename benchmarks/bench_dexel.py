@@ -38,8 +38,7 @@ import tracemalloc
 
 import numpy as np
 
-from cnctwin.geometry import Cutter, DexelStock, cut
-from cnctwin.geometry.engagement import cut_path
+from cnctwin.geometry import Cutter, DexelStock, cut, cut_path
 
 BLOCK_MIN_MM = (0.0, 0.0, -30.0)
 BLOCK_MAX_MM = (100.0, 100.0, 0.0)

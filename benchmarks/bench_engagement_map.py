@@ -23,8 +23,7 @@ import time
 
 import numpy as np
 
-from cnctwin.geometry import Cutter, DexelStock
-from cnctwin.geometry.engagement_map import EngagementMap, MapCursor
+from cnctwin.geometry import Cutter, DexelStock, EngagementMap, MapCursor
 from cnctwin.nc import interpret_text, sample_program
 
 BLOCK_MIN_MM = (0.0, 0.0, -30.0)

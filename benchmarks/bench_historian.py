@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from cnctwin.store import Historian
-from cnctwin.thread.signals import SIGNALS
+from cnctwin.thread import SIGNALS
 
 SERVER = "postgresql://postgres@127.0.0.1:5432/test"
 

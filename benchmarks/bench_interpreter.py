@@ -52,7 +52,7 @@ def write_program(path: Path, lines: int, seed: int = 1) -> None:
 
 
 def _interpret(path: str) -> tuple[int, int, float]:
-    from cnctwin.nc.interpreter import Interpreter
+    from cnctwin.nc import Interpreter
 
     interp = Interpreter()
     start = time.process_time()

@@ -32,8 +32,7 @@ from multiprocessing.connection import Connection
 
 import numpy as np
 
-from cnctwin.thread.config import ConnectionConfig
-from cnctwin.thread.modbus import ModbusConnection
+from cnctwin.thread import ConnectionConfig, ModbusConnection
 from cnctwin.virtual import MachineClock, ModbusMachineServer, VirtualMachine, VirtualMachineConfig
 
 VALUES_PCT = (80.0, 100.0)

@@ -36,13 +36,24 @@ from typing import Any
 
 import numpy as np
 
-from cnctwin.thread.config import ConnectionConfig
-from cnctwin.thread.latency import JitterProxy, LatencyResult, LatencyStats, measure_latency
-from cnctwin.thread.opcua import DEFAULT_SUBSCRIPTION_MS, NODE_MAP, OpcUaConnection
-from cnctwin.virtual import MachineClock, VirtualMachine, VirtualMachineConfig
-from cnctwin.virtual.opcua_server import OpcUaMachineServer
-from cnctwin.virtual.spawned import virtual_machine_server
-from cnctwin.virtual.users import UserTable
+from cnctwin.thread import (
+    DEFAULT_SUBSCRIPTION_MS,
+    NODE_MAP,
+    ConnectionConfig,
+    JitterProxy,
+    LatencyResult,
+    LatencyStats,
+    OpcUaConnection,
+    measure_latency,
+)
+from cnctwin.virtual import (
+    MachineClock,
+    OpcUaMachineServer,
+    UserTable,
+    VirtualMachine,
+    VirtualMachineConfig,
+    virtual_machine_server,
+)
 
 
 def _row(setup: str, name: str, n: int, s: LatencyStats) -> str:

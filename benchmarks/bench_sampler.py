@@ -17,8 +17,7 @@ import time
 import tracemalloc
 from collections.abc import Callable, Iterator
 
-from cnctwin.nc.sampler import AxisLimits, TrajectorySampler
-from cnctwin.nc.segments import MachineState, MotionKind, Segment
+from cnctwin.nc import AxisLimits, MachineState, MotionKind, Segment, TrajectorySampler
 
 STATE = MachineState()
 RAPID_MM_MIN = 15000.0

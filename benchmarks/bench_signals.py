@@ -23,11 +23,15 @@ from collections.abc import Callable
 
 from cnctwin.drives import spindle_preset
 from cnctwin.geometry import Cutter, DexelStock
-from cnctwin.mechanics.materials import milling_material
-from cnctwin.nc.interpreter import Interpreter
-from cnctwin.nc.setup import NCSetup
-from cnctwin.simulation.cut import CutStep, simulate_cut
-from cnctwin.simulation.signals import immersion_intervals, simulate_signals, step_forces
+from cnctwin.mechanics import milling_material
+from cnctwin.nc import Interpreter, NCSetup
+from cnctwin.simulation import (
+    CutStep,
+    immersion_intervals,
+    simulate_cut,
+    simulate_signals,
+    step_forces,
+)
 
 CUTTER = Cutter.flat(diameter_mm=10.0, flute_length_mm=22.0, flutes=4, helix_rad=0.5236)
 COEFFICIENTS = milling_material("AA6060-T6").coefficients

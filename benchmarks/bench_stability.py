@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cnctwin.dynamics.stability import (
+from cnctwin.dynamics import (
     MillingProcess,
     StabilityLobes,
     ToolDynamics,

@@ -20,9 +20,16 @@ import platform
 import time
 from collections.abc import Callable
 
-from cnctwin.dynamics.process_damping import CalibrationSetup, calibrate_cpd
-from cnctwin.dynamics.stability import MillingProcess, ProcessDamping, ToolDynamics, ToolMode
-from cnctwin.dynamics.time_domain import MillingVibration, simulate_milling
+from cnctwin.dynamics import (
+    CalibrationSetup,
+    MillingProcess,
+    MillingVibration,
+    ProcessDamping,
+    ToolDynamics,
+    ToolMode,
+    calibrate_cpd,
+    simulate_milling,
+)
 from cnctwin.geometry import Cutter
 from cnctwin.mechanics import CuttingCoefficients
 

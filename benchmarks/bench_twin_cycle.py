@@ -37,10 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from cnctwin.store.historian import Historian
-from cnctwin.twin.config import RunConfig, load_run_config
-from cnctwin.twin.host import MachineProcess
-from cnctwin.twin.session import run_session
+from cnctwin.store import Historian
+from cnctwin.twin import MachineProcess, RunConfig, load_run_config, run_session
 
 HEADER = """G21 G17 G90 G94 G40 G49 G80
 G54

@@ -36,12 +36,10 @@ from importlib.resources import as_file, files
 from pathlib import Path
 from typing import Any
 
-from cnctwin.store.historian import Historian
-from cnctwin.thread.signals import RunState
-from cnctwin.twin.config import RunConfig, load_run_config
-from cnctwin.twin.host import MachineProcess
-from cnctwin.twin.session import run_session
-from cnctwin.virtual.config import HoleFault
+from cnctwin.store import Historian
+from cnctwin.thread import RunState
+from cnctwin.twin import MachineProcess, RunConfig, load_run_config, run_session
+from cnctwin.virtual import HoleFault
 
 #: Longest run, s (wall), quick and full: the demo reaches its hole in about 12 s at 2x real
 #: time, later when the machine's own process is starved too (its clock drops ticks).

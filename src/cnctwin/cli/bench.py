@@ -18,7 +18,7 @@ from rich.table import Table
 from cnctwin import finite_json
 from cnctwin.cli._options import MAX_SEED, check_count, check_number
 from cnctwin.errors import InputError
-from cnctwin.thread.latency import LatencyResult, LatencyStats, measure_endpoint_latency
+from cnctwin.thread import LatencyResult, LatencyStats, measure_endpoint_latency
 
 __all__ = ["app", "latency", "run_latency"]
 
@@ -51,7 +51,7 @@ async def run_latency(
     tuple
         The result and the endpoint measured (the server's, not the proxy's).
     """
-    from cnctwin.virtual.spawned import TRANSPORTS, virtual_machine_server
+    from cnctwin.virtual import TRANSPORTS, virtual_machine_server
 
     if transport not in TRANSPORTS:
         raise InputError(f"--transport {transport!r}; valid: {', '.join(TRANSPORTS)}")

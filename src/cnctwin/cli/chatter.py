@@ -25,16 +25,17 @@ from rich.table import Table
 from cnctwin import finite_json
 from cnctwin.cli._options import check_count, check_number
 from cnctwin.cli.chatter_detect import detect
-from cnctwin.config.machine import MAX_SPINDLE_RPM
-from cnctwin.config.tools import MAX_TOOL_DIAMETER_MM
+from cnctwin.config import MAX_SPINDLE_RPM, MAX_TOOL_DIAMETER_MM
 from cnctwin.errors import ConfigError, InputError
 
 if TYPE_CHECKING:
-    from cnctwin.dynamics.config import StabilityConfig
-    from cnctwin.dynamics.process_damping import ProcessDampingModel
-    from cnctwin.dynamics.stability import MillingProcess
-    from cnctwin.dynamics.time_domain import MillingVibration
-    from cnctwin.geometry.cutter import Cutter
+    from cnctwin.dynamics import (
+        MillingProcess,
+        MillingVibration,
+        ProcessDampingModel,
+        StabilityConfig,
+    )
+    from cnctwin.geometry import Cutter
 
 __all__ = [
     "app",
@@ -103,7 +104,7 @@ def _chatter() -> None:
 
 def _milling(config: StabilityConfig) -> MillingProcess:
     """The config's cut, which must be milling."""
-    from cnctwin.dynamics.stability import MillingProcess
+    from cnctwin.dynamics import MillingProcess
 
     process = config.process()
     if not isinstance(process, MillingProcess):
@@ -161,7 +162,7 @@ def _diameter(config: StabilityConfig, given: float | None) -> float | None:
 def _end_mill(teeth: int, diameter_mm: float, helix_deg: float, depth_mm: float) -> Cutter:
     """A flat end mill with flutes as long as the (deepest) cut ``depth_mm``: the time-domain
     model reads only its flutes, helix and diameter."""
-    from cnctwin.geometry.cutter import Cutter
+    from cnctwin.geometry import Cutter
 
     if not (math.isfinite(helix_deg) and 0.0 <= helix_deg < 90.0):
         raise InputError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
@@ -229,9 +230,7 @@ def simulation_report(
         ``nonsynchronous_ratio``, ``growth``, ``chatter_frequency_hz``,
         ``sdm_spectral_radius``, ``sdm_stable`` and ``wall_s``.
     """
-    from cnctwin.dynamics.process_damping import cut_process_damping
-    from cnctwin.dynamics.stability import floquet_multipliers
-    from cnctwin.dynamics.time_domain import simulate_milling
+    from cnctwin.dynamics import cut_process_damping, floquet_multipliers, simulate_milling
 
     process = _milling(config)
     speed = check_number("--rpm", rpm, 1.0, MAX_SPINDLE_RPM, low_open=True, unit="rpm") * _RPM
@@ -364,7 +363,7 @@ def simulate(
     as_json: JsonOption = False,
 ) -> None:
     """Simulate one milling cut in time: vibration RMS, chatter, and the SDM's verdict."""
-    from cnctwin.dynamics.config import load_stability_config
+    from cnctwin.dynamics import load_stability_config
     from cnctwin.dynamics.process_damping import read_damping_model
 
     check_time_options(seconds, transient_s, kte_n_mm, kre_n_mm, steps, diameter_mm, helix_deg)
@@ -447,7 +446,7 @@ def calibration_report(
         (``Gamma = A + B exp(-a_p / a0)``, the decaying form), ``mape_percent`` and
         ``rmse_n_m2``; ``unfitted_rpm``: the speeds without a fit; ``axis``, ``wall_s``.
     """
-    from cnctwin.dynamics.process_damping import (
+    from cnctwin.dynamics import (
         CalibrationSetup,
         calibrate_cpd,
         fit_process_damping_model,
@@ -560,7 +559,7 @@ def calibrate_damping(
     ] = False,
 ) -> None:
     """Process damping per measured cut (Royandi 2026, Eq. 14) and its Gamma model (Eq. 15-19)."""
-    from cnctwin.dynamics.config import load_stability_config
+    from cnctwin.dynamics import load_stability_config
     from cnctwin.measurements import read_columns
 
     check_time_options(seconds, None, kte_n_mm, kre_n_mm, steps, diameter_mm, helix_deg)

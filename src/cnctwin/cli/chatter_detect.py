@@ -19,8 +19,8 @@ from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.cli._options import check_number
-from cnctwin.config.machine import MAX_SPINDLE_RPM
-from cnctwin.dynamics.chatter_detection import (
+from cnctwin.config import MAX_SPINDLE_RPM
+from cnctwin.dynamics import (
     DEFAULT_THRESHOLD,
     ChatterDetection,
     DetectorSettings,

@@ -89,10 +89,8 @@ def demo(
     feed override while the predicted form error is above 40 um, and stops the machine when
     a hole in the blank drops the measured force out of the predicted band.
     """
-    from cnctwin.store.historian import Historian
-    from cnctwin.twin.config import load_run_config
-    from cnctwin.twin.host import MachineProcess
-    from cnctwin.twin.physics import TwinPhysics
+    from cnctwin.store import Historian
+    from cnctwin.twin import MachineProcess, TwinPhysics, load_run_config
 
     check_number("--duration", duration, 0.0, MAX_DEMO_S, low_open=True, unit="s")
     if speed is not None:

@@ -18,12 +18,12 @@ from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.cli._options import check_number
-from cnctwin.dynamics.frf import FRF, FRFQuantity
+from cnctwin.dynamics import FRF, FRFQuantity
 from cnctwin.errors import DataError, InputError
 from cnctwin.measurements import TapTestKind, load_tap_test
 
 if TYPE_CHECKING:
-    from cnctwin.dynamics.modal import ModalFit
+    from cnctwin.dynamics import ModalFit
 
 __all__ = ["app", "fit_frf", "fit_frf_report", "modes_file_text"]
 
@@ -65,7 +65,7 @@ def fit_frf_report(
         ``damping_n_s_m``, ``modal_constant_per_kg`` and ``residual_norm`` (over its
         half-power band).
     """
-    from cnctwin.dynamics.modal import default_band, fit_modes
+    from cnctwin.dynamics import default_band, fit_modes
 
     if tau_ms is not None:
         check_number("--tau-ms", tau_ms, 0.0, MAX_TAU_MS, low_open=True, unit="ms")

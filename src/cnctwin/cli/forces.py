@@ -73,8 +73,8 @@ def forces_report(
     InputError
         For a value out of range, an unknown material, or both or neither coefficient sources.
     """
-    from cnctwin.config.machine import MAX_SPINDLE_RPM
-    from cnctwin.config.tools import (
+    from cnctwin.config import (
+        MAX_SPINDLE_RPM,
         MAX_TOOL_DIAMETER_MM,
         MAX_TOOL_LENGTH_MM,
         MIN_TOOL_DIAMETER_MM,
@@ -86,8 +86,8 @@ def forces_report(
         immersion_angles,
         mean_forces,
         milling_forces,
+        milling_material,
     )
-    from cnctwin.mechanics.materials import milling_material
 
     if not (MIN_TOOL_DIAMETER_MM <= diameter_mm <= MAX_TOOL_DIAMETER_MM):
         raise InputError(

@@ -15,10 +15,7 @@ from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.config import MachiningConfig, load_config
-from cnctwin.nc import limits
-from cnctwin.nc.segments import Segment
-from cnctwin.nc.setup import NCSetup
-from cnctwin.nc.summary import summarize
+from cnctwin.nc import NCSetup, Segment, limits, summarize
 
 __all__ = ["app", "inspect", "inspect_report", "report_table", "trace"]
 
@@ -119,7 +116,7 @@ def inspect_report(
     OSError
         If the file cannot be read.
     """
-    from cnctwin.nc.interpreter import Interpreter  # the interpreter is heavy to import
+    from cnctwin.nc import Interpreter  # the interpreter is heavy to import
 
     interpreter = Interpreter(setup if setup is not None else config.nc_setup())
     segments: Iterable[Segment] = interpreter.run_file(program)
@@ -178,7 +175,7 @@ def inspect(
     settings = _load(config)
     picture = None
     if plot is not None:
-        from cnctwin.nc.plot import ToolpathPlot  # matplotlib only when asked for
+        from cnctwin.nc import ToolpathPlot  # matplotlib only when asked for
 
         picture = ToolpathPlot()
     report = inspect_report(
@@ -225,8 +222,7 @@ def trace(
     max_repeated_lines: MaxRepeatedOpt = limits.MAX_REPEATED_LINES,
 ) -> None:
     """Print the canonical motion trace of a program, one call a line: source line, call."""
-    from cnctwin.nc.interpreter import Interpreter
-    from cnctwin.nc.trace import format_trace
+    from cnctwin.nc import Interpreter, format_trace
 
     setup = _bounded(_load(config).nc_setup(), max_segments, max_bytes, max_repeated_lines)
     interpreter = Interpreter(setup)

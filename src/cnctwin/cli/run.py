@@ -26,15 +26,12 @@ from rich.text import Text
 from cnctwin import finite_json
 from cnctwin.cli._options import MAX_RUN_S, MAX_WAIT_S, check_count, check_number
 from cnctwin.errors import InputError
-from cnctwin.thread.signals import RunState
+from cnctwin.thread import RunState
 
 if TYPE_CHECKING:
-    from cnctwin.store.historian import Historian
-    from cnctwin.twin.config import RunConfig
-    from cnctwin.twin.pipeline import Twin
-    from cnctwin.twin.runtime import RunSummary, TwinRuntime
-    from cnctwin.twin.state import CycleState
-    from cnctwin.web.server import LiveDashboard
+    from cnctwin.store import Historian
+    from cnctwin.twin import CycleState, RunConfig, RunSummary, Twin, TwinRuntime
+    from cnctwin.web import LiveDashboard
 
 __all__ = [
     "LiveView",
@@ -120,8 +117,8 @@ def run(
     evaluates the rules and (with [control] enabled) commands the machine through the safety
     filter; everything goes to the historian.
     """
-    from cnctwin.store.historian import Historian
-    from cnctwin.twin.config import load_run_config
+    from cnctwin.store import Historian
+    from cnctwin.twin import load_run_config
 
     if duration is not None:
         check_number("--duration", duration, 0.0, MAX_RUN_S, low_open=True, unit="s")
@@ -378,7 +375,7 @@ def run_with_view(
     or Ctrl-C; ``on_start`` runs once the twin is built (after the view is attached);
     ``web``, a started dashboard, watches it too; ``session`` goes to
     :func:`cnctwin.twin.session.run_session`."""
-    from cnctwin.twin.session import run_session
+    from cnctwin.twin import run_session
 
     view = LiveView(enabled=live and sys.stdout.isatty())
 
@@ -419,7 +416,7 @@ def web_dashboard(
     if not enabled:
         yield None
         return
-    from cnctwin.web.server import LiveDashboard
+    from cnctwin.web import LiveDashboard
 
     program = settings.twin.program
     if program is None and settings.virtual is not None:

@@ -23,7 +23,7 @@ from cnctwin.cli.simulate import resolution
 from cnctwin.config import MachiningConfig, load_config
 
 if TYPE_CHECKING:
-    from cnctwin.simulation.signals import MachineSignals
+    from cnctwin.simulation import MachineSignals
 
 __all__ = ["signals", "signals_report"]
 
@@ -63,7 +63,7 @@ def signals_report(
 
 
 def _write_csv(path: Path, result: MachineSignals) -> None:
-    from cnctwin.simulation.signals import SIGNAL_COLUMNS
+    from cnctwin.simulation import SIGNAL_COLUMNS
 
     with path.open("w", newline="") as handle:
         writer = csv.writer(handle)

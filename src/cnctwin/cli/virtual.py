@@ -23,12 +23,11 @@ import typer
 from cnctwin.cli._options import MAX_SPEED_FACTOR, MAX_WAIT_S, check_number
 from cnctwin.cli.run import note, quiet_protocol_logs
 from cnctwin.errors import InputError
-from cnctwin.virtual.exposure import check_exposure
-from cnctwin.virtual.users import ROLES, Role, UserTable, hash_password, load_users
+from cnctwin.virtual import ROLES, Role, UserTable, check_exposure, hash_password, load_users
 
 if TYPE_CHECKING:
-    from cnctwin.twin.config import RunConfig
-    from cnctwin.virtual.opcua_server import OpcUaServerSecurity
+    from cnctwin.twin import RunConfig
+    from cnctwin.virtual import OpcUaServerSecurity
 
 __all__ = ["app", "hash_password_command", "serve"]
 
@@ -106,7 +105,7 @@ def serve(
     The endpoint is printed on stdout as soon as the server listens; point a twin at it with
     ``cnctwin run --config TWIN.toml --endpoint URL``.
     """
-    from cnctwin.twin.config import load_run_config
+    from cnctwin.twin import load_run_config
 
     if transport not in ("opcua", "modbus"):
         raise InputError(f"--transport {transport!r}; valid: opcua, modbus")
@@ -199,7 +198,7 @@ def _access(
     table = load_users(users) if users is not None else UserTable()
     if anonymous is not None:
         table = UserTable(table.accounts, None if anonymous == "none" else cast(Role, anonymous))
-    from cnctwin.virtual.opcua_server import OpcUaServerSecurity, SecurityMode
+    from cnctwin.virtual import OpcUaServerSecurity, SecurityMode
 
     security = OpcUaServerSecurity(cast(SecurityMode, mode), certificate, private_key, trust)
     return security, table
@@ -217,7 +216,7 @@ async def _serve(
     users: UserTable,
     insecure: bool,
 ) -> None:
-    from cnctwin.twin.host import MachineServer
+    from cnctwin.twin import MachineServer
 
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()

@@ -15,7 +15,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.wear.lathe_simulator import DEFAULT_PARTS, LatheRun, run_test
+from cnctwin.wear import DEFAULT_PARTS, LatheRun, run_test
 
 __all__ = ["app", "simulate_lathe", "simulate_lathe_report"]
 

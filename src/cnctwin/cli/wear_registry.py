@@ -16,7 +16,7 @@ from cnctwin import finite_json
 from cnctwin.cli._options import check_number
 from cnctwin.errors import DataError
 from cnctwin.store import TwinRegistry
-from cnctwin.wear.compensation import ManufacturingParameters
+from cnctwin.wear import ManufacturingParameters
 
 __all__ = ["compensate", "history", "mount", "retire"]
 

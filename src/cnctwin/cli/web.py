@@ -56,9 +56,8 @@ def web(
     """Serve the run browser: list recorded runs, open one, zoom any signal, overlay, export."""
     import uvicorn
 
-    from cnctwin.virtual.exposure import is_loopback
-    from cnctwin.web.runs import RunBrowser, runs_app
-    from cnctwin.web.server import check_host
+    from cnctwin.virtual import is_loopback
+    from cnctwin.web import RunBrowser, check_host, runs_app
 
     check_count("--port", port, 0, 65535)
     check_host(host, insecure)

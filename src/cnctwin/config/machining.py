@@ -16,8 +16,7 @@ from cnctwin.config.material import MaterialConfig
 from cnctwin.config.simulation import SimulationConfig
 from cnctwin.config.stock import BoxStock
 from cnctwin.config.tools import ToolConfig
-from cnctwin.nc.setup import NCSetup
-from cnctwin.nc.tool_table import read_tool_table
+from cnctwin.nc import NCSetup, read_tool_table
 
 __all__ = ["MachiningConfig"]
 

@@ -9,7 +9,7 @@ from pydantic import Field, ValidationInfo, field_validator
 from pydantic_core import PydanticCustomError
 
 from cnctwin.config.base import Section
-from cnctwin.nc.setup import ToolEntry
+from cnctwin.nc import ToolEntry
 
 __all__ = [
     "CutterKind",

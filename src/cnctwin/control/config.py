@@ -34,10 +34,10 @@ from typing import Literal
 from pydantic import Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from cnctwin.config.base import Section
+from cnctwin.config import Section
 from cnctwin.control.expression import Expression
 from cnctwin.errors import ConfigError
-from cnctwin.thread.signals import COMMANDS
+from cnctwin.thread import COMMANDS
 
 __all__ = [
     "ACTION_COMMANDS",

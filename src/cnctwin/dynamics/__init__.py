@@ -12,6 +12,19 @@ Public API::
 SI units throughout: rad/s, s, N, m/N, kg, N/m, N s/m.
 """
 
+from cnctwin.dynamics.chatter_detection import (
+    DEFAULT_THRESHOLD,
+    ChatterDetection,
+    DetectorSettings,
+    StreamingChatterDetector,
+    detect_chatter,
+)
+from cnctwin.dynamics.config import (
+    MAX_POINTS,
+    MIN_IMMERSION,
+    StabilityConfig,
+    load_stability_config,
+)
 from cnctwin.dynamics.frf import (
     FRF,
     FRFQuantity,
@@ -22,6 +35,15 @@ from cnctwin.dynamics.frf import (
     window_damping_correction,
 )
 from cnctwin.dynamics.modal import ModalFit, Mode, default_band, fit_modes, modal_frf
+from cnctwin.dynamics.process_damping import (
+    CalibrationSetup,
+    GammaFit,
+    ProcessDampingModel,
+    calibrate_cpd,
+    cut_process_damping,
+    fit_process_damping_model,
+)
+from cnctwin.dynamics.roadmap import StabilityRoadmap, stability_roadmap
 from cnctwin.dynamics.stability import (
     MillingProcess,
     OrthogonalProcess,
@@ -34,27 +56,47 @@ from cnctwin.dynamics.stability import (
     zoa_absolute_depth,
     zoa_lobes,
 )
+from cnctwin.dynamics.time_domain import MillingVibration, simulate_milling
 
 __all__ = [
+    "CalibrationSetup",
+    "ChatterDetection",
+    "DEFAULT_THRESHOLD",
+    "DetectorSettings",
     "FRF",
     "FRFQuantity",
+    "GammaFit",
+    "MAX_POINTS",
+    "MIN_IMMERSION",
     "MillingProcess",
+    "MillingVibration",
     "ModalFit",
     "Mode",
     "OrthogonalProcess",
     "ProcessDamping",
+    "ProcessDampingModel",
+    "StabilityConfig",
     "StabilityLobes",
+    "StabilityRoadmap",
+    "StreamingChatterDetector",
     "ToolDynamics",
     "ToolMode",
     "accelerance_to_receptance",
+    "calibrate_cpd",
+    "cut_process_damping",
     "default_band",
+    "detect_chatter",
     "exponential_window",
     "fit_modes",
+    "fit_process_damping_model",
     "floquet_multipliers",
     "force_window",
     "impact_frf",
+    "load_stability_config",
     "modal_frf",
     "sdm_lobes",
+    "simulate_milling",
+    "stability_roadmap",
     "window_damping_correction",
     "zoa_absolute_depth",
     "zoa_lobes",

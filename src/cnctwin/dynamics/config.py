@@ -17,9 +17,7 @@ from typing import Annotated, Any, Literal, TypeVar
 
 from pydantic import Field, ValidationError, model_validator
 
-from cnctwin.config.base import Section
-from cnctwin.config.loading import describe_validation_error
-from cnctwin.config.machine import MAX_SPINDLE_RPM
+from cnctwin.config import MAX_SPINDLE_RPM, Section, describe_validation_error
 from cnctwin.dynamics.stability import (
     MillingProcess,
     OrthogonalProcess,
@@ -29,7 +27,7 @@ from cnctwin.dynamics.stability import (
     _auto_steps,
 )
 from cnctwin.errors import ConfigError
-from cnctwin.mechanics.coefficients import CuttingCoefficients
+from cnctwin.mechanics import CuttingCoefficients
 from cnctwin.memory import check_memory
 
 __all__ = [
@@ -254,7 +252,7 @@ class StabilityConfig(Section):
 
     def coefficients(self) -> CuttingCoefficients:
         """Milling coefficients from ``material`` or ``ktc_n_mm2`` and ``krc_n_mm2``."""
-        from cnctwin.mechanics.materials import milling_material
+        from cnctwin.mechanics import milling_material
 
         cut = self.cut
         given = cut.ktc_n_mm2 is not None or cut.krc_n_mm2 is not None

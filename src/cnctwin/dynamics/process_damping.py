@@ -36,7 +36,7 @@ from scipy.optimize import brentq, minimize_scalar, nnls
 from cnctwin.dynamics.stability import MillingProcess, ProcessDamping, ToolDynamics
 from cnctwin.dynamics.time_domain import simulate_milling
 from cnctwin.errors import ConfigError, DataError, InputError
-from cnctwin.geometry.cutter import Cutter
+from cnctwin.geometry import Cutter
 
 __all__ = [
     "CalibrationSetup",

@@ -45,8 +45,8 @@ import numpy as np
 
 from cnctwin.dynamics.stability import MillingProcess, ToolDynamics, sdm_lobes, zoa_lobes
 from cnctwin.errors import ConfigError
-from cnctwin.geometry.engagement_map import EngagementMap
-from cnctwin.mechanics.coefficients import CuttingCoefficients
+from cnctwin.geometry import EngagementMap
+from cnctwin.mechanics import CuttingCoefficients
 
 __all__ = [
     "DEFAULT_MARGIN",

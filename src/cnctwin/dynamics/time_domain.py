@@ -60,7 +60,7 @@ from scipy.linalg import expm
 from cnctwin.dynamics import _time_domain_kernels as _k
 from cnctwin.dynamics.stability import MillingProcess, ProcessDamping, ToolDynamics
 from cnctwin.errors import ConfigError
-from cnctwin.geometry.cutter import Cutter
+from cnctwin.geometry import Cutter
 
 __all__ = [
     "ChatterVerdict",

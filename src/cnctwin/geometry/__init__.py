@@ -18,7 +18,7 @@ feed mm/min as in the NC layer), seconds and radians. See docs/dexel.md.
 
 from cnctwin.geometry.cutter import Cutter, CutterSlices
 from cnctwin.geometry.dexel import AXES, Axis, DexelGrid, DexelStock
-from cnctwin.geometry.engagement import Engagement, cut
+from cnctwin.geometry.engagement import Engagement, cut, cut_path
 from cnctwin.geometry.engagement_map import (
     EngagementMap,
     MapCursor,
@@ -28,6 +28,7 @@ from cnctwin.geometry.engagement_map import (
     load_engagement_map,
     save_engagement_map,
 )
+from cnctwin.geometry.mesh import stock_mesh
 from cnctwin.geometry.removal import ContactRecord, Removal, remove
 
 __all__ = [
@@ -46,7 +47,9 @@ __all__ = [
     "MatchStatus",
     "Removal",
     "cut",
+    "cut_path",
     "load_engagement_map",
     "remove",
     "save_engagement_map",
+    "stock_mesh",
 ]

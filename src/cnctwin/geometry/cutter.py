@@ -52,11 +52,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from cnctwin.config.tools import MAX_FLUTES, CutterKind
+from cnctwin.config import MAX_FLUTES, CutterKind
 from cnctwin.errors import ConfigError
 
 if TYPE_CHECKING:
-    from cnctwin.config.tools import ToolConfig
+    from cnctwin.config import ToolConfig
 
 __all__ = ["Cutter", "CutterSlices"]
 

@@ -25,7 +25,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from cnctwin.dynamics.frf import FRF, FRFQuantity, impact_frf
+from cnctwin.dynamics import FRF, FRFQuantity, impact_frf
 from cnctwin.errors import DataError, InputError
 
 __all__ = [

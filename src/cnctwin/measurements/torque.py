@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from cnctwin.errors import DataError
-from cnctwin.wear.torque_series import TorqueSeries
+from cnctwin.wear import TorqueSeries
 
 __all__ = ["TORQUE_COLUMNS", "read_torque_csv"]
 

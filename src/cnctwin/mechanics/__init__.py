@@ -19,6 +19,8 @@ conventions are in :mod:`cnctwin.mechanics.engagement` and :mod:`cnctwin.mechani
 
 from cnctwin.mechanics.coefficients import CuttingCoefficients
 from cnctwin.mechanics.engagement import ImmersionIntervals, immersion_angles
+from cnctwin.mechanics.identification import identify_coefficients
+from cnctwin.mechanics.materials import kienzle_material, milling_material
 from cnctwin.mechanics.milling import (
     ForceWaveform,
     MeanForces,
@@ -26,14 +28,29 @@ from cnctwin.mechanics.milling import (
     mean_forces,
     milling_forces,
 )
+from cnctwin.mechanics.turning import (
+    TurningCoefficients,
+    edge_force_turning,
+    kienzle_cutting_force,
+    oblique_coefficients,
+    turning_chip,
+)
 
 __all__ = [
     "CuttingCoefficients",
     "ForceWaveform",
     "ImmersionIntervals",
     "MeanForces",
+    "TurningCoefficients",
+    "edge_force_turning",
     "flat_end_mill_mean_forces",
+    "identify_coefficients",
     "immersion_angles",
+    "kienzle_cutting_force",
+    "kienzle_material",
     "mean_forces",
     "milling_forces",
+    "milling_material",
+    "oblique_coefficients",
+    "turning_chip",
 ]

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cnctwin.errors import ConfigError
-from cnctwin.geometry.cutter import Cutter
+from cnctwin.geometry import Cutter
 
 __all__ = ["ImmersionIntervals", "immersion_angles"]
 

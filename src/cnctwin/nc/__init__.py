@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run time
     from cnctwin.nc.interpreter import Interpreter, interpret_file, interpret_text
+    from cnctwin.nc.plot import ToolpathPlot
     from cnctwin.nc.sampler import (
         AxisLimits,
         FeedOverride,
@@ -26,6 +27,7 @@ if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run
         sample_program,
     )
     from cnctwin.nc.segments import (
+        PLANE_AXES,
         CutterComp,
         FeedMode,
         MachineState,
@@ -36,6 +38,8 @@ if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run
         segment_length_mm,
     )
     from cnctwin.nc.setup import NCSetup, ToolEntry
+    from cnctwin.nc.summary import summarize
+    from cnctwin.nc.tool_table import read_tool_table
     from cnctwin.nc.trace import CanonicalMove, canonical_moves, format_trace
 
 #: Where each public name lives. Imported on first use, so that importing one submodule
@@ -50,18 +54,22 @@ _HOMES = {
     "MachineState": "segments",
     "MotionKind": "segments",
     "NCSetup": "setup",
+    "PLANE_AXES": "segments",
     "Plane": "segments",
     "SampleChunk": "sampler",
     "Segment": "segments",
     "ToolEntry": "setup",
+    "ToolpathPlot": "plot",
     "TrajectorySampler": "sampler",
     "arc_sweep_rad": "segments",
     "canonical_moves": "trace",
     "format_trace": "trace",
     "interpret_file": "interpreter",
     "interpret_text": "interpreter",
+    "read_tool_table": "tool_table",
     "sample_program": "sampler",
     "segment_length_mm": "segments",
+    "summarize": "summary",
 }
 
 
@@ -79,6 +87,7 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "PLANE_AXES",
     "AxisLimits",
     "CanonicalMove",
     "CutterComp",
@@ -92,12 +101,15 @@ __all__ = [
     "SampleChunk",
     "Segment",
     "ToolEntry",
+    "ToolpathPlot",
     "TrajectorySampler",
     "arc_sweep_rad",
     "canonical_moves",
     "format_trace",
     "interpret_file",
     "interpret_text",
+    "read_tool_table",
     "sample_program",
     "segment_length_mm",
+    "summarize",
 ]

@@ -4,6 +4,7 @@ The power law takes features in the units it was fitted in (named in the feature
 ``ap_mm``); the kinematic profiles are in SI units (m, rad).
 """
 
+from cnctwin.quality.form_error import end_mill_stiffness, form_error, wall_normal_force
 from cnctwin.quality.roughness import (
     FitMetrics,
     PowerLawFit,
@@ -22,12 +23,15 @@ __all__ = [
     "FitMetrics",
     "PowerLawFit",
     "PowerLawModel",
+    "end_mill_stiffness",
     "fit_metrics",
     "fit_power_law",
     "flat_end_mill_ra",
     "flat_end_mill_rt",
+    "form_error",
     "milling_cusp_height",
     "milling_cusp_ra",
     "turning_ra",
     "turning_rt",
+    "wall_normal_force",
 ]

@@ -15,8 +15,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cnctwin.report.document import Report
-from cnctwin.studies.dexel_study import PAPER, DexelStudy, RunResult
-from cnctwin.studies.score import AE_RESOLUTION_MM, FEED_RESOLUTION_PCT, settings
+from cnctwin.studies import (
+    AE_RESOLUTION_MM,
+    FEED_RESOLUTION_PCT,
+    PAPER,
+    DexelStudy,
+    RunResult,
+    settings,
+)
 
 if TYPE_CHECKING:
     import plotly.graph_objects as go

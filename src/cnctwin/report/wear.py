@@ -14,8 +14,7 @@ from typing import Any
 import numpy as np
 
 from cnctwin.report.document import Report
-from cnctwin.wear.stages import StageMonitor
-from cnctwin.wear.torque_series import EKFRun, TorqueSeries
+from cnctwin.wear import EKFRun, StageMonitor, TorqueSeries
 
 __all__ = ["wear_ekf_report"]
 

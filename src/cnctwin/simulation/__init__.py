@@ -8,7 +8,15 @@ from cnctwin.simulation.program import (
     predict_program_signals,
     simulate_program,
 )
-from cnctwin.simulation.signals import SIGNAL_COLUMNS, MachineSignals, simulate_signals
+from cnctwin.simulation.signals import (
+    SIGNAL_COLUMNS,
+    MachineSignals,
+    StepForces,
+    immersion_intervals,
+    simulate_signals,
+    spindle_drive_parameters,
+    step_forces,
+)
 
 __all__ = [
     "COLUMNS",
@@ -22,4 +30,8 @@ __all__ = [
     "simulate_cut",
     "simulate_program",
     "simulate_signals",
+    "StepForces",
+    "immersion_intervals",
+    "spindle_drive_parameters",
+    "step_forces",
 ]

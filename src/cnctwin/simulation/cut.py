@@ -17,11 +17,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cnctwin.errors import NCError
-from cnctwin.geometry import Cutter, DexelStock, Engagement
-from cnctwin.geometry.engagement import cut_path
+from cnctwin.geometry import Cutter, DexelStock, Engagement, cut_path
 from cnctwin.memory import check_memory
-from cnctwin.nc.sampler import AxisLimits, TrajectorySampler
-from cnctwin.nc.segments import MotionKind, Segment
+from cnctwin.nc import AxisLimits, MotionKind, Segment, TrajectorySampler
 
 __all__ = ["COLUMNS", "CutStep", "StepTable", "simulate_cut"]
 

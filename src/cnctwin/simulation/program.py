@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from collections.abc import Iterator
 
     from cnctwin.config import MachiningConfig
-    from cnctwin.nc.interpreter import Interpreter
+    from cnctwin.nc import Interpreter
 
 __all__ = ["ProgramCut", "ProgramSignals", "predict_program_signals", "simulate_program"]
 
@@ -167,7 +167,7 @@ def _setup(
     config: MachiningConfig, density_per_mm: float
 ) -> tuple[dict[int, Cutter], DexelStock, Interpreter]:
     """The cutters by tool number, the stock box and the interpreter of ``config``."""
-    from cnctwin.nc.interpreter import Interpreter
+    from cnctwin.nc import Interpreter
 
     cutters = {tool.number: Cutter.from_tool_config(tool) for tool in config.tools}
     stock = DexelStock.box(config.stock.min_mm, config.stock.max_mm, density_per_mm)
@@ -292,7 +292,7 @@ def predict_program_signals(
     NCError
         For an NC error, or a tool the program uses that has no geometry.
     """
-    from cnctwin.mechanics.materials import milling_material
+    from cnctwin.mechanics import milling_material
 
     try:
         material = milling_material(config.material.name)

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cnctwin.config.spindle import SpindleConfig
+from cnctwin.config import SpindleConfig
 from cnctwin.drives import (
     RAD_S_PER_RPM,
     MachiningEvents,
@@ -53,8 +53,7 @@ from cnctwin.mechanics import (
     mean_forces,
     milling_forces,
 )
-from cnctwin.nc.sampler import AxisLimits
-from cnctwin.nc.segments import Segment
+from cnctwin.nc import AxisLimits, Segment
 from cnctwin.simulation.cut import CutStep, StepTable, simulate_cut
 
 __all__ = [

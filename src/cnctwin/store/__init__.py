@@ -3,6 +3,7 @@
 
 from cnctwin.store.config import HistorianConfig
 from cnctwin.store.historian import (
+    TIME_COLUMN,
     DecisionRecord,
     EventRecord,
     Historian,
@@ -22,6 +23,7 @@ __all__ = [
     "MeasurementRecord",
     "RunDetail",
     "RunSummary",
+    "TIME_COLUMN",
     "ToolRecord",
     "TwinRegistry",
     "default_database_path",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pydantic import Field
 
-from cnctwin.config.base import Section
+from cnctwin.config import Section
 
 __all__ = ["HistorianConfig"]
 

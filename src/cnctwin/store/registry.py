@@ -20,7 +20,7 @@ from pathlib import Path
 
 from cnctwin import finite_json
 from cnctwin.errors import DataError
-from cnctwin.wear.compensation import LatheTwin, ManufacturingParameters, Observation, ToolTwin
+from cnctwin.wear import LatheTwin, ManufacturingParameters, Observation, ToolTwin
 
 __all__ = ["MeasurementRecord", "ToolRecord", "TwinRegistry"]
 

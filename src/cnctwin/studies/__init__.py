@@ -24,6 +24,7 @@ from cnctwin.studies.dexel_study import (
     SideMillingCut,
     run_one,
 )
+from cnctwin.studies.report import write_outputs
 from cnctwin.studies.runner import default_workers, run_study
 from cnctwin.studies.scaling import TStarFit, fit_t_star, t_star
 from cnctwin.studies.score import (
@@ -61,4 +62,5 @@ __all__ = [
     "score",
     "settings",
     "t_star",
+    "write_outputs",
 ]

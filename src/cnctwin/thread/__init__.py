@@ -14,14 +14,50 @@ from cnctwin.thread.connection import (
     ConnectionState,
     MachineConnection,
     Reading,
+    now_s,
 )
 from cnctwin.thread.signals import COMMANDS, SIGNALS, RunState, SignalSpec
 
 if TYPE_CHECKING:
+    from cnctwin.thread.config import ConnectionConfig
+    from cnctwin.thread.latency import (
+        JitterProxy,
+        LatencyResult,
+        LatencyStats,
+        measure_endpoint_latency,
+        measure_latency,
+    )
     from cnctwin.thread.modbus import ModbusConnection
-    from cnctwin.thread.opcua import OpcUaConnection
+    from cnctwin.thread.modbus_map import READ_MAP, STATUS_MAP, WRITE_MAP, RegisterAddress
+    from cnctwin.thread.opcua import (
+        DEFAULT_SUBSCRIPTION_MS,
+        NAMESPACE_URI,
+        NODE_MAP,
+        OpcUaConnection,
+        variant_type,
+    )
+    from cnctwin.thread.trust import TrustList
 
-_LAZY = {"ModbusConnection": "cnctwin.thread.modbus", "OpcUaConnection": "cnctwin.thread.opcua"}
+# pydantic, asyncio, asyncua, pymodbus and cryptography load with these: imported on first use.
+_LAZY = {
+    "ConnectionConfig": "cnctwin.thread.config",
+    "JitterProxy": "cnctwin.thread.latency",
+    "LatencyResult": "cnctwin.thread.latency",
+    "measure_latency": "cnctwin.thread.latency",
+    "DEFAULT_SUBSCRIPTION_MS": "cnctwin.thread.opcua",
+    "LatencyStats": "cnctwin.thread.latency",
+    "measure_endpoint_latency": "cnctwin.thread.latency",
+    "ModbusConnection": "cnctwin.thread.modbus",
+    "READ_MAP": "cnctwin.thread.modbus_map",
+    "STATUS_MAP": "cnctwin.thread.modbus_map",
+    "WRITE_MAP": "cnctwin.thread.modbus_map",
+    "RegisterAddress": "cnctwin.thread.modbus_map",
+    "NAMESPACE_URI": "cnctwin.thread.opcua",
+    "NODE_MAP": "cnctwin.thread.opcua",
+    "OpcUaConnection": "cnctwin.thread.opcua",
+    "variant_type": "cnctwin.thread.opcua",
+    "TrustList": "cnctwin.thread.trust",
+}
 
 __all__ = [
     "COMMANDS",
@@ -36,6 +72,22 @@ __all__ = [
     "Reading",
     "RunState",
     "SignalSpec",
+    "now_s",
+    "ConnectionConfig",
+    "LatencyResult",
+    "LatencyStats",
+    "measure_endpoint_latency",
+    "READ_MAP",
+    "STATUS_MAP",
+    "WRITE_MAP",
+    "RegisterAddress",
+    "NAMESPACE_URI",
+    "NODE_MAP",
+    "variant_type",
+    "TrustList",
+    "JitterProxy",
+    "measure_latency",
+    "DEFAULT_SUBSCRIPTION_MS",
 ]
 
 

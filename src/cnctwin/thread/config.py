@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import Field
 
-from cnctwin.config.base import Section
+from cnctwin.config import Section
 
 __all__ = ["ConnectionConfig", "OpcUaSecurityConfig"]
 

@@ -17,6 +17,7 @@ from cnctwin.twin.config import RunConfig, load_run_config
 from cnctwin.twin.host import MachineProcess, MachineServer
 from cnctwin.twin.local import LocalConnection
 from cnctwin.twin.monitoring import BandResult, ForceBand
+from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.pipeline import Twin, build_twin, signal_names
 from cnctwin.twin.runtime import RunSummary, TwinRuntime
 from cnctwin.twin.session import open_connection, run_session
@@ -43,6 +44,7 @@ __all__ = [
     "RunSummary",
     "Twin",
     "TwinEvent",
+    "TwinPhysics",
     "TwinRuntime",
     "TwinSettings",
     "WindowConfig",

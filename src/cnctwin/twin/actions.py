@@ -30,7 +30,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from cnctwin.control import Decision, RuleEngine, SafetyFilter, Verdict
-from cnctwin.thread.connection import CommandRejected, ConnectionLost, MachineConnection
+from cnctwin.thread import CommandRejected, ConnectionLost, MachineConnection
 from cnctwin.twin.recorder import Recorder
 from cnctwin.twin.settings import StopConfirmationConfig
 from cnctwin.twin.state import CycleState, TwinEvent

@@ -23,13 +23,12 @@ import os
 from pydantic import Field, field_validator
 from pydantic_core import PydanticCustomError
 
-from cnctwin.config.loading import load_config
-from cnctwin.config.machining import MachiningConfig
-from cnctwin.control.config import ControlConfig, RuleConfig
-from cnctwin.store.config import HistorianConfig
-from cnctwin.thread.config import ConnectionConfig
+from cnctwin.config import MachiningConfig, load_config
+from cnctwin.control import ControlConfig, RuleConfig
+from cnctwin.store import HistorianConfig
+from cnctwin.thread import ConnectionConfig
 from cnctwin.twin.settings import TwinSettings
-from cnctwin.virtual.config import VirtualMachineConfig
+from cnctwin.virtual import VirtualMachineConfig
 
 __all__ = ["RunConfig", "load_run_config"]
 

@@ -25,7 +25,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from cnctwin.thread.connection import Reading
+from cnctwin.thread import Reading
 
 __all__ = ["Freshness", "SampleCheck"]
 

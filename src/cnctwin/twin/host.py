@@ -29,11 +29,10 @@ from typing import TYPE_CHECKING, Any, Literal, Protocol
 from cnctwin import finite_json
 from cnctwin.errors import CnctwinError, ConfigError
 from cnctwin.twin.config import RunConfig
-from cnctwin.virtual import MachineClock, VirtualMachine
-from cnctwin.virtual.users import UserTable
+from cnctwin.virtual import MachineClock, UserTable, VirtualMachine
 
 if TYPE_CHECKING:
-    from cnctwin.virtual.opcua_server import OpcUaServerSecurity
+    from cnctwin.virtual import OpcUaServerSecurity
 
 __all__ = ["MachineProcess", "MachineServer", "Transport", "serve"]
 
@@ -97,13 +96,13 @@ class MachineServer:
 
     def _make_server(self, port: int) -> _Server:
         if self.transport == "opcua":
-            from cnctwin.virtual.opcua_server import OpcUaMachineServer
+            from cnctwin.virtual import OpcUaMachineServer
 
             return OpcUaMachineServer(
                 self.vm, self.host, port, self.security, self.users, self.insecure
             )
         if self.transport == "modbus":
-            from cnctwin.virtual.modbus_server import ModbusMachineServer
+            from cnctwin.virtual import ModbusMachineServer
 
             return ModbusMachineServer(self.vm, self.host, port, insecure=self.insecure)
         raise ConfigError(f"transport {self.transport!r}; valid: 'opcua', 'modbus'")

@@ -14,8 +14,7 @@ import math
 from typing import Protocol
 
 from cnctwin.errors import ConfigError
-from cnctwin.thread.connection import ConnectionLost, MachineConnection, Reading, now_s
-from cnctwin.thread.signals import COMMANDS, SIGNALS
+from cnctwin.thread import COMMANDS, SIGNALS, ConnectionLost, MachineConnection, Reading, now_s
 
 __all__ = ["LocalConnection", "MachineSource"]
 

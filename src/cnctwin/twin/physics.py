@@ -21,12 +21,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from cnctwin.config.machining import MachiningConfig
+from cnctwin.config import MachiningConfig
 from cnctwin.errors import ConfigError
 from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
 from cnctwin.mechanics import CuttingCoefficients
-from cnctwin.simulation.cut import CutStep
-from cnctwin.simulation.signals import StepForces, step_forces
+from cnctwin.simulation import CutStep, StepForces, step_forces
 
 __all__ = ["NO_FORCE", "TwinPhysics"]
 
@@ -64,7 +63,7 @@ class TwinPhysics:
         waveform_steps: int = 36,
         default_dt_s: float = 0.0125,
     ) -> None:
-        from cnctwin.mechanics.materials import milling_material
+        from cnctwin.mechanics import milling_material
 
         try:
             material = milling_material(config.material.name)

@@ -8,10 +8,8 @@ import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 
-from cnctwin.control import RuleEngine, SafetyFilter
-from cnctwin.control.expression import Expression
-from cnctwin.thread.connection import MachineConnection
-from cnctwin.thread.signals import SIGNALS
+from cnctwin.control import Expression, RuleEngine, SafetyFilter
+from cnctwin.thread import SIGNALS, MachineConnection
 from cnctwin.twin.actions import ActionStage, RuleStage
 from cnctwin.twin.config import RunConfig
 from cnctwin.twin.monitoring import ForceBand

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cnctwin.config.machine import MachineConfig
+from cnctwin.config import MachineConfig
 from cnctwin.twin.settings import PlausibilityConfig
 
 __all__ = ["AXES", "Plausibility", "PlausibilityResult"]

@@ -14,9 +14,9 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
-from cnctwin.config.machining import MachiningConfig
+from cnctwin.config import MachiningConfig
 from cnctwin.errors import NCError
-from cnctwin.nc.interpreter import Interpreter
+from cnctwin.nc import Interpreter
 
 __all__ = ["ProgramMap"]
 

@@ -19,8 +19,8 @@ from collections.abc import Mapping
 from typing import Any
 
 from cnctwin.errors import DataError
-from cnctwin.store.historian import Historian
-from cnctwin.thread.signals import SIGNALS
+from cnctwin.store import Historian
+from cnctwin.thread import SIGNALS
 from cnctwin.twin.state import CycleState, TwinEvent
 
 __all__ = ["Recorder"]

@@ -32,7 +32,7 @@ from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from cnctwin.thread.signals import RunState
+from cnctwin.thread import RunState
 from cnctwin.twin.actions import ActionStage
 from cnctwin.twin.recorder import Recorder
 from cnctwin.twin.settings import OverloadConfig

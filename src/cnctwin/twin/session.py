@@ -9,9 +9,8 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from cnctwin.errors import CnctwinError
-from cnctwin.store.historian import Historian
-from cnctwin.thread.config import ConnectionConfig
-from cnctwin.thread.connection import ConnectionLost, MachineConnection
+from cnctwin.store import Historian
+from cnctwin.thread import ConnectionConfig, ConnectionLost, MachineConnection
 from cnctwin.twin.config import RunConfig
 from cnctwin.twin.pipeline import Twin, build_twin
 from cnctwin.twin.recorder import Recorder
@@ -34,10 +33,10 @@ def open_connection(config: ConnectionConfig, base_dir: Path | None = None) -> M
         Folder of the configuration file (relative certificate paths).
     """
     if config.transport == "modbus":
-        from cnctwin.thread.modbus import ModbusConnection
+        from cnctwin.thread import ModbusConnection
 
         return ModbusConnection(config)
-    from cnctwin.thread.opcua import OpcUaConnection
+    from cnctwin.thread import OpcUaConnection
 
     return OpcUaConnection(config, base_dir=base_dir)
 

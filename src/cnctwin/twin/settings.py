@@ -7,7 +7,7 @@ from typing import Literal
 
 from pydantic import Field, ValidationInfo, field_validator
 
-from cnctwin.config.base import Section, resolve_file
+from cnctwin.config import Section, resolve_file
 
 __all__ = [
     "FilterConfig",

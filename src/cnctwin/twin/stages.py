@@ -30,15 +30,14 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from cnctwin.signals.filters import (
+from cnctwin.signals import (
     ButterworthFilter,
     CausalFilter,
     HampelFilter,
     KalmanFilter,
+    SlidingWindow,
 )
-from cnctwin.signals.windows import SlidingWindow
-from cnctwin.thread.connection import ConnectionLost, MachineConnection
-from cnctwin.thread.signals import SIGNALS, RunState
+from cnctwin.thread import SIGNALS, ConnectionLost, MachineConnection, RunState
 from cnctwin.twin.freshness import Freshness
 from cnctwin.twin.monitoring import ForceBand
 from cnctwin.twin.physics import TwinPhysics
@@ -682,7 +681,7 @@ class FormErrorStage:
     name = "form_error"
 
     def __init__(self, config: FormErrorConfig, physics: TwinPhysics) -> None:
-        from cnctwin.quality.form_error import end_mill_stiffness
+        from cnctwin.quality import end_mill_stiffness
 
         self.tolerance_um = config.tolerance_um
         self.twin = physics
@@ -702,7 +701,7 @@ class FormErrorStage:
     def process(self, state: CycleState) -> CycleState:
         """Add ``deflection_um``, ``form_error_um``, ``form_error_tolerance_um`` and
         ``form_error_out``."""
-        from cnctwin.quality.form_error import form_error
+        from cnctwin.quality import form_error
 
         p = state.predicted
         k = self.stiffness_n_m.get(state.tool)

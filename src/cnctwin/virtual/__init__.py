@@ -29,13 +29,15 @@ from cnctwin.virtual.config import (
     VirtualMachineConfig,
     WearFault,
 )
+from cnctwin.virtual.exposure import check_exposure, is_loopback
 from cnctwin.virtual.faults import FaultEvent, FaultInjector, blank_with_holes
 from cnctwin.virtual.machine import VirtualMachine
+from cnctwin.virtual.users import ROLES, Role, UserTable, hash_password, load_users
 
 if TYPE_CHECKING:
     from cnctwin.virtual.modbus_server import ModbusMachineServer
-    from cnctwin.virtual.opcua_server import OpcUaMachineServer, OpcUaServerSecurity
-    from cnctwin.virtual.spawned import virtual_machine_server
+    from cnctwin.virtual.opcua_server import OpcUaMachineServer, OpcUaServerSecurity, SecurityMode
+    from cnctwin.virtual.spawned import TRANSPORTS, virtual_machine_server
 
 # The servers load asyncua and pymodbus, the child process multiprocessing: imported on
 # first use.
@@ -43,6 +45,8 @@ _LAZY = {
     "ModbusMachineServer": "cnctwin.virtual.modbus_server",
     "OpcUaMachineServer": "cnctwin.virtual.opcua_server",
     "OpcUaServerSecurity": "cnctwin.virtual.opcua_server",
+    "SecurityMode": "cnctwin.virtual.opcua_server",
+    "TRANSPORTS": "cnctwin.virtual.spawned",
     "virtual_machine_server": "cnctwin.virtual.spawned",
 }
 
@@ -59,11 +63,20 @@ __all__ = [
     "NoiseConfig",
     "OpcUaMachineServer",
     "OpcUaServerSecurity",
+    "ROLES",
+    "Role",
+    "SecurityMode",
+    "TRANSPORTS",
     "ToolBreakageFault",
+    "UserTable",
     "VirtualMachine",
     "VirtualMachineConfig",
     "WearFault",
     "blank_with_holes",
+    "check_exposure",
+    "hash_password",
+    "is_loopback",
+    "load_users",
     "virtual_machine_server",
 ]
 

@@ -26,7 +26,7 @@ import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 
-from cnctwin.nc.segments import PLANE_AXES, MotionKind, Plane, Segment, arc_sweep_rad
+from cnctwin.nc import PLANE_AXES, MotionKind, Plane, Segment, arc_sweep_rad
 
 __all__ = ["Move", "PathFollower"]
 

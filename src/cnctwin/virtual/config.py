@@ -15,7 +15,7 @@ from typing import Annotated, Literal
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from cnctwin.config.base import CoordinateMm, Section, Vec3Mm, resolve_file
+from cnctwin.config import CoordinateMm, Section, Vec3Mm, resolve_file
 
 __all__ = [
     "AxisDriveConfig",

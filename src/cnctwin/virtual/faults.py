@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cnctwin.config.stock import BoxStock
+from cnctwin.config import BoxStock
 from cnctwin.geometry import AXES, DexelGrid, DexelStock
 from cnctwin.virtual.config import (
     ChatterFault,

@@ -38,18 +38,15 @@ from pathlib import Path
 
 import numpy as np
 
-from cnctwin.config import MachiningConfig, load_config
-from cnctwin.config.tools import ToolConfig
+from cnctwin.config import MachiningConfig, ToolConfig, load_config
 from cnctwin.drives import RAD_S_PER_RPM, EventState, SpindleDrive
 from cnctwin.errors import ConfigError, NCError
 from cnctwin.examples import example_file
 from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
-from cnctwin.mechanics import mean_forces
-from cnctwin.mechanics.materials import milling_material
-from cnctwin.nc.interpreter import Interpreter
-from cnctwin.nc.segments import Segment
-from cnctwin.simulation.signals import immersion_intervals, spindle_drive_parameters
-from cnctwin.thread.signals import COMMANDS, SIGNALS, RunState
+from cnctwin.mechanics import mean_forces, milling_material
+from cnctwin.nc import Interpreter, Segment
+from cnctwin.simulation import immersion_intervals, spindle_drive_parameters
+from cnctwin.thread import COMMANDS, SIGNALS, RunState
 from cnctwin.virtual._motion import PathFollower
 from cnctwin.virtual.config import HoleFault, VirtualMachineConfig
 from cnctwin.virtual.faults import FaultEvent, FaultInjector, blank_with_holes

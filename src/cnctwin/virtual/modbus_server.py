@@ -27,13 +27,13 @@ from pymodbus.simulator import DataType, SimData, SimDevice
 from pymodbus.simulator.simutils import SimUtils
 
 from cnctwin.errors import CnctwinError
-from cnctwin.thread.modbus_map import (
+from cnctwin.thread import (
+    COMMANDS,
     READ_MAP,
     STATUS_MAP,
     WRITE_MAP,
     RegisterAddress,
 )
-from cnctwin.thread.signals import COMMANDS
 from cnctwin.virtual.exposure import check_exposure
 
 __all__ = ["MachineSource", "ModbusMachineServer"]

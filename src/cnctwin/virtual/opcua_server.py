@@ -42,9 +42,7 @@ from asyncua.server.user_managers import UserManager
 
 from cnctwin import __version__
 from cnctwin.errors import CnctwinError, ConfigError
-from cnctwin.thread.opcua import NAMESPACE_URI, NODE_MAP, variant_type
-from cnctwin.thread.signals import COMMANDS, SIGNALS
-from cnctwin.thread.trust import TrustList
+from cnctwin.thread import COMMANDS, NAMESPACE_URI, NODE_MAP, SIGNALS, TrustList, variant_type
 from cnctwin.virtual.exposure import check_exposure
 from cnctwin.virtual.users import UserTable
 

@@ -28,6 +28,7 @@ from cnctwin.wear.ekf import (
 )
 from cnctwin.wear.fitting import LogisticFit, fit_logistic_wear, logistic_wear_curve
 from cnctwin.wear.lathe_simulator import (
+    DEFAULT_PARTS,
     TESTS,
     LatheRun,
     LatheScenario,
@@ -36,6 +37,7 @@ from cnctwin.wear.lathe_simulator import (
 )
 from cnctwin.wear.stages import RemainingLife, StageEvent, StageMonitor, remaining_life
 from cnctwin.wear.torque_series import (
+    IDLE_TORQUE_NM,
     EKFRun,
     TorqueSeries,
     run_filter,
@@ -75,4 +77,6 @@ __all__ = [
     "run_test",
     "simulate",
     "synthetic_session",
+    "DEFAULT_PARTS",
+    "IDLE_TORQUE_NM",
 ]

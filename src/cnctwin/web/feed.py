@@ -22,8 +22,8 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from cnctwin.thread.signals import RunState
-from cnctwin.twin.state import CycleState, TwinEvent
+from cnctwin.thread import RunState
+from cnctwin.twin import CycleState, TwinEvent
 
 __all__ = [
     "SERIES",

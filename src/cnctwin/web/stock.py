@@ -24,8 +24,7 @@ from cnctwin.errors import InputError
 from cnctwin.geometry import Cutter, DexelStock
 
 if TYPE_CHECKING:
-    from cnctwin.twin.physics import TwinPhysics
-    from cnctwin.twin.state import CycleState
+    from cnctwin.twin import CycleState, TwinPhysics
 
 __all__ = ["MAX_CELLS", "HeightMap", "height_map", "stock_message", "stock_view"]
 
