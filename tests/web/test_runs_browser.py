@@ -1,11 +1,18 @@
-"""The run browser in headless Chromium: open a recorded run, zoom a signal, overlay a run."""
+"""The run browser in headless Chromium: open a recorded run, zoom a signal, overlay a run,
+export it; what the page plots is checked against the values recorded (tests/web/runs_data.py).
+"""
 
+import csv
+import io
 import threading
 import time
+import zipfile
 
+import numpy as np
 import pytest
 import uvicorn
-from runs_data import DT_S, N1, record
+from runs_data import DT_S, N1, SPIKE, expected_force, record
+from screenshots import keep
 
 from cnctwin.web.runs import RunBrowser, runs_app
 
@@ -30,6 +37,19 @@ def server(tmp_path_factory):
     runs.close()
 
 
+def plotted(page, trace: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """The (t, y) the page handed to plotly for one trace (NaN for a gap)."""
+    x, y = page.evaluate(
+        f"[Array.from(document.getElementById('plot').data[{trace}].x),"
+        f" Array.from(document.getElementById('plot').data[{trace}].y)]"
+    )
+    return np.array(x, dtype=float), np.array([np.nan if v is None else v for v in y])
+
+
+def loads(page, n: int) -> None:
+    page.wait_for_function(f"document.getElementById('plot').dataset.loads === '{n}'")
+
+
 def test_open_a_recorded_run_and_zoom(page, server) -> None:
     page.goto(f"{server}/runs")
     page.wait_for_selector("#runs tbody tr[data-run='1']")
@@ -38,23 +58,62 @@ def test_open_a_recorded_run_and_zoom(page, server) -> None:
     assert any("slot.nc" in row and "mill-2" in row and "stopped" in row for row in rows)
     page.click("#runs tbody tr[data-run='1']")
     plot = page.locator("#plot")
-    page.wait_for_function("document.getElementById('plot').dataset.loads === '1'")
+    loads(page, 1)
     assert plot.get_attribute("data-samples") == str(N1)
     assert plot.get_attribute("data-raw") == "false"
-    assert int(plot.get_attribute("data-points")) <= 2 * page.evaluate(
-        "document.getElementById('plot').clientWidth"
-    )
+    width = page.evaluate("document.getElementById('plot').clientWidth")
+    assert int(plot.get_attribute("data-points")) <= 2 * width
     assert page.locator("#plot .main-svg").count() > 0
     assert "force above the band" in page.inner_text("#events")
+    # The whole run: every point drawn is a recorded sample, and the spike survives.
+    recorded = expected_force()
+    t, y = plotted(page)
+    index = np.rint(t / DT_S).astype(int)
+    np.testing.assert_array_equal(np.nan_to_num(y, nan=-1), np.nan_to_num(recorded[index], nan=-1))
+    assert np.nanmax(y) == 900.0 and t[np.nanargmax(y)] == SPIKE * DT_S
+    assert np.nanmin(y) == np.nanmin(recorded)
+    keep(page.screenshot(), "runs-browser.png")
+    # Zoom with the mouse: drag across 10 % of the plot area; the window's samples come back.
+    area = page.locator("#plot .nsewdrag").bounding_box()
+    y_mid = area["y"] + area["height"] / 2
+    page.mouse.move(area["x"] + 0.40 * area["width"], y_mid)
+    page.mouse.down()
+    page.mouse.move(area["x"] + 0.45 * area["width"], y_mid, steps=5)
+    page.mouse.move(area["x"] + 0.50 * area["width"], y_mid, steps=5)
+    page.mouse.up()
+    loads(page, 2)
+    t0, t1 = float(plot.get_attribute("data-t0")), float(plot.get_attribute("data-t1"))
+    assert 0.35 * (N1 * DT_S) < t0 < t1 < 0.55 * (N1 * DT_S)
+    t, y = plotted(page)
+    inside = recorded[int(np.ceil(t0 / DT_S - 1e-9)) : int(np.floor(t1 / DT_S + 1e-9)) + 1]
+    assert int(plot.get_attribute("data-samples")) == inside.size
+    assert np.nanmax(y) == np.nanmax(inside) and np.nanmin(y) == np.nanmin(inside)
     # Zoom to 2 s: the server sends that window's samples, every one of them.
     page.evaluate("Runs.zoom(100.0, 102.0)")
-    page.wait_for_function("document.getElementById('plot').dataset.loads === '2'")
+    loads(page, 3)
     assert plot.get_attribute("data-raw") == "true"
     assert plot.get_attribute("data-samples") == str(int(2.0 / DT_S) + 1)
     assert float(plot.get_attribute("data-t0")) == 100.0
+    t, y = plotted(page)
+    np.testing.assert_allclose(t, np.arange(8000, 8161) * DT_S)
+    np.testing.assert_array_equal(y, recorded[8000:8161])
     # Overlay run 2 on the same signal.
     page.select_option("#overlay", "2")
     page.wait_for_function("document.getElementById('plot').dataset.traces === '2'")
     assert page.locator("#plot .legend").count() == 1
-    href = page.get_attribute("#export-csv", "href")
-    assert href == "api/runs/1/export?format=csv"
+    assert plotted(page, 1)[1].size == 0  # run 2 lasted 5 s: nothing of it after 100 s
+    page.select_option("#overlay", "")
+    page.evaluate("Runs.zoom(0.0, 4.0)")
+    page.select_option("#overlay", "2")
+    page.wait_for_function("document.getElementById('plot').dataset.traces === '2'")
+    _, other = plotted(page, 1)
+    assert other.tolist() == [50.0 + i for i in range(321)]  # 0..4 s of run 2, as recorded
+    # Export: the download is the historian's CSV of run 1.
+    assert page.get_attribute("#export-csv", "href") == "api/runs/1/export?format=csv"
+    with page.expect_download() as download:
+        page.click("#export-csv")
+    archive = zipfile.ZipFile(io.BytesIO(open(download.value.path(), "rb").read()))
+    rows = list(csv.DictReader(io.StringIO(archive.read("run1.csv").decode())))
+    assert len(rows) == N1
+    exported = np.array([float(r["force_x_n"]) if r["force_x_n"] else np.nan for r in rows])
+    np.testing.assert_allclose(exported, recorded, rtol=1e-9, equal_nan=True)
