@@ -5,7 +5,7 @@
 const MAX_POINTS = 2400;      // samples kept per plot trace (30 s at 80 cycles/s)
 const MAX_TIMELINE = 500;     // timeline rows kept
 const live = {                // read by the tests and the benchmark
-  messages: 0, draws: 0, arrivals: [], snapshot: null, info: null, timeline: [], stockUpdates: 0,
+  messages: 0, draws: 0, plotMs: 0, stockMs: 0, arrivals: [], snapshot: null, info: null, timeline: [], stockUpdates: 0,
   rateHz() {
     const a = this.arrivals;
     return a.length < 2 ? 0 : (a.length - 1) / ((a[a.length - 1] - a[0]) / 1000);
@@ -36,7 +36,7 @@ const LAYOUT = {
 };
 const CONFIG = { displaylogo: false, responsive: true };
 const line = (name, color, extra = {}) => ({
-  x: [], y: [], name, mode: "lines", line: { color, width: 1.5 }, type: "scattergl", ...extra,
+  x: [], y: [], name, mode: "lines", line: { color, width: 1.5 }, type: "scatter", ...extra,
 });
 // each plot: its traces and the series each trace shows
 const PLOTS = {
@@ -293,11 +293,16 @@ $("btn-stop").addEventListener("click", () => command({ command: "stop" }));
 
 // ------------------------------------------------------------------ stream
 // Messages are only merged when they arrive; the page draws at most once per animation
-// frame (the plots at most every PLOT_MS, the 3D view once its previous drawing is done), so
-// a slow computer draws less often instead of falling behind the stream.
+// frame: the values every frame, the plots at most every PLOT_MS and the 3D view at most every
+// STOCK_MS, each less often when its last drawing took long, so that drawing keeps at most
+// about DRAW_SHARE of the page's time and a slow computer (a software-rendered browser) stays
+// responsive and never falls behind the stream.
 const PLOT_MS = 250;
+const STOCK_MS = 500;
+const DRAW_SHARE = 0.25;
 let pending = null;           // what arrived since the last drawing
-let plotsDrawn = 0;           // performance.now() of the last plot update
+let plotsDue = 0;             // performance.now() from which the plots may be drawn again
+let stockDue = 0;
 let stockBusy = false;
 
 function merge(into, message) {
@@ -314,20 +319,26 @@ function draw(now) {
   requestAnimationFrame(draw);
   if (pending === null) return;
   const update = pending;
-  if (now - plotsDrawn >= PLOT_MS) {
+  if (now >= plotsDue && Object.keys(update.series).length) {
+    const started = performance.now();
     extendPlots(update.series);
-    plotsDrawn = now;
     update.series = {};
+    live.plotMs = performance.now() - started;
+    plotsDue = now + Math.max(PLOT_MS, live.plotMs / DRAW_SHARE);
   }
   if (update.timeline.length) addTimeline(update.timeline);
   update.timeline = [];
   if (update.snapshot) showSnapshot(update.snapshot);
   update.snapshot = null;
-  if (update.stock && !stockBusy) {
+  if (update.stock && !stockBusy && now >= stockDue) {
     stockBusy = true;
-    const stock = update.stock;
+    const stock = update.stock, started = performance.now();
     update.stock = null;
-    Promise.resolve(showStock(stock)).finally(() => { stockBusy = false; });
+    Promise.resolve(showStock(stock)).finally(() => {
+      live.stockMs = performance.now() - started;
+      stockDue = performance.now() + Math.max(STOCK_MS, live.stockMs / DRAW_SHARE);
+      stockBusy = false;
+    });
   }
   const empty = !update.stock && Object.keys(update.series).length === 0;
   pending = empty ? null : update;
