@@ -43,6 +43,8 @@ MODULES = ["cnctwin.errors", "cnctwin.finite_json", "cnctwin.memory"]
 KNOWN: frozenset[tuple[str, str, str]] = frozenset(
     {
         ("src/cnctwin/cli/chatter.py", "cnctwin.dynamics.process_damping", "read_damping_model"),
+        ("benchmarks/bench_run_browser.py", "cnctwin.web.runs", "RunBrowser"),
+        ("benchmarks/bench_run_browser.py", "cnctwin.web.runs", "runs_app"),
         ("src/cnctwin/cli/nc.py", "cnctwin.nc", "limits"),
         ("src/cnctwin/cli/roadmap.py", "cnctwin.config.simulation", "MAX_DENSITY_PER_MM"),
         ("src/cnctwin/cli/roadmap.py", "cnctwin.config.simulation", "MIN_DENSITY_PER_MM"),

@@ -3,7 +3,7 @@
 The interpreted program is sampled at the cycle time (:mod:`cnctwin.nc.sampler`); at each
 sample the virtual tool cuts the tri-dexel stock (:func:`cnctwin.geometry.cut`, the
 discrete-position method of Heide 2025) and the engagement of that step is recorded. This is
-the loop of the twin cycle (ARCHITECTURE section 3, steps 2-4) without a machine.
+the loop of the twin cycle (docs/twin.md: kinematics, cut, engagement) without a machine.
 
 Units as in the NC and geometry layers: mm, mm/min, rpm, s (names say so).
 """

@@ -12,6 +12,8 @@ Public API::
 Units at this edge: mm, mm/min, s (names say so). See docs/study.md.
 """
 
+from typing import TYPE_CHECKING, Any
+
 from cnctwin.studies.dexel_study import (
     PAPER,
     PAPER_CYCLES_S,
@@ -24,7 +26,6 @@ from cnctwin.studies.dexel_study import (
     SideMillingCut,
     run_one,
 )
-from cnctwin.studies.report import write_outputs
 from cnctwin.studies.runner import default_workers, run_study
 from cnctwin.studies.scaling import TStarFit, fit_t_star, t_star
 from cnctwin.studies.score import (
@@ -37,6 +38,9 @@ from cnctwin.studies.score import (
     score,
     settings,
 )
+
+if TYPE_CHECKING:
+    from cnctwin.studies.report import write_outputs
 
 __all__ = [
     "AE_RESOLUTION_MM",
@@ -64,3 +68,12 @@ __all__ = [
     "t_star",
     "write_outputs",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    # The outputs draw their heat maps with matplotlib: imported on first use.
+    if name == "write_outputs":
+        from cnctwin.studies.report import write_outputs
+
+        return write_outputs
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,4 +1,4 @@
-"""The running twin: the cycle of ARCHITECTURE section 3 against a machine connection.
+"""The running twin: the twin cycle (docs/twin.md) against a machine connection.
 
 Public API::
 

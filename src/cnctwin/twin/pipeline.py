@@ -106,7 +106,7 @@ def build_twin(
     clock: Callable[[], float] = time.monotonic,
     sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
 ) -> Twin:
-    """The stages of ARCHITECTURE section 3 for ``config``, reading and writing ``connection``.
+    """The twin cycle's stages (docs/twin.md) for ``config``, reading and writing ``connection``.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""The stages of one twin cycle (ARCHITECTURE section 3; Heide 2025, Fig. 5).
+"""The stages of one twin cycle (docs/twin.md; Heide 2025, Fig. 5).
 
 Each stage is a small object with one method, :meth:`~Stage.process`, that takes the
 cycle's :class:`~cnctwin.twin.state.CycleState` and returns it enriched; the runtime times

@@ -35,7 +35,7 @@ class TwinEvent:
 
 @dataclass(slots=True)
 class CycleState:
-    """The state of one cycle, built up stage by stage (ARCHITECTURE section 3).
+    """The state of one cycle, built up stage by stage (docs/twin.md).
 
     Attributes
     ----------
