@@ -363,8 +363,7 @@ def simulate(
     as_json: JsonOption = False,
 ) -> None:
     """Simulate one milling cut in time: vibration RMS, chatter, and the SDM's verdict."""
-    from cnctwin.dynamics import load_stability_config
-    from cnctwin.dynamics.process_damping import read_damping_model
+    from cnctwin.dynamics import load_stability_config, read_damping_model
 
     check_time_options(seconds, transient_s, kte_n_mm, kre_n_mm, steps, diameter_mm, helix_deg)
     settings = load_stability_config(config)

@@ -29,10 +29,9 @@ from cnctwin.report import check_report_path
 
 if TYPE_CHECKING:
     from cnctwin.config import MachiningConfig
-    from cnctwin.dynamics.config import StabilityConfig
-    from cnctwin.dynamics.roadmap import StabilityRoadmap
-    from cnctwin.mechanics.coefficients import CuttingCoefficients
-    from cnctwin.nc.segments import Segment
+    from cnctwin.dynamics import StabilityConfig, StabilityRoadmap
+    from cnctwin.mechanics import CuttingCoefficients
+    from cnctwin.nc import Segment
 
 __all__ = ["roadmap", "roadmap_report"]
 
@@ -53,7 +52,7 @@ def _recording(segments: Iterable[Segment], speeds: dict[int, float]) -> Iterato
 
 def _coefficients(stability: StabilityConfig, config: MachiningConfig) -> CuttingCoefficients:
     """The stability file's coefficients, else those of the configuration's material."""
-    from cnctwin.mechanics.materials import milling_material
+    from cnctwin.mechanics import milling_material
 
     cut = stability.cut
     if cut.operation != "milling":
@@ -130,11 +129,10 @@ def roadmap_report(
         ``plunge_lines`` (bottom contact only: no lobes), ``engagements`` (distinct
         engagements: teeth, angles, lowest critical depth), ``seconds``.
     """
-    from cnctwin.config.simulation import MAX_DENSITY_PER_MM, MIN_DENSITY_PER_MM
-    from cnctwin.dynamics.roadmap import stability_roadmap
-    from cnctwin.geometry import Cutter, DexelStock
-    from cnctwin.geometry.engagement_map import EngagementMap
-    from cnctwin.nc.interpreter import Interpreter
+    from cnctwin.config import MAX_DENSITY_PER_MM, MIN_DENSITY_PER_MM
+    from cnctwin.dynamics import stability_roadmap
+    from cnctwin.geometry import Cutter, DexelStock, EngagementMap
+    from cnctwin.nc import Interpreter
 
     rho = config.simulation.density_per_mm if density_per_mm is None else density_per_mm
     if not (MIN_DENSITY_PER_MM <= rho <= MAX_DENSITY_PER_MM):
@@ -261,7 +259,7 @@ def roadmap(
     programmed one if stable, else the nearest stable one (Ward 2021, Fig. 12).
     """
     from cnctwin.config import load_config
-    from cnctwin.dynamics.config import load_stability_config
+    from cnctwin.dynamics import load_stability_config
 
     if not (math.isfinite(margin) and 1.0 <= margin <= MAX_MARGIN):
         raise InputError(f"--margin {margin!r}; give a factor >= 1 and <= {MAX_MARGIN:g}")
@@ -281,7 +279,7 @@ def roadmap(
     if plot is not None:
         _plot(plot, result, program.name)
     if html is not None:
-        from cnctwin.report.stability import roadmap_report as write_roadmap_report
+        from cnctwin.report import roadmap_report as write_roadmap_report
 
         write_roadmap_report(html, report, result, program.name)
     if as_json:

@@ -19,8 +19,7 @@ from rich.table import Table
 from cnctwin import finite_json
 from cnctwin.errors import DataError
 from cnctwin.measurements import read_columns
-from cnctwin.quality import PowerLawFit, fit_power_law
-from cnctwin.quality.roughness import read_power_law_model
+from cnctwin.quality import PowerLawFit, fit_power_law, read_power_law_model
 
 __all__ = ["app", "fit", "fit_report", "predict"]
 

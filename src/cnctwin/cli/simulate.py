@@ -14,12 +14,13 @@ from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.cli._options import progress
-from cnctwin.config import MachiningConfig, load_config
-from cnctwin.config.simulation import (
+from cnctwin.config import (
     MAX_CYCLE_MS,
     MAX_DENSITY_PER_MM,
     MIN_CYCLE_MS,
     MIN_DENSITY_PER_MM,
+    MachiningConfig,
+    load_config,
 )
 from cnctwin.errors import InputError
 from cnctwin.report import check_report_path
@@ -61,8 +62,7 @@ def simulate_report(
     created) and return the summary (:meth:`~cnctwin.simulation.ProgramCut.summary`).
     ``progress_bar`` shows a progress bar on stderr; ``html`` is the file of the HTML report
     (:func:`~cnctwin.report.simulation.simulation_report`)."""
-    from cnctwin.geometry.mesh import stock_mesh
-    from cnctwin.geometry.stl import write_stl
+    from cnctwin.geometry import stock_mesh, write_stl
     from cnctwin.simulation import COLUMNS, simulate_program
 
     with progress("simulating", progress_bar) as on_chunk:
@@ -81,7 +81,7 @@ def simulate_report(
         write_stl(out / "stock.stl", stock_mesh(cut.stock), f"cnctwin stock after {program.name}")
         (out / "summary.json").write_text(finite_json.dumps(report, indent=2) + "\n")
     if html is not None:
-        from cnctwin.report.simulation import simulation_report
+        from cnctwin.report import simulation_report
 
         simulation_report(html, report, cut.table, cut.stock)
     return report

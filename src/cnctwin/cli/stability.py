@@ -50,8 +50,8 @@ def parse_rpm_list(text: str, option: str = "--rpm") -> np.ndarray:
         Naming the option and the text, for an empty list, more than 100,000 speeds or a
         value out of range.
     """
-    from cnctwin.config.machine import MAX_SPINDLE_RPM
-    from cnctwin.dynamics.config import MAX_POINTS
+    from cnctwin.config import MAX_SPINDLE_RPM
+    from cnctwin.dynamics import MAX_POINTS
 
     try:
         values = np.array([float(v) for v in text.split(",") if v.strip()])
@@ -74,8 +74,8 @@ def parse_rpm_range(text: str, option: str = "--rpm-range") -> np.ndarray:
         Naming the option and the text, unless ``0 < MIN < MAX <= 200,000`` and
         ``2 <= N <= 100,000``.
     """
-    from cnctwin.config.machine import MAX_SPINDLE_RPM
-    from cnctwin.dynamics.config import MAX_POINTS
+    from cnctwin.config import MAX_SPINDLE_RPM
+    from cnctwin.dynamics import MAX_POINTS
 
     parts = text.split(":")
     try:
@@ -112,7 +112,7 @@ def lobes_report(config: Any, rpm: np.ndarray | None = None) -> dict[str, Any]:
         ``absolute_depth_mm`` (the lowest limit over all speeds) and its
         ``absolute_chatter_frequency_hz``, ``max_depth_mm``, ``steps`` (sdm), ``seconds``.
     """
-    from cnctwin.dynamics.stability import sdm_lobes, zoa_absolute_depth, zoa_lobes
+    from cnctwin.dynamics import sdm_lobes, zoa_absolute_depth, zoa_lobes
 
     tool = config.tool_dynamics()
     process = config.process()
@@ -239,7 +239,7 @@ def lobes(
 
     Milling cut options: --teeth, --material NAME (or --ktc and --krc), --immersion, --down/--up.
     """
-    from cnctwin.dynamics.config import load_stability_config
+    from cnctwin.dynamics import load_stability_config
 
     path = config if config is not None else modes_file
     if path is None or (config is not None and modes_file is not None):
@@ -265,7 +265,7 @@ def lobes(
     if plot is not None:
         _plot(plot, report, path.stem)
     if html is not None:
-        from cnctwin.report.stability import lobes_report as write_lobes_report
+        from cnctwin.report import lobes_report as write_lobes_report
 
         write_lobes_report(html, report, path.stem)
     if as_json:
@@ -304,7 +304,7 @@ def _speeds(
 
 def _overrides(**given: Any) -> dict[str, dict[str, Any]]:
     """The options as replacements of the file's tables; option values checked here."""
-    from cnctwin.dynamics.config import MIN_IMMERSION
+    from cnctwin.dynamics import MIN_IMMERSION
 
     cut: dict[str, Any] = {}
     spec: dict[str, Any] = {}

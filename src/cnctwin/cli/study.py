@@ -60,8 +60,7 @@ def dexel_report(
     dict
         The contents of summary.json (see :func:`cnctwin.studies.report.write_outputs`).
     """
-    from cnctwin.studies import DexelStudy, default_workers, run_study
-    from cnctwin.studies.report import write_outputs
+    from cnctwin.studies import DexelStudy, default_workers, run_study, write_outputs
 
     n = default_workers() if workers is None else workers
     check_count("--workers", n, 1, MAX_WORKERS, unit="processes")
@@ -87,7 +86,7 @@ def dexel_report(
     wall = time.perf_counter() - started
     summary = write_outputs(out, study, results, workers=n, wall_s=wall)
     if html is not None:
-        from cnctwin.report.study import dexel_study_report
+        from cnctwin.report import dexel_study_report
 
         dexel_study_report(html, summary, study, results)
     return summary

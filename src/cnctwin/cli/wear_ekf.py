@@ -18,11 +18,12 @@ from cnctwin.cli._options import MAX_SEED, check_count, check_number
 from cnctwin.errors import DataError
 from cnctwin.measurements import read_torque_csv
 from cnctwin.report import check_report_path
-from cnctwin.wear.ekf import CHRISTIAND2024, EKFPreset
-from cnctwin.wear.stages import StageMonitor
-from cnctwin.wear.torque_series import (
+from cnctwin.wear import (
+    CHRISTIAND2024,
     IDLE_TORQUE_NM,
+    EKFPreset,
     EKFRun,
+    StageMonitor,
     TorqueSeries,
     run_filter,
     synthetic_session,
@@ -162,7 +163,7 @@ def ekf(
     if plot is not None:
         _plot(plot, series, run, stages)
     if html is not None:
-        from cnctwin.report.wear import wear_ekf_report
+        from cnctwin.report import wear_ekf_report
 
         wear_ekf_report(html, report, series, run, stages)
     if as_json:

@@ -42,6 +42,7 @@ from cnctwin.dynamics.process_damping import (
     calibrate_cpd,
     cut_process_damping,
     fit_process_damping_model,
+    read_damping_model,
 )
 from cnctwin.dynamics.roadmap import StabilityRoadmap, stability_roadmap
 from cnctwin.dynamics.stability import (
@@ -94,6 +95,7 @@ __all__ = [
     "impact_frf",
     "load_stability_config",
     "modal_frf",
+    "read_damping_model",
     "sdm_lobes",
     "simulate_milling",
     "stability_roadmap",

@@ -49,8 +49,7 @@ from scipy.optimize import minimize_scalar
 
 from cnctwin.dynamics import _sdm, _zoa
 from cnctwin.errors import ConfigError
-from cnctwin.mechanics.coefficients import CuttingCoefficients
-from cnctwin.mechanics.engagement import immersion_angles
+from cnctwin.mechanics import CuttingCoefficients, immersion_angles
 
 __all__ = [
     "MillingProcess",

@@ -30,6 +30,7 @@ from cnctwin.geometry.engagement_map import (
 )
 from cnctwin.geometry.mesh import stock_mesh
 from cnctwin.geometry.removal import ContactRecord, Removal, remove
+from cnctwin.geometry.stl import write_stl
 
 __all__ = [
     "AXES",
@@ -52,4 +53,5 @@ __all__ = [
     "remove",
     "save_engagement_map",
     "stock_mesh",
+    "write_stl",
 ]

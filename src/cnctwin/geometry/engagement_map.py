@@ -61,8 +61,7 @@ from cnctwin.geometry.cutter import Cutter
 from cnctwin.geometry.dexel import DexelStock
 from cnctwin.geometry.engagement import Engagement, cut
 from cnctwin.memory import check_memory
-from cnctwin.nc.sampler import TrajectorySampler
-from cnctwin.nc.segments import MotionKind, Segment
+from cnctwin.nc import MotionKind, Segment, TrajectorySampler
 
 __all__ = [
     "EngagementMap",

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cnctwin.errors import ConfigError
-from cnctwin.geometry.cutter import Cutter
+from cnctwin.geometry import Cutter
 from cnctwin.mechanics import _milling_kernels as _k
 from cnctwin.mechanics.coefficients import CuttingCoefficients
 from cnctwin.mechanics.engagement import ImmersionIntervals

@@ -15,6 +15,7 @@ from cnctwin.quality.roughness import (
     flat_end_mill_rt,
     milling_cusp_height,
     milling_cusp_ra,
+    read_power_law_model,
     turning_ra,
     turning_rt,
 )
@@ -31,6 +32,7 @@ __all__ = [
     "form_error",
     "milling_cusp_height",
     "milling_cusp_ra",
+    "read_power_law_model",
     "turning_ra",
     "turning_rt",
     "wall_normal_force",

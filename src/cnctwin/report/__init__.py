@@ -6,7 +6,44 @@ lobes|roadmap`` and ``cnctwin wear ekf`` writes one file holding plotly.js (from
 (docs/reports.md). Each module imports plotly only when a report is written.
 """
 
-from cnctwin.report.document import Report, check_report_path
-from cnctwin.report.downsample import Downsampled, minmax_buckets
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["Downsampled", "Report", "check_report_path", "minmax_buckets"]
+from cnctwin.report.document import Report, check_report_path
+from cnctwin.report.downsample import MAX_BUCKETS, Downsampled, minmax_buckets
+
+if TYPE_CHECKING:
+    from cnctwin.report.simulation import simulation_report
+    from cnctwin.report.stability import lobes_report, roadmap_report
+    from cnctwin.report.study import dexel_study_report
+    from cnctwin.report.wear import wear_ekf_report
+
+# Each report imports the physics it draws (the dexel stock, the study, the wear twins):
+# imported on first use, so that the run browser's downsampling stays light.
+_LAZY = {
+    "dexel_study_report": "cnctwin.report.study",
+    "lobes_report": "cnctwin.report.stability",
+    "roadmap_report": "cnctwin.report.stability",
+    "simulation_report": "cnctwin.report.simulation",
+    "wear_ekf_report": "cnctwin.report.wear",
+}
+
+__all__ = [
+    "MAX_BUCKETS",
+    "Downsampled",
+    "Report",
+    "check_report_path",
+    "dexel_study_report",
+    "lobes_report",
+    "minmax_buckets",
+    "roadmap_report",
+    "simulation_report",
+    "wear_ekf_report",
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -46,7 +46,7 @@ from fastapi.responses import (
 
 from cnctwin import finite_json
 from cnctwin.errors import ConfigError
-from cnctwin.virtual.exposure import is_loopback
+from cnctwin.virtual import is_loopback
 from cnctwin.web.feed import (
     Hub,
     LiveFeed,
@@ -57,9 +57,7 @@ from cnctwin.web.feed import (
 )
 
 if TYPE_CHECKING:
-    from cnctwin.twin.pipeline import Twin
-    from cnctwin.twin.runtime import RunSummary
-    from cnctwin.twin.state import CycleState
+    from cnctwin.twin import CycleState, RunSummary, Twin
 
 __all__ = [
     "COMMANDS",
@@ -398,7 +396,7 @@ class LiveDashboard:
         return self._stock
 
     def _item(self, item: Any) -> dict[str, Any]:
-        from cnctwin.twin.state import TwinEvent
+        from cnctwin.twin import TwinEvent
 
         if isinstance(item, TwinEvent):
             return event_item(item, self.t0_s)
@@ -422,7 +420,7 @@ class LiveDashboard:
         RuntimeError
             No twin yet, or the machine is not connected.
         """
-        from cnctwin.control.rules import Decision
+        from cnctwin.control import Decision
 
         if not self.control_enabled:
             raise PermissionError("control is off: the twin's [control] enabled = false")
