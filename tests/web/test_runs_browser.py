@@ -65,6 +65,8 @@ def test_open_a_recorded_run_and_zoom(page, server) -> None:
     assert int(plot.get_attribute("data-points")) <= 2 * width
     assert page.locator("#plot .main-svg").count() > 0
     assert "force above the band" in page.inner_text("#events")
+    title = page.inner_text("#title")
+    assert title.startswith("run 1: pocket.nc on opc.tcp://127.0.0.1:4840, finished"), title
     # The whole run: every point drawn is a recorded sample, and the spike survives.
     recorded = expected_force()
     t, y = plotted(page)

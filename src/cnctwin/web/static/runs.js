@@ -22,6 +22,9 @@ const Runs = (() => {
     if (numeric) td.className = "n";
   }
 
+  // A program's file name without its folders ("" for none).
+  const baseName = (path) => (path ? String(path).split(/[\\/]/).pop() : "");
+
   const fmt = (v, digits) => (v === null || v === undefined) ? "-" : v.toFixed(digits);
 
   async function loadList() {
@@ -37,12 +40,13 @@ const Runs = (() => {
       row.dataset.run = run.run_id;
       cell(row, run.run_id, true);
       cell(row, run.machine || "-");
-      cell(row, run.program || "-");
+      cell(row, baseName(run.program) || "-");
+      row.cells[2].title = run.program || "";  // the whole path on hover
       cell(row, new Date(run.started_at * 1000).toLocaleString());
       cell(row, fmt(run.duration_s, 1), true);
       cell(row, run.status);
       row.addEventListener("click", () => openRun(run.run_id));
-      overlay.add(new Option(`${run.run_id}: ${run.program || run.machine || ""}`,
+      overlay.add(new Option(`${run.run_id}: ${baseName(run.program) || run.machine || ""}`,
                              String(run.run_id)));
     }
   }
@@ -82,7 +86,8 @@ const Runs = (() => {
       state.window = null;
       $("overlay").value = "";
       $("view").hidden = false;
-      $("title").textContent = `run ${detail.run_id}: ${detail.program || "-"} on ` +
+      $("title").textContent = `run ${detail.run_id}: ` +
+        `${baseName((detail.meta || {}).program) || "-"} on ` +
         `${detail.machine || "-"}, ${detail.status}, ${fmt(detail.duration_s, 1)} s, ` +
         `${detail.frames.toLocaleString()} instants`;
       $("export-csv").href = `api/runs/${runId}/export?format=csv`;
