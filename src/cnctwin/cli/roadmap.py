@@ -24,13 +24,12 @@ from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.cli.stability import parse_rpm_range
-from cnctwin.errors import CnctwinError, ConfigError, InputError, NCError
+from cnctwin.errors import ConfigError, InputError, NCError
 from cnctwin.report import check_report_path
 
 if TYPE_CHECKING:
     from cnctwin.config import MachiningConfig
     from cnctwin.dynamics import StabilityConfig, StabilityRoadmap
-    from cnctwin.mechanics import CuttingCoefficients
     from cnctwin.nc import Segment
 
 __all__ = ["roadmap", "roadmap_report"]
@@ -48,25 +47,6 @@ def _recording(segments: Iterable[Segment], speeds: dict[int, float]) -> Iterato
     for segment in segments:
         speeds[segment.line] = segment.spindle_rpm
         yield segment
-
-
-def _coefficients(stability: StabilityConfig, config: MachiningConfig) -> CuttingCoefficients:
-    """The stability file's coefficients, else those of the configuration's material."""
-    from cnctwin.mechanics import milling_material
-
-    cut = stability.cut
-    if cut.operation != "milling":
-        raise ConfigError("stability file: cut.operation is 'orthogonal'; a roadmap needs milling")
-    if cut.material is not None or cut.ktc_n_mm2 is not None or cut.krc_n_mm2 is not None:
-        return stability.coefficients()
-    try:
-        return milling_material(config.material.name).coefficients
-    except CnctwinError:
-        raise ConfigError(
-            f"no cutting coefficients: the stability file's [cut] names none and the "
-            f"configuration's material {config.material.name!r} is not in the library; give "
-            "cut.material or cut.ktc_n_mm2 and cut.krc_n_mm2"
-        ) from None
 
 
 def _grid(stability: StabilityConfig, config: MachiningConfig, rpm_range: str | None) -> np.ndarray:
@@ -147,7 +127,7 @@ def roadmap_report(
             f"<= {MAX_STEP_MM:g} mm"
         )
     grid = _grid(stability, config, rpm_range)
-    coefficients = _coefficients(stability, config)
+    coefficients = stability.milling_coefficients(config.material.name)
     cutters = {tool.number: Cutter.from_tool_config(tool) for tool in config.tools}
     teeth = {tool.number: tool.flutes for tool in config.tools}
     diameter = {tool.number: tool.diameter_mm for tool in config.tools}

@@ -26,7 +26,7 @@ from cnctwin.dynamics.stability import (
     ToolMode,
     _auto_steps,
 )
-from cnctwin.errors import ConfigError
+from cnctwin.errors import CnctwinError, ConfigError
 from cnctwin.mechanics import CuttingCoefficients
 from cnctwin.memory import check_memory
 
@@ -261,6 +261,35 @@ class StabilityConfig(Section):
         if cut.material is None and cut.ktc_n_mm2 is not None and cut.krc_n_mm2 is not None:
             return CuttingCoefficients.from_n_mm(cut.ktc_n_mm2, cut.krc_n_mm2)
         raise ConfigError("cut: give either material or both ktc_n_mm2 and krc_n_mm2")
+
+    def milling_coefficients(self, material: str) -> CuttingCoefficients:
+        """The milling coefficients of ``[cut]`` (:meth:`coefficients`) where it gives any,
+        else those of ``material``: an entry of the materials library
+        (``cnctwin.mechanics.materials``), such as a machining configuration's ``[material]``.
+
+        Raises
+        ------
+        ConfigError
+            For an orthogonal cut, for a ``[cut]`` that gives coefficients inconsistently, and
+            when it gives none and ``material`` is not in the library.
+        """
+        from cnctwin.mechanics import milling_material
+
+        cut = self.cut
+        if cut.operation != "milling":
+            raise ConfigError(
+                "stability file: cut.operation is 'orthogonal'; a roadmap needs milling"
+            )
+        if cut.material is not None or cut.ktc_n_mm2 is not None or cut.krc_n_mm2 is not None:
+            return self.coefficients()
+        try:
+            return milling_material(material).coefficients
+        except CnctwinError:
+            raise ConfigError(
+                f"no cutting coefficients: the stability file's [cut] names none and the "
+                f"configuration's material {material!r} is not in the library; give "
+                "cut.material or cut.ktc_n_mm2 and cut.krc_n_mm2"
+            ) from None
 
     def check_work(self, lowest_rpm: float) -> None:
         """Refuse a semi-discretization whose transition matrix exceeds the memory limit.
