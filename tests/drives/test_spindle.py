@@ -27,7 +27,7 @@ from cnctwin.drives import (
     SpindleState,
     spindle_preset,
 )
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import ConfigError, DataError, InputError
 
 PRESET = spindle_preset("christiand2024")
 MOTOR = PRESET.motor
@@ -316,5 +316,5 @@ def test_bad_inputs_raise_one_line_errors() -> None:
         dataclasses.replace(MOTOR, inductance=0.0)
     with pytest.raises(ConfigError, match="voltage_limit"):
         SpeedController(kp=1.0, ki=1.0, kd=0.0, voltage_limit=-5.0)
-    with pytest.raises(ConfigError, match="step_s"):
+    with pytest.raises(InputError, match="step_s"):
         SpindleDrive(PRESET, step_s=0.0)

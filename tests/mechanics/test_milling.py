@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import ConfigError, InputError
 from cnctwin.geometry import Cutter
 from cnctwin.mechanics import (
     CuttingCoefficients,
@@ -279,8 +279,8 @@ def test_frame_and_signs() -> None:
         ),
     ],
 )
-def test_bad_input_is_a_config_error(make: object) -> None:
-    with pytest.raises(ConfigError):
+def test_bad_input_is_an_input_error(make: object) -> None:
+    with pytest.raises(InputError):
         make()  # type: ignore[operator]
 
 

@@ -10,7 +10,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from cnctwin.errors import ConfigError, NCError
+from cnctwin.errors import ConfigError, InputError, NCError
 from cnctwin.nc.sampler import (
     AxisLimits,
     FeedOverride,
@@ -467,17 +467,17 @@ def test_memory_does_not_grow_with_program_length(limits: AxisLimits | None) -> 
         ([1.0, 2.0], None),
     ],
 )
-def test_bad_override_raises_config_error(values: object, times: object) -> None:
-    with pytest.raises(ConfigError):
+def test_bad_override_raises_input_error(values: object, times: object) -> None:
+    with pytest.raises(InputError):
         FeedOverride(values, times)  # type: ignore[arg-type]
 
 
-def test_bad_parameters_raise_config_error() -> None:
-    with pytest.raises(ConfigError, match="cycle_s"):
+def test_bad_parameters_raise_input_error() -> None:
+    with pytest.raises(InputError, match="cycle_s"):
         TrajectorySampler([], rapid_mm_min=RAPID, cycle_s=0.0)
-    with pytest.raises(ConfigError, match="rapid_mm_min"):
+    with pytest.raises(InputError, match="rapid_mm_min"):
         TrajectorySampler([], rapid_mm_min=-1.0)
-    with pytest.raises(ConfigError, match="feed_override"):
+    with pytest.raises(InputError, match="feed_override"):
         TrajectorySampler([], rapid_mm_min=RAPID, feed_override="fast")  # type: ignore[arg-type]
     with pytest.raises(ConfigError, match="accel_mm_s2"):
         AxisLimits((1.0, 0.0, 1.0))

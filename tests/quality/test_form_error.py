@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.quality.form_error import (
     CARBIDE_YOUNGS_MODULUS_PA,
     cantilever_deflection,
@@ -89,6 +89,6 @@ def test_wall_normal_force_and_sign() -> None:
         lambda: wall_normal_force(1.0, 1.0, (0.0, 0.0)),
     ],
 )
-def test_bad_geometry_is_a_config_error(call) -> None:
-    with pytest.raises(ConfigError):
+def test_bad_geometry_is_an_input_error(call) -> None:
+    with pytest.raises(InputError):
         call()

@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import DataError, InputError
 from cnctwin.quality import (
     PowerLawModel,
     fit_metrics,
@@ -345,5 +345,5 @@ def test_flat_end_mill_saw_tooth() -> None:
     ],
 )
 def test_kinematic_models_reject_bad_geometry(call, message: str) -> None:  # type: ignore[no-untyped-def]
-    with pytest.raises(ConfigError, match=message):
+    with pytest.raises(InputError, match=message):
         call()

@@ -38,7 +38,7 @@ from scipy.linalg import expm
 
 from cnctwin.drives import _spindle_kernel as _k
 from cnctwin.drives.events import EventState, MachiningEvents
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import ConfigError, DataError, InputError
 
 __all__ = [
     "RAD_S_PER_RPM",
@@ -364,7 +364,7 @@ def _series(name: str, value: ArrayLike, n: int) -> NDArray[np.float64]:
 def _check_state(state: SpindleState) -> None:
     values = (state.current, state.speed, state.speed_error_integral)
     if not all(math.isfinite(v) for v in values):
-        raise ConfigError(f"initial state {state!r}; current, speed and integral must be finite")
+        raise InputError(f"initial state {state!r}; current, speed and integral must be finite")
 
 
 class SpindleDrive:
@@ -393,7 +393,7 @@ class SpindleDrive:
 
     def __init__(self, params: SpindleDriveParameters, step_s: float = _DEFAULT_STEP_S) -> None:
         if not (math.isfinite(step_s) and step_s > 0.0):
-            raise ConfigError(f"step_s={step_s!r}; the integration step must be a number > 0 s")
+            raise InputError(f"step_s={step_s!r}; the integration step must be a number > 0 s")
         self._params = params
         self._step_s = step_s
         self._p = _param_vector(params)

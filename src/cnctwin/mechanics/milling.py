@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.geometry import Cutter
 from cnctwin.mechanics import _milling_kernels as _k
 from cnctwin.mechanics.coefficients import CuttingCoefficients
@@ -153,7 +153,7 @@ def milling_forces(
     """
     _check_cut(feed_per_tooth_m, spindle_rad_s)
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
-        raise ConfigError(f"steps={steps!r}; give an integer >= 1")
+        raise InputError(f"steps={steps!r}; give an integer >= 1")
     geometry = cutter.slices(immersion.z_bounds_m)
     theta = np.arange(steps, dtype=np.float64) * (2.0 * math.pi / steps)
     out = np.zeros((4, steps))
@@ -299,6 +299,6 @@ def _edge_scale(cutter: Cutter, helical_edge: bool) -> float:
 
 def _check_cut(feed_per_tooth_m: float, spindle_rad_s: float) -> None:
     if not (math.isfinite(feed_per_tooth_m) and feed_per_tooth_m >= 0.0):
-        raise ConfigError(f"feed_per_tooth_m={feed_per_tooth_m!r}; give a finite feed >= 0 m")
+        raise InputError(f"feed_per_tooth_m={feed_per_tooth_m!r}; give a finite feed >= 0 m")
     if not (math.isfinite(spindle_rad_s) and spindle_rad_s >= 0.0):
-        raise ConfigError(f"spindle_rad_s={spindle_rad_s!r}; give a finite speed >= 0 rad/s")
+        raise InputError(f"spindle_rad_s={spindle_rad_s!r}; give a finite speed >= 0 rad/s")

@@ -53,7 +53,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from cnctwin.errors import ConfigError, NCError
+from cnctwin.errors import ConfigError, InputError, NCError
 from cnctwin.nc import _sampler_kernels as _k
 from cnctwin.nc.segments import MachineState, Plane, Segment, Vec3
 
@@ -90,7 +90,7 @@ class FeedOverride:
 
     Raises
     ------
-    ConfigError
+    InputError
         On a negative or non-finite value, times that are not strictly ascending or not finite,
         lengths that differ, or a last value of 0 (the program would never end).
     """
@@ -103,7 +103,7 @@ class FeedOverride:
         if times_s is None:
             vals = np.array(values, dtype=np.float64).reshape(-1)
             if vals.size != 1:
-                raise ConfigError(
+                raise InputError(
                     f"override values={values!r} without times_s; give one number for a constant "
                     "override or times_s for a time series"
                 )
@@ -112,18 +112,18 @@ class FeedOverride:
             vals = np.array(values, dtype=np.float64).reshape(-1)
             times = np.array(times_s, dtype=np.float64).reshape(-1)
             if vals.size == 0 or vals.size != times.size:
-                raise ConfigError(
+                raise InputError(
                     f"override with {vals.size} values and {times.size} times_s; "
                     "give one value per time, at least one"
                 )
             if not np.all(np.isfinite(times)):
-                raise ConfigError(f"override times_s={times.tolist()!r}; times must be finite")
+                raise InputError(f"override times_s={times.tolist()!r}; times must be finite")
             if np.any(np.diff(times) <= 0.0):
-                raise ConfigError(f"override times_s={times.tolist()!r} are not strictly ascending")
+                raise InputError(f"override times_s={times.tolist()!r} are not strictly ascending")
         if not np.all(np.isfinite(vals)) or np.any(vals < 0.0):
-            raise ConfigError(f"override values={vals.tolist()!r}; each must be finite and >= 0")
+            raise InputError(f"override values={vals.tolist()!r}; each must be finite and >= 0")
         if vals[-1] == 0.0:
-            raise ConfigError(
+            raise InputError(
                 f"override values={vals.tolist()!r} end at 0; the program would never finish, "
                 "the last value must be > 0"
             )
@@ -238,7 +238,7 @@ def _as_override(value: float | FeedOverride, name: str) -> FeedOverride:
     if isinstance(value, FeedOverride):
         return value
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ConfigError(f"{name}={value!r}; give a number (1.0 = 100 %) or a FeedOverride")
+        raise InputError(f"{name}={value!r}; give a number (1.0 = 100 %) or a FeedOverride")
     return FeedOverride(float(value))
 
 
@@ -276,7 +276,7 @@ class TrajectorySampler:
 
     Raises
     ------
-    ConfigError
+    InputError
         On an invalid parameter (here), see :class:`FeedOverride` and :class:`AxisLimits`.
     NCError
         While iterating, on a segment that cannot be executed (feed move with no feed, arc
@@ -302,18 +302,18 @@ class TrajectorySampler:
         batch_segments: int = 4096,
     ) -> None:
         if not (math.isfinite(rapid_mm_min) and rapid_mm_min > 0.0):
-            raise ConfigError(f"rapid_mm_min={rapid_mm_min!r}; give a finite rapid rate > 0 mm/min")
+            raise InputError(f"rapid_mm_min={rapid_mm_min!r}; give a finite rapid rate > 0 mm/min")
         if not (math.isfinite(cycle_s) and cycle_s > 0.0):
-            raise ConfigError(f"cycle_s={cycle_s!r}; give a finite cycle time > 0 s")
+            raise InputError(f"cycle_s={cycle_s!r}; give a finite cycle time > 0 s")
         for name, value in (
             ("chunk_samples", chunk_samples),
             ("lookahead", lookahead),
             ("batch_segments", batch_segments),
         ):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ConfigError(f"{name}={value!r}; give an integer >= 1")
+                raise InputError(f"{name}={value!r}; give an integer >= 1")
         if limits is not None and not isinstance(limits, AxisLimits):
-            raise ConfigError(f"limits={limits!r}; give an AxisLimits or None")
+            raise InputError(f"limits={limits!r}; give an AxisLimits or None")
         self._feed = _as_override(feed_override, "feed_override")
         self._rapid = _as_override(rapid_override, "rapid_override")
         self._iter = iter(segments)

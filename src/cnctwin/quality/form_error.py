@@ -29,7 +29,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 
 __all__ = [
     "CARBIDE_YOUNGS_MODULUS_PA",
@@ -51,7 +51,7 @@ FloatOrArray = float | NDArray[np.float64]
 
 def _positive(name: str, value: float) -> float:
     if not (math.isfinite(value) and value > 0.0):
-        raise ConfigError(f"{name}={value!r}; give a finite value > 0")
+        raise InputError(f"{name}={value!r}; give a finite value > 0")
     return float(value)
 
 
@@ -119,10 +119,10 @@ def end_mill_stiffness(
     modulus = _positive("youngs_modulus_pa", youngs_modulus_pa)
     ratio = _positive("equivalent_diameter_ratio", equivalent_diameter_ratio)
     if ratio > 1.0:
-        raise ConfigError(f"equivalent_diameter_ratio={ratio!r}; give a ratio in (0, 1]")
+        raise InputError(f"equivalent_diameter_ratio={ratio!r}; give a ratio in (0, 1]")
     fluted = length if flute_length_m is None else _positive("flute_length_m", flute_length_m)
     if fluted > length:
-        raise ConfigError(
+        raise InputError(
             f"flute_length_m={fluted!r} exceeds overhang_m={length!r}; the fluted part lies "
             f"inside the overhang"
         )
@@ -154,7 +154,7 @@ def wall_normal_force(
     nx, ny = (float(c) for c in wall_normal_xy)
     norm = math.hypot(nx, ny)
     if not (math.isfinite(norm) and norm > 0.0):
-        raise ConfigError(f"wall_normal_xy={wall_normal_xy!r}; give a non-zero finite vector")
+        raise InputError(f"wall_normal_xy={wall_normal_xy!r}; give a non-zero finite vector")
     result = (
         np.asarray(force_x_n, dtype=float) * nx + np.asarray(force_y_n, dtype=float) * ny
     ) / norm

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cnctwin.errors import CnctwinError, ConfigError, DataError
+from cnctwin.errors import CnctwinError, ConfigError, DataError, InputError
 
 __all__ = [
     "FitMetrics",
@@ -338,12 +338,12 @@ def fit_power_law(
 
 
 def _lengths(**values: ArrayLike) -> list[NDArray[np.float64]]:
-    """Each named length (m) as an array, checked finite and > 0, else a :class:`ConfigError`."""
+    """Each named length (m) as an array, checked finite and > 0, else an :class:`InputError`."""
     arrays = []
     for name, value in values.items():
         array = np.asarray(value, dtype=float)
         if not np.all(np.isfinite(array) & (array > 0)):
-            raise ConfigError(f"{name}={value!r}; give finite lengths > 0 m")
+            raise InputError(f"{name}={value!r}; give finite lengths > 0 m")
         arrays.append(array)
     return arrays
 
@@ -356,7 +356,7 @@ def _check_feed_below_diameter(feed: NDArray[np.float64], radius: NDArray[np.flo
     too_far = feed >= 2.0 * radius
     if np.any(too_far):
         f, r = (float(np.broadcast_to(a, too_far.shape)[too_far].flat[0]) for a in (feed, radius))
-        raise ConfigError(
+        raise InputError(
             f"feed {f!r} m >= 2 x radius {r!r} m: consecutive arcs do not overlap and the "
             "profile is not made by the arc alone; give a feed below the arc's diameter"
         )
@@ -385,7 +385,7 @@ def turning_rt(feed_per_rev_m: ArrayLike, nose_radius_m: ArrayLike) -> FloatOrAr
 
     Raises
     ------
-    cnctwin.errors.ConfigError
+    cnctwin.errors.InputError
         For a feed or radius that is not finite and > 0, or a feed of at least 2 r.
     """
     f, r = _lengths(feed_per_rev_m=feed_per_rev_m, nose_radius_m=nose_radius_m)
@@ -416,7 +416,7 @@ def turning_ra(feed_per_rev_m: ArrayLike, nose_radius_m: ArrayLike) -> FloatOrAr
 
     Raises
     ------
-    cnctwin.errors.ConfigError
+    cnctwin.errors.InputError
         For a feed or radius that is not finite and > 0, or a feed of at least 2 r.
     """
     f, r = _lengths(feed_per_rev_m=feed_per_rev_m, nose_radius_m=nose_radius_m)
@@ -449,7 +449,7 @@ def milling_cusp_height(feed_per_tooth_m: ArrayLike, radius_m: ArrayLike) -> Flo
 
     Raises
     ------
-    cnctwin.errors.ConfigError
+    cnctwin.errors.InputError
         For a feed or radius that is not finite and > 0, or a feed of at least 2 R.
     """
     f, r = _lengths(feed_per_tooth_m=feed_per_tooth_m, radius_m=radius_m)
@@ -480,7 +480,7 @@ def milling_cusp_ra(feed_per_tooth_m: ArrayLike, radius_m: ArrayLike) -> FloatOr
 
     Raises
     ------
-    cnctwin.errors.ConfigError
+    cnctwin.errors.InputError
         For a feed or radius that is not finite and > 0, or a feed of at least 2 R.
     """
     f, r = _lengths(feed_per_tooth_m=feed_per_tooth_m, radius_m=radius_m)
@@ -491,7 +491,7 @@ def milling_cusp_ra(feed_per_tooth_m: ArrayLike, radius_m: ArrayLike) -> FloatOr
 def _dish_tangent(dish_angle_rad: ArrayLike) -> NDArray[np.float64]:
     angle = np.asarray(dish_angle_rad, dtype=float)
     if not np.all(np.isfinite(angle) & (angle >= 0) & (angle < 0.5 * math.pi)):
-        raise ConfigError(f"dish_angle_rad={dish_angle_rad!r}; give 0 <= angle < pi/2 rad")
+        raise InputError(f"dish_angle_rad={dish_angle_rad!r}; give 0 <= angle < pi/2 rad")
     tangent: NDArray[np.float64] = np.tan(angle)
     return tangent
 
@@ -522,7 +522,7 @@ def flat_end_mill_rt(feed_per_tooth_m: ArrayLike, dish_angle_rad: ArrayLike) -> 
 
     Raises
     ------
-    cnctwin.errors.ConfigError
+    cnctwin.errors.InputError
         For a feed that is not finite and > 0 or an angle outside [0, pi/2).
     """
     (f,) = _lengths(feed_per_tooth_m=feed_per_tooth_m)
@@ -549,7 +549,7 @@ def flat_end_mill_ra(feed_per_tooth_m: ArrayLike, dish_angle_rad: ArrayLike) -> 
 
     Raises
     ------
-    cnctwin.errors.ConfigError
+    cnctwin.errors.InputError
         For a feed that is not finite and > 0 or an angle outside [0, pi/2).
     """
     (f,) = _lengths(feed_per_tooth_m=feed_per_tooth_m)
