@@ -8,6 +8,14 @@ const Runs = (() => {
   const state = {runs: [], run: null, signal: null, overlay: null, window: null, request: 0,
                  loads: 0, openedMs: null};
   const $ = (id) => document.getElementById(id);
+  // plotly.js (4.6 MB) loads asynchronously (runs.html), so the list, the run and its first
+  // signal are fetched while it loads; drawing waits for it.
+  const plotlyReady = new Promise((resolve, reject) => {
+    if (window.Plotly) { resolve(); return; }
+    const script = $("plotly-js");
+    script.addEventListener("load", () => resolve());
+    script.addEventListener("error", () => reject(new Error("plotly.js did not load")));
+  });
 
   async function getJSON(url) {
     const response = await fetch(url, {credentials: "same-origin"});
@@ -141,6 +149,8 @@ const Runs = (() => {
     };
     if (state.window) layout.xaxis.range = state.window;
     const element = $("plot");
+    await plotlyReady;
+    if (request !== state.request) return;
     await Plotly.react(element, data, layout, {displaylogo: false, responsive: true});
     if (fresh || !element.dataset.bound) bindZoom(element);
     const main = traces[0];
