@@ -44,10 +44,11 @@ def test_non_loopback_host_needs_insecure() -> None:
         LiveDashboard(host="0.0.0.0")
 
 
-def test_cli_refuses_a_non_loopback_host_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:
-    code = cli_run(
-        ["run", "--config", str(DEMO_CONFIG), "--web", "--host", "0.0.0.0", "--port", "0"]
-    )
+def test_cli_refuses_a_non_loopback_host_in_one_line(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    argv = ["run", "--config", str(DEMO_CONFIG), "--db", str(tmp_path / "h.sqlite")]
+    code = cli_run([*argv, "--web", "--host", "0.0.0.0", "--port", "0"])
     _, err = capsys.readouterr()
     assert code == 2
     assert err.count("\n") == 1 and "--host '0.0.0.0'" in err and "--insecure" in err

@@ -27,6 +27,7 @@ import math
 import secrets
 import signal
 import socket
+import sys
 import threading
 import time
 from collections import deque
@@ -83,6 +84,9 @@ TOKEN_COOKIE = "cnctwin_token"
 
 #: Cells a side of the live 3D view's height map (:func:`cnctwin.web.stock.height_map`).
 STOCK_CELLS = 60
+
+#: The interpreter's thread switch interval while the dashboard serves, s (see ``start``).
+SWITCH_INTERVAL_S = 0.0005
 
 #: Lines of the program text the page gets (a longer program is cut there).
 MAX_PROGRAM_LINES = 20_000
@@ -191,6 +195,7 @@ class LiveDashboard:
         self._server: Any = None
         self._thread: threading.Thread | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
+        self._switch_s: float | None = None
 
     # ------------------------------------------------------------------ the twin's side
     @property
@@ -225,6 +230,13 @@ class LiveDashboard:
 
         from cnctwin.errors import CnctwinError
 
+        # The server's thread and the twin's share the interpreter lock: a thread that wants
+        # it back (the twin after each read of the machine) waits until the holder's switch
+        # interval ends, 5 ms by default. A short interval keeps that wait well under the
+        # twin's cycle while the server turns a cycle into JSON (benchmarks/bench_dashboard.py).
+        self._switch_s = sys.getswitchinterval()
+        sys.setswitchinterval(min(self._switch_s, SWITCH_INTERVAL_S))
+
         config = uvicorn.Config(
             self.app(), log_level="warning", access_log=False, lifespan="on", loop="asyncio"
         )
@@ -252,6 +264,9 @@ class LiveDashboard:
                     loop.call_soon_threadsafe(self.hub.unsubscribe, sub)
         if self._thread is not None:
             self._thread.join(timeout=5.0)
+        if self._switch_s is not None:
+            sys.setswitchinterval(self._switch_s)
+            self._switch_s = None
         self._sock.close()
 
     def __enter__(self) -> LiveDashboard:

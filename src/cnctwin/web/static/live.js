@@ -10,6 +10,12 @@ const live = {                // read by the tests and the benchmark
     const a = this.arrivals;
     return a.length < 2 ? 0 : (a.length - 1) / ((a[a.length - 1] - a[0]) / 1000);
   },
+  // updates while the machine ran: their count and first and last arrival (ms)
+  run: { count: 0, first: 0, last: 0 },
+  runRateHz() {
+    const r = this.run;
+    return r.count < 2 ? 0 : (r.count - 1) / ((r.last - r.first) / 1000);
+  },
 };
 window.cnctwinLive = live;
 
@@ -351,6 +357,11 @@ function handle(message) {
   live.arrivals.push(now);
   while (live.arrivals.length > 2 && now - live.arrivals[0] > 3000) live.arrivals.shift();
   setText("v-rate", fmt(live.rateHz(), 1));
+  const snap = message.snapshot || {};
+  if (message.type === "update" && snap.run_state === "running" && !snap.ended) {
+    if (live.run.count === 0) live.run.first = now;
+    live.run.count += 1; live.run.last = now;
+  }
   if (message.type === "hello") {
     live.info = message.info;
     setText("title", `cnctwin live: ${message.info.title}`);
