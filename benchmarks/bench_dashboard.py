@@ -220,11 +220,9 @@ def server_work(cycles: int) -> dict[str, float]:
     from importlib.resources import as_file, files
 
     from cnctwin import finite_json
-    from cnctwin.twin import load_run_config
-    from cnctwin.twin.local import LocalConnection
-    from cnctwin.twin.pipeline import build_twin
+    from cnctwin.twin import LocalConnection, build_twin, load_run_config
     from cnctwin.virtual import VirtualMachine
-    from cnctwin.web.server import LiveDashboard
+    from cnctwin.web import LiveDashboard
 
     with as_file(files("cnctwin.examples")) as folder:
         config = load_run_config(Path(folder) / "demo_twin.toml")

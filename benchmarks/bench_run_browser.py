@@ -41,7 +41,7 @@ import uvicorn
 
 from cnctwin.store import Historian
 from cnctwin.thread import SIGNALS
-from cnctwin.web.runs import RunBrowser, runs_app
+from cnctwin.web import RunBrowser, runs_app
 
 #: The twin's default cycle, s.
 CYCLE_S = 0.0125
