@@ -161,8 +161,10 @@ def test_exponential_window_values() -> None:
 def test_accelerance_to_receptance_is_division_by_minus_omega_squared() -> None:
     omega = np.array([10.0, 100.0])
     assert np.allclose(accelerance_to_receptance(omega, [1.0, 2j]), [-1e-2, -2e-4j])
-    with pytest.raises(DataError, match="omega must be > 0"):
+    with pytest.raises(DataError, match=r"omega 0.0 rad/s; give finite values > 0"):
         accelerance_to_receptance([0.0, 1.0], [1.0, 1.0])
+    with pytest.raises(DataError, match="omega nan rad/s"):
+        accelerance_to_receptance([1.0, np.nan], [1.0, 1.0])
     frf = FRF(np.array([0.0, 10.0, 100.0]), np.array([5.0, 1.0, 2j]), "accelerance")
     receptance = frf.to_receptance()
     assert receptance.quantity == "receptance" and receptance.omega.size == 2

@@ -177,11 +177,16 @@ def accelerance_to_receptance(omega: ArrayLike, accelerance: ArrayLike) -> NDArr
     Raises
     ------
     DataError
-        When an ``omega`` is <= 0 (a static displacement cannot be had from acceleration).
+        When an ``omega`` is <= 0 (a static displacement cannot be had from acceleration) or
+        not finite.
     """
     w = np.asarray(omega, dtype=float)
-    if np.any(w <= 0.0):
-        raise DataError("accelerance_to_receptance: omega must be > 0 rad/s (drop the 0 bin)")
+    if not np.all(np.isfinite(w) & (w > 0.0)):
+        bad = float(w[~(np.isfinite(w) & (w > 0.0))].flat[0])
+        raise DataError(
+            f"accelerance_to_receptance: omega {bad!r} rad/s; give finite values > 0 "
+            "(drop the 0 bin)"
+        )
     receptance: NDArray[np.complex128] = -np.asarray(accelerance, dtype=complex) / w**2
     return receptance
 
