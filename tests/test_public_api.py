@@ -42,7 +42,6 @@ MODULES = ["cnctwin.errors", "cnctwin.finite_json", "cnctwin.memory"]
 #: entry when its import is fixed (a stale entry is reported as a warning).
 KNOWN: frozenset[tuple[str, str, str]] = frozenset(
     {
-        ("src/cnctwin/cli/nc.py", "cnctwin.nc", "limits"),
         ("src/cnctwin/web/runs.py", "cnctwin.report.downsample", "MAX_BUCKETS"),
         ("src/cnctwin/web/runs.py", "cnctwin.report.downsample", "minmax_buckets"),
     }

@@ -15,7 +15,14 @@ from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.config import MachiningConfig, load_config
-from cnctwin.nc import NCSetup, Segment, limits, summarize
+from cnctwin.nc import (
+    MAX_PROGRAM_BYTES,
+    MAX_REPEATED_LINES,
+    MAX_SEGMENTS,
+    NCSetup,
+    Segment,
+    summarize,
+)
 
 __all__ = ["app", "inspect", "inspect_report", "report_table", "trace"]
 
@@ -39,7 +46,7 @@ MaxSegmentsOpt = Annotated[
     typer.Option(
         "--max-segments",
         min=1,
-        max=GUARD_FACTOR * limits.MAX_SEGMENTS,
+        max=GUARD_FACTOR * MAX_SEGMENTS,
         help="Stop with an error after this many motion segments (work guard).",
     ),
 ]
@@ -48,7 +55,7 @@ MaxBytesOpt = Annotated[
     typer.Option(
         "--max-bytes",
         min=1,
-        max=GUARD_FACTOR * limits.MAX_PROGRAM_BYTES,
+        max=GUARD_FACTOR * MAX_PROGRAM_BYTES,
         help="Refuse program files larger than this (bytes).",
     ),
 ]
@@ -57,7 +64,7 @@ MaxRepeatedOpt = Annotated[
     typer.Option(
         "--max-repeated-lines",
         min=0,
-        max=GUARD_FACTOR * limits.MAX_REPEATED_LINES,
+        max=GUARD_FACTOR * MAX_REPEATED_LINES,
         help="Stop with an error after O-word loops and calls execute this many lines again.",
     ),
 ]
@@ -164,9 +171,9 @@ def inspect(
     plot: Annotated[
         Path | None, typer.Option("--plot", help="Also draw the tool-tip path to this PNG.")
     ] = None,
-    max_segments: MaxSegmentsOpt = limits.MAX_SEGMENTS,
-    max_bytes: MaxBytesOpt = limits.MAX_PROGRAM_BYTES,
-    max_repeated_lines: MaxRepeatedOpt = limits.MAX_REPEATED_LINES,
+    max_segments: MaxSegmentsOpt = MAX_SEGMENTS,
+    max_bytes: MaxBytesOpt = MAX_PROGRAM_BYTES,
+    max_repeated_lines: MaxRepeatedOpt = MAX_REPEATED_LINES,
 ) -> None:
     """Summarize a program: lengths, times, bounds of the tool tip, tools, warnings.
 
@@ -217,9 +224,9 @@ def trace(
             "machine: machine coordinates in mm.",
         ),
     ] = Frame.program,
-    max_segments: MaxSegmentsOpt = limits.MAX_SEGMENTS,
-    max_bytes: MaxBytesOpt = limits.MAX_PROGRAM_BYTES,
-    max_repeated_lines: MaxRepeatedOpt = limits.MAX_REPEATED_LINES,
+    max_segments: MaxSegmentsOpt = MAX_SEGMENTS,
+    max_bytes: MaxBytesOpt = MAX_PROGRAM_BYTES,
+    max_repeated_lines: MaxRepeatedOpt = MAX_REPEATED_LINES,
 ) -> None:
     """Print the canonical motion trace of a program, one call a line: source line, call."""
     from cnctwin.nc import Interpreter, format_trace

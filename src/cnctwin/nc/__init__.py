@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run time
     from cnctwin.nc.interpreter import Interpreter, interpret_file, interpret_text
+    from cnctwin.nc.limits import MAX_PROGRAM_BYTES, MAX_REPEATED_LINES, MAX_SEGMENTS
     from cnctwin.nc.plot import ToolpathPlot
     from cnctwin.nc.sampler import (
         AxisLimits,
@@ -45,6 +46,9 @@ if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run
 #: Where each public name lives. Imported on first use, so that importing one submodule
 #: (the command line reads programs without sampling them) does not import numpy and numba.
 _HOMES = {
+    "MAX_PROGRAM_BYTES": "limits",
+    "MAX_REPEATED_LINES": "limits",
+    "MAX_SEGMENTS": "limits",
     "AxisLimits": "sampler",
     "CanonicalMove": "trace",
     "CutterComp": "segments",
@@ -87,6 +91,9 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "MAX_PROGRAM_BYTES",
+    "MAX_REPEATED_LINES",
+    "MAX_SEGMENTS",
     "PLANE_AXES",
     "AxisLimits",
     "CanonicalMove",
