@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cnctwin.errors import InputError
 from cnctwin.geometry import DexelStock
 from cnctwin.geometry.mesh import stock_mesh
 from cnctwin.geometry.stl import write_stl
@@ -64,5 +65,5 @@ def test_header_is_cut_to_80_ascii_bytes(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("shape", [(3, 3), (2, 4, 3), (2, 3, 2)])
 def test_wrong_shape_is_refused(tmp_path: Path, shape: tuple[int, ...]) -> None:
-    with pytest.raises(ValueError, match=r"give \(n, 3, 3\)"):
+    with pytest.raises(InputError, match=r"triangles of shape .*; give \(n, 3, 3\)"):
         write_stl(tmp_path / "x.stl", np.zeros(shape))

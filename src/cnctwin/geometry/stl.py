@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
+from cnctwin.errors import InputError
+
 __all__ = ["STL_HEADER_BYTES", "write_stl"]
 
 #: Length of the header of a binary STL file, bytes.
@@ -28,14 +30,14 @@ def write_stl(path: Path, triangles: ArrayLike, header: str = "") -> None:
 
     Raises
     ------
-    ValueError
+    cnctwin.errors.InputError
         If ``triangles`` is not of shape (n, 3, 3).
     OSError
         If the file cannot be written.
     """
     tri = np.asarray(triangles, dtype=np.float32)
     if tri.ndim != 3 or tri.shape[1:] != (3, 3):
-        raise ValueError(f"triangles of shape {tri.shape}; give (n, 3, 3) vertices in mm")
+        raise InputError(f"triangles of shape {tri.shape}; give (n, 3, 3) vertices in mm")
     normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     lengths = np.linalg.norm(normals, axis=1, keepdims=True)
     normals = np.divide(normals, lengths, out=np.zeros_like(normals), where=lengths > 0)
