@@ -221,9 +221,9 @@ class WearEKF:
             ("var0_mm2", var0_mm2),
         ):
             if not (value >= 0 and math.isfinite(value)):
-                raise ConfigError(f"{name} must be a finite number >= 0; got {value!r}")
+                raise InputError(f"{name} must be a finite number >= 0; got {value!r}")
         if not (0 < vb0_mm < propagation.vb_max_mm):
-            raise ConfigError(
+            raise InputError(
                 f"vb0_mm must lie in (0, vb_max_mm={propagation.vb_max_mm}); got {vb0_mm!r}"
             )
         self.propagation = propagation
