@@ -20,7 +20,6 @@ import importlib
 import inspect
 import pkgutil
 import re
-import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,16 +35,6 @@ SRC = ROOT / "src" / "cnctwin"
 PACKAGES = sorted(m.name for m in pkgutil.iter_modules(cnctwin.__path__, "cnctwin.") if m.ispkg)
 #: The top-level modules others import names from.
 MODULES = ["cnctwin.errors", "cnctwin.finite_json", "cnctwin.memory"]
-
-#: Imports still past a package's API, in files whose owners were editing them when this rule
-#: came in: (file relative to the repository, the module imported from, the name). Remove an
-#: entry when its import is fixed (a stale entry is reported as a warning).
-KNOWN: frozenset[tuple[str, str, str]] = frozenset(
-    {
-        ("src/cnctwin/web/runs.py", "cnctwin.report.downsample", "MAX_BUCKETS"),
-        ("src/cnctwin/web/runs.py", "cnctwin.report.downsample", "minmax_buckets"),
-    }
-)
 
 
 def _module_all(name: str) -> list[str]:
@@ -132,9 +121,6 @@ class Violation:
     name: str
     why: str
 
-    def key(self) -> tuple[str, str, str]:
-        return (self.file, self.module, self.name)
-
     def __str__(self) -> str:
         return f"{self.file}:{self.line}: {self.module} -> {self.name}: {self.why}"
 
@@ -203,14 +189,10 @@ def _violations() -> list[Violation]:
 
 
 def test_no_module_imports_past_a_package_api() -> None:
-    found = _violations()
-    new = [str(v) for v in found if v.key() not in KNOWN]
-    assert new == [], "imports past a package's __all__ (see docs/architecture.md):\n" + "\n".join(
-        new
+    found = [str(v) for v in _violations()]
+    assert found == [], (
+        "imports past a package's __all__ (see docs/architecture.md):\n" + "\n".join(found)
     )
-    stale = KNOWN - {v.key() for v in found}
-    if stale:
-        warnings.warn(f"fixed, remove from KNOWN: {sorted(stale)}", stacklevel=1)
 
 
 _FENCE = re.compile(r"^```python\n(.*?)^```", re.DOTALL | re.MULTILINE)
@@ -227,8 +209,9 @@ def test_the_docs_python_examples_import_from_packages() -> None:
                 lines = [line for line in block.splitlines() if _IMPORT_LINE.match(line)]
                 tree = ast.parse("\n".join(lines))
             found.extend(check_imports(tree, ROOT / "docs" / doc.name, doc.name))
-    new = [str(v) for v in found if v.key() not in KNOWN]
-    assert new == [], "doc examples importing past a package's __all__:\n" + "\n".join(new)
+    assert [str(v) for v in found] == [], "doc examples importing past a package's __all__:\n" + (
+        "\n".join(str(v) for v in found)
+    )
 
 
 # -- the checker itself catches what it should ---------------------------------------------------

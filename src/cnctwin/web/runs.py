@@ -45,7 +45,7 @@ from fastapi.responses import FileResponse, JSONResponse, RedirectResponse, Resp
 
 from cnctwin import finite_json
 from cnctwin.errors import CnctwinError, DataError, InputError
-from cnctwin.report.downsample import MAX_BUCKETS, minmax_buckets
+from cnctwin.report import MAX_BUCKETS, minmax_buckets
 from cnctwin.store import TIME_COLUMN, Historian, RunSummary
 
 __all__ = ["LIVE_CACHE_S", "RunBrowser", "runs_app", "runs_router"]
