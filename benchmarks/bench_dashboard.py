@@ -198,7 +198,10 @@ def _screenshots(page: Any, folder: Path) -> None:
 
     folder.mkdir(parents=True, exist_ok=True)
     page.wait_for_function("() => window.cnctwinLive.snapshot.ended !== null")
-    page.wait_for_timeout(3000)  # the last plot and 3D drawings
+    # two more 3D drawings after the end: the view shows the stock as the run left it
+    drawn = page.evaluate("() => window.cnctwinLive.stockUpdates")
+    page.wait_for_function(f"() => window.cnctwinLive.stockUpdates >= {drawn + 2}")
+    page.wait_for_timeout(2000)  # the last plot drawing
     shots = {
         "dashboard.png": page.screenshot(full_page=True),
         "dashboard_stock.png": page.locator("#p-stock").screenshot(),
