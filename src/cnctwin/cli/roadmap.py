@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 import sys
 import time
-from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -24,47 +23,19 @@ from rich.table import Table
 
 from cnctwin import finite_json
 from cnctwin.cli.stability import parse_rpm_range
-from cnctwin.errors import ConfigError, InputError, NCError
+from cnctwin.errors import InputError
 from cnctwin.report import check_report_path
 
 if TYPE_CHECKING:
     from cnctwin.config import MachiningConfig
     from cnctwin.dynamics import StabilityConfig, StabilityRoadmap
-    from cnctwin.nc import Segment
 
 __all__ = ["roadmap", "roadmap_report"]
 
-RPM_STEP = 10.0
-"""Default spacing of the speed grid, rpm (the schedule's resolution)."""
 MAX_STEP_MM = 100.0
 """Longest map step along the path, mm: longer steps skip whole features of a part."""
 MAX_MARGIN = 100.0
 """Largest safety factor on the critical depth: beyond it no speed of any lobe qualifies."""
-
-
-def _recording(segments: Iterable[Segment], speeds: dict[int, float]) -> Iterator[Segment]:
-    """Pass the segments on, noting each line's programmed spindle speed (rpm)."""
-    for segment in segments:
-        speeds[segment.line] = segment.spindle_rpm
-        yield segment
-
-
-def _grid(stability: StabilityConfig, config: MachiningConfig, rpm_range: str | None) -> np.ndarray:
-    """The speed grid: --rpm-range, else [lobes] rpm every 10 rpm; capped by the machine."""
-    if rpm_range is not None:
-        grid = parse_rpm_range(rpm_range)
-    else:
-        low, high = stability.lobes.rpm
-        grid = np.linspace(low, high, max(2, round((high - low) / RPM_STEP) + 1))
-    cap = config.machine.max_spindle_rpm
-    if cap is not None:
-        grid = grid[grid <= cap]
-        if grid.size == 0:
-            raise ConfigError(
-                f"machine.max_spindle_rpm={cap:g} is below the lowest speed of the grid; "
-                "give a lower --rpm-range"
-            )
-    return grid
 
 
 def roadmap_report(
@@ -110,9 +81,7 @@ def roadmap_report(
         engagements: teeth, angles, lowest critical depth), ``seconds``.
     """
     from cnctwin.config import MAX_DENSITY_PER_MM, MIN_DENSITY_PER_MM
-    from cnctwin.dynamics import stability_roadmap
-    from cnctwin.geometry import Cutter, DexelStock, EngagementMap
-    from cnctwin.nc import Interpreter
+    from cnctwin.dynamics import program_roadmap
 
     rho = config.simulation.density_per_mm if density_per_mm is None else density_per_mm
     if not (MIN_DENSITY_PER_MM <= rho <= MAX_DENSITY_PER_MM):
@@ -126,26 +95,12 @@ def roadmap_report(
             f"--step-mm {step!r}; give {0.1 / rho:g} (a tenth of the dexel spacing) <= step "
             f"<= {MAX_STEP_MM:g} mm"
         )
-    grid = _grid(stability, config, rpm_range)
-    coefficients = stability.milling_coefficients(config.material.name)
-    cutters = {tool.number: Cutter.from_tool_config(tool) for tool in config.tools}
-    teeth = {tool.number: tool.flutes for tool in config.tools}
+    grid = None if rpm_range is None else parse_rpm_range(rpm_range)
     diameter = {tool.number: tool.diameter_mm for tool in config.tools}
-    stock = DexelStock.box(config.stock.min_mm, config.stock.max_mm, rho)
-    speeds: dict[int, float] = {}
     started = time.perf_counter()
-    segments = _recording(Interpreter(config.nc_setup()).run_file(program), speeds)
-    try:
-        emap = EngagementMap.build(segments, stock, cutters, step_mm=step)
-    except NCError as err:
-        if err.file == "<string>":
-            raise NCError(err.message, str(program), err.line, err.column) from None
-        raise
-    steps = None if stability.lobes.steps == "auto" else stability.lobes.steps
-    result = stability_roadmap(
-        emap, speeds, stability.tool_dynamics(), coefficients, teeth, grid, margin=margin,
-        method=stability.lobes.method, max_depth_mm=stability.lobes.max_depth_mm, steps=steps,
-    )  # fmt: skip
+    result = program_roadmap(
+        program, config, stability, grid, margin=margin, density_per_mm=rho, step_mm=step
+    )
     seconds = time.perf_counter() - started
     rows = []
     for seg in result.segments:
@@ -176,9 +131,9 @@ def roadmap_report(
         "program": str(program),
         "method": result.method,
         "margin": result.margin,
-        "spindle_rpm_min": float(grid[0]),
-        "spindle_rpm_max": float(grid[-1]),
-        "spindle_rpm_points": int(grid.size),
+        "spindle_rpm_min": float(result.spindle_rpm[0]),
+        "spindle_rpm_max": float(result.spindle_rpm[-1]),
+        "spindle_rpm_points": int(result.spindle_rpm.size),
         "segments": rows,
         "changed_lines": sorted({s.line for s in with_lobes if not s.programmed_stable}),
         "lines_without_stable_speed": sorted({s.line for s in result.unstable_segments}),

@@ -44,7 +44,7 @@ from cnctwin.dynamics.process_damping import (
     fit_process_damping_model,
     read_damping_model,
 )
-from cnctwin.dynamics.roadmap import StabilityRoadmap, stability_roadmap
+from cnctwin.dynamics.roadmap import StabilityRoadmap, program_roadmap, stability_roadmap
 from cnctwin.dynamics.stability import (
     MillingProcess,
     OrthogonalProcess,
@@ -95,6 +95,7 @@ __all__ = [
     "impact_frf",
     "load_stability_config",
     "modal_frf",
+    "program_roadmap",
     "read_damping_model",
     "sdm_lobes",
     "simulate_milling",

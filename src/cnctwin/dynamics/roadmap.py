@@ -37,23 +37,31 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Mapping
+import os
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from cnctwin.dynamics.stability import MillingProcess, ToolDynamics, sdm_lobes, zoa_lobes
-from cnctwin.errors import ConfigError
-from cnctwin.geometry import EngagementMap
+from cnctwin.errors import ConfigError, NCError
+from cnctwin.geometry import Cutter, DexelStock, EngagementMap
 from cnctwin.mechanics import CuttingCoefficients
+
+if TYPE_CHECKING:
+    from cnctwin.config import MachiningConfig
+    from cnctwin.dynamics.config import StabilityConfig
+    from cnctwin.nc import Segment
 
 __all__ = [
     "DEFAULT_MARGIN",
+    "RPM_STEP",
     "EngagementLobes",
     "RoadmapSegment",
     "StabilityRoadmap",
     "engagement_segments",
+    "program_roadmap",
     "stability_roadmap",
 ]
 
@@ -61,6 +69,8 @@ logger = logging.getLogger(__name__)
 
 #: Default margin: the scheduled speed's critical depth is at least 1.2 times the depth of cut.
 DEFAULT_MARGIN = 1.2
+#: Spacing of :func:`program_roadmap`'s default speed grid, rpm (the schedule's resolution).
+RPM_STEP = 10.0
 _RPM = math.pi / 30.0  # rad/s per rpm
 _ANGLE_DIGITS = 3  # segments whose angles agree to 1 mrad share their lobes
 
@@ -311,6 +321,95 @@ def stability_roadmap(
         sum(1 for s in segments if s.lobes >= 0 and not s.has_stable_speed),
     )  # fmt: skip
     return StabilityRoadmap(grid, tuple(lobes), tuple(segments), float(margin), method)
+
+
+def program_roadmap(
+    program: str | os.PathLike[str],
+    config: MachiningConfig,
+    stability: StabilityConfig,
+    spindle_rpm: np.ndarray | None = None,
+    *,
+    margin: float = DEFAULT_MARGIN,
+    density_per_mm: float | None = None,
+    step_mm: float | None = None,
+) -> StabilityRoadmap:
+    """The stability roadmap of an NC program file (Ward 2021, sec. 3.4; module notes).
+
+    The program runs through the stock of ``config`` (machine, tools with their geometry,
+    stock) into an engagement map (:class:`~cnctwin.geometry.EngagementMap`, one location
+    every ``step_mm`` along the path); :func:`stability_roadmap` then takes the tool-tip modes,
+    the method, the depth limit and the steps of ``stability`` (a stability file), the cutting
+    coefficients of its ``[cut]`` or else of the configuration's ``[material]``
+    (:meth:`~cnctwin.dynamics.StabilityConfig.milling_coefficients`), the programmed spindle
+    speed of each line and the teeth of each tool.
+
+    Parameters
+    ----------
+    program
+        NC program file.
+    config
+        Machine, tools and stock (mm).
+    stability
+        Modes, coefficients, method and speed range.
+    spindle_rpm
+        Speed grid in rpm, > 0, increasing; default the stability file's ``[lobes] rpm``
+        range every :data:`RPM_STEP` rpm. Speeds above the machine's ``max_spindle_rpm``
+        are left out.
+    margin
+        Factor on the depth of cut, >= 1.
+    density_per_mm
+        Dexels per mm of the stock; default the configuration's ``[simulation]``.
+    step_mm
+        Map step along the path in mm; default the dexel pitch ``1 / density_per_mm``.
+
+    Raises
+    ------
+    ConfigError
+        For a cut that is not milling, no cutting coefficients, no grid speed within the
+        machine's limit, and the checks of the stock, the map and :func:`stability_roadmap`.
+    NCError
+        ``"FILE:LINE: message"`` for a program the interpreter refuses.
+    """
+    from cnctwin.nc import Interpreter  # the interpreter only when a program is read
+
+    rho = config.simulation.density_per_mm if density_per_mm is None else density_per_mm
+    step = 1.0 / rho if step_mm is None else step_mm
+    if spindle_rpm is None:
+        low, high = stability.lobes.rpm
+        spindle_rpm = np.linspace(low, high, max(2, round((high - low) / RPM_STEP) + 1))
+    grid = np.asarray(spindle_rpm, dtype=float)
+    cap = config.machine.max_spindle_rpm
+    if cap is not None:
+        grid = grid[grid <= cap]
+        if grid.size == 0:
+            raise ConfigError(
+                f"machine.max_spindle_rpm={cap:g} is below the lowest speed of the grid "
+                f"({float(np.min(spindle_rpm)):g} rpm); give lower speeds (--rpm-range)"
+            )
+    coefficients = stability.milling_coefficients(config.material.name)
+    cutters = {tool.number: Cutter.from_tool_config(tool) for tool in config.tools}
+    teeth = {tool.number: tool.flutes for tool in config.tools}
+    stock = DexelStock.box(config.stock.min_mm, config.stock.max_mm, rho)
+    speeds: dict[int, float] = {}
+    segments = _recording(Interpreter(config.nc_setup()).run_file(program), speeds)
+    try:
+        emap = EngagementMap.build(segments, stock, cutters, step_mm=step)
+    except NCError as err:
+        if err.file == "<string>":
+            raise NCError(err.message, os.fspath(program), err.line, err.column) from None
+        raise
+    steps = None if stability.lobes.steps == "auto" else stability.lobes.steps
+    return stability_roadmap(
+        emap, speeds, stability.tool_dynamics(), coefficients, teeth, grid, margin=margin,
+        method=stability.lobes.method, max_depth_mm=stability.lobes.max_depth_mm, steps=steps,
+    )  # fmt: skip
+
+
+def _recording(segments: Iterable[Segment], speeds: dict[int, float]) -> Iterator[Segment]:
+    """Pass the segments on, noting each line's programmed spindle speed (rpm)."""
+    for segment in segments:
+        speeds[segment.line] = segment.spindle_rpm
+        yield segment
 
 
 def _segment(
