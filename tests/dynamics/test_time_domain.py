@@ -24,7 +24,7 @@ from cnctwin.dynamics.stability import (
     sdm_lobes,
 )
 from cnctwin.dynamics.time_domain import MillingVibration, simulate_milling
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.geometry import Cutter
 from cnctwin.mechanics import (
     CuttingCoefficients,
@@ -366,7 +366,7 @@ def test_rms_and_spectrum_of_the_outputs() -> None:
         ({"duration_s": 100.0}, "at most"),
     ],
 )
-def test_invalid_input_is_a_config_error(options: dict[str, object], message: str) -> None:
+def test_invalid_input_is_an_input_error(options: dict[str, object], message: str) -> None:
     arguments: dict[str, object] = {
         "spindle_rad_s": 10000 * RPM,
         "depth_m": 1e-3,
@@ -374,7 +374,7 @@ def test_invalid_input_is_a_config_error(options: dict[str, object], message: st
         "duration_s": 0.01,
     }
     arguments.update(options)
-    with pytest.raises(ConfigError, match=message):
+    with pytest.raises(InputError, match=message):
         simulate_milling(ONE_DOF, SLOT, **arguments)  # type: ignore[arg-type]
 
 
@@ -383,11 +383,11 @@ def test_analysis_options_are_checked() -> None:
         ONE_DOF, SLOT, spindle_rad_s=10000 * RPM, depth_m=1e-4, feed_per_tooth_m=1e-4,
         duration_s=0.01,
     )  # fmt: skip
-    with pytest.raises(ConfigError, match="transient_s"):
+    with pytest.raises(InputError, match="transient_s"):
         result.rms(transient_s=1.0)
-    with pytest.raises(ConfigError, match="threshold"):
+    with pytest.raises(InputError, match="threshold"):
         result.chatter(threshold=1.5)
-    with pytest.raises(ConfigError, match="quantity"):
+    with pytest.raises(InputError, match="quantity"):
         result.spectrum("jerk")  # type: ignore[arg-type]
-    with pytest.raises(ConfigError, match="axis"):
+    with pytest.raises(InputError, match="axis"):
         result.spectrum("force", "z")  # type: ignore[arg-type]

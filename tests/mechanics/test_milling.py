@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from cnctwin.errors import ConfigError, InputError
+from cnctwin.errors import InputError
 from cnctwin.geometry import Cutter
 from cnctwin.mechanics import (
     CuttingCoefficients,
@@ -311,7 +311,7 @@ def test_immersion_from_a_slice_table_fills_gaps() -> None:
     )
     np.testing.assert_allclose(gap.z_bounds_m, [0.0, 0.001, 0.003, 0.004])
     assert list(np.diff(gap.offsets)) == [1, 0, 1]
-    with pytest.raises(ConfigError):
+    with pytest.raises(InputError):
         ImmersionIntervals.from_slices(
             np.array([0.001, 0.0015]),
             np.array([0.001, 0.001]),

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.mechanics.materials import kienzle_material
 from cnctwin.mechanics.turning import (
     TurningCoefficients,
@@ -90,6 +90,6 @@ def test_edge_force_form_is_linear_in_the_chip_thickness() -> None:
         lambda: oblique_coefficients(500e6, 0.0, 0.5, 0.1),
     ],
 )
-def test_bad_input_is_a_config_error(call: object) -> None:
-    with pytest.raises(ConfigError):
+def test_bad_input_is_an_input_error(call: object) -> None:
+    with pytest.raises(InputError):
         call()  # type: ignore[operator]

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import DataError, InputError
 from cnctwin.signals import SCALAR_FEATURES, SlidingWindow, amplitude_at, band_rms, slope
 
 FS_HZ = 80.0
@@ -111,6 +111,6 @@ def test_push_allocates_nothing_and_clear_empties() -> None:
         lambda: band_rms([1.0], FS_HZ, 5.0, 1.0),
     ],
 )
-def test_bad_window_settings_are_config_errors(make) -> None:
-    with pytest.raises(ConfigError):
+def test_bad_window_settings_are_input_errors(make) -> None:
+    with pytest.raises(InputError):
         make()

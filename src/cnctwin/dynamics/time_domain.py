@@ -59,7 +59,7 @@ from scipy.linalg import expm
 
 from cnctwin.dynamics import _time_domain_kernels as _k
 from cnctwin.dynamics.stability import MillingProcess, ProcessDamping, ToolDynamics
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.geometry import Cutter
 
 __all__ = [
@@ -236,18 +236,18 @@ class MillingVibration:
 
         Raises
         ------
-        ConfigError
+        InputError
             If less than one tooth period remains.
         """
         total = self.time_s.size
         duration = total * self.tooth_period_s / self.steps_per_tooth
         skip = 0.5 * duration if transient_s is None else float(transient_s)
         if not (math.isfinite(skip) and skip >= 0.0):
-            raise ConfigError(f"transient_s={transient_s!r}; give a time >= 0 s")
+            raise InputError(f"transient_s={transient_s!r}; give a time >= 0 s")
         start = math.ceil(skip / self.tooth_period_s * self.steps_per_tooth - 1e-9)
         periods = (total - start) // self.steps_per_tooth
         if periods < 1:
-            raise ConfigError(
+            raise InputError(
                 f"transient_s={skip:g} s leaves less than one tooth period of the "
                 f"{duration:g} s simulated; simulate longer or give a shorter transient"
             )
@@ -314,7 +314,7 @@ class MillingVibration:
             chatters, 0 < threshold < 1 (default 1e-3).
         """
         if not (0.0 < threshold < 1.0):
-            raise ConfigError(f"threshold={threshold!r}; give 0 < threshold < 1")
+            raise InputError(f"threshold={threshold!r}; give 0 < threshold < 1")
         first = _column(quantity)
         spectra = self._spectra(transient_s, (first, first + 1))
         power = spectra[0].amplitude[1:] ** 2 + spectra[1].amplitude[1:] ** 2
@@ -425,7 +425,7 @@ def simulate_milling(
 
     Raises
     ------
-    ConfigError
+    InputError
         For a value out of range, a cutter that does not match the process, or more than
         10 million steps.
     """
@@ -444,7 +444,7 @@ def simulate_milling(
     periods = math.ceil(duration / period - 1e-9)
     total = periods * m
     if total > _MAX_STEPS:
-        raise ConfigError(
+        raise InputError(
             f"duration_s={duration:g} s needs {total} steps at {m} per tooth period; "
             f"give at most {_MAX_STEPS * period / m:.3g} s"
         )
@@ -598,15 +598,15 @@ def _cutter_geometry(cutter: Cutter | None, process: MillingProcess) -> tuple[fl
     if cutter is None:
         return 0.0, 0.0
     if cutter.kind != "flat":
-        raise ConfigError(
+        raise InputError(
             f"cutter kind {cutter.kind!r}; the time-domain model takes a flat end mill"
         )
     if cutter.runout_mm != 0.0:
-        raise ConfigError(
+        raise InputError(
             f"runout_mm={cutter.runout_mm!r}; the time-domain model takes no runout (0)"
         )
     if cutter.flutes != process.teeth:
-        raise ConfigError(
+        raise InputError(
             f"cutter flutes={cutter.flutes} but the process has {process.teeth} teeth; give the "
             "same"
         )
@@ -617,7 +617,7 @@ def _steps(given: int | None, cycles_per_tooth: float) -> int:
     if given is None:
         return max(_STEPS_PER_TOOTH, math.ceil(_STEPS_PER_CYCLE * cycles_per_tooth))
     if isinstance(given, bool) or not isinstance(given, (int, np.integer)) or given < 20:
-        raise ConfigError(f"steps_per_tooth={given!r}; give an integer >= 20")
+        raise InputError(f"steps_per_tooth={given!r}; give an integer >= 20")
     per_cycle = given / cycles_per_tooth
     if per_cycle < 50.0:
         logger.warning(
@@ -633,19 +633,19 @@ def _slices(given: int | None, lag: float, speed: float, highest_hz: float) -> i
     if given is None:
         return max(1, math.ceil(lag * _SLICES_PER_CYCLE * highest_hz / speed))
     if isinstance(given, bool) or not isinstance(given, (int, np.integer)) or given < 1:
-        raise ConfigError(f"slices={given!r}; give an integer >= 1")
+        raise InputError(f"slices={given!r}; give an integer >= 1")
     return int(given)
 
 
 def _column(quantity: str) -> int:
     if quantity not in _COLUMNS:
-        raise ConfigError(f"quantity={quantity!r}; give one of {', '.join(_COLUMNS)}")
+        raise InputError(f"quantity={quantity!r}; give one of {', '.join(_COLUMNS)}")
     return _COLUMNS[quantity]
 
 
 def _axis(axis: str) -> int:
     if axis not in ("x", "y"):
-        raise ConfigError(f"axis={axis!r}; give 'x' or 'y'")
+        raise InputError(f"axis={axis!r}; give 'x' or 'y'")
     return 0 if axis == "x" else 1
 
 
@@ -655,19 +655,19 @@ def _finite(name: str, value: float) -> float:
     except (TypeError, ValueError):
         number = math.nan
     if not math.isfinite(number):
-        raise ConfigError(f"{name}={value!r}; give a finite number")
+        raise InputError(f"{name}={value!r}; give a finite number")
     return number
 
 
 def _positive(name: str, value: float) -> float:
     number = _finite(name, value)
     if number <= 0.0:
-        raise ConfigError(f"{name}={value!r}; give a finite number > 0")
+        raise InputError(f"{name}={value!r}; give a finite number > 0")
     return number
 
 
 def _non_negative(name: str, value: float) -> float:
     number = _finite(name, value)
     if number < 0.0:
-        raise ConfigError(f"{name}={value!r}; give a finite number >= 0")
+        raise InputError(f"{name}={value!r}; give a finite number >= 0")
     return number

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.geometry import Cutter
 
 __all__ = ["ImmersionIntervals", "immersion_angles"]
@@ -103,11 +103,11 @@ class ImmersionIntervals:
         """
         z = np.asarray(z_bounds_m, dtype=np.float64)
         if z.ndim != 1 or z.size < 2 or not np.all(np.isfinite(z)):
-            raise ConfigError("z_bounds_m must be at least two finite heights in m")
+            raise InputError("z_bounds_m must be at least two finite heights in m")
         if z[0] < 0.0 or np.any(np.diff(z) <= 0.0):
-            raise ConfigError(f"z_bounds_m from {z[0]!r}; give increasing heights >= 0 m")
+            raise InputError(f"z_bounds_m from {z[0]!r}; give increasing heights >= 0 m")
         if len(intervals) != z.size - 1:
-            raise ConfigError(
+            raise InputError(
                 f"{len(intervals)} interval lists for {z.size - 1} slices; give one per slice"
             )
         entry: list[float] = []
@@ -118,7 +118,7 @@ class ImmersionIntervals:
             for a, b in pairs:
                 a, b = float(a), float(b)
                 if not (math.isfinite(a) and math.isfinite(b) and a < b <= a + _TWO_PI + 1e-12):
-                    raise ConfigError(
+                    raise InputError(
                         f"contact interval ({a!r}, {b!r}) rad; give entry < exit <= entry + 2 pi"
                     )
                 start = a % _TWO_PI
@@ -175,19 +175,19 @@ class ImmersionIntervals:
         starts = np.asarray(entry_rad, dtype=np.float64)
         ends = np.asarray(exit_rad, dtype=np.float64)
         if heights.ndim != 1 or thickness.shape != heights.shape or heights.size == 0:
-            raise ConfigError("heights_m and thickness_m must be two 1-D arrays of equal size > 0")
+            raise InputError("heights_m and thickness_m must be two 1-D arrays of equal size > 0")
         if not (owner.shape == starts.shape == ends.shape and owner.ndim == 1):
-            raise ConfigError("interval_slice, entry_rad and exit_rad must be 1-D of equal size")
+            raise InputError("interval_slice, entry_rad and exit_rad must be 1-D of equal size")
         if np.any((owner < 0) | (owner >= heights.size)):
-            raise ConfigError(f"interval_slice outside 0..{heights.size - 1}")
+            raise InputError(f"interval_slice outside 0..{heights.size - 1}")
         if not np.all(np.isfinite(heights) & np.isfinite(thickness) & (thickness > 0.0)):
-            raise ConfigError("slice heights must be finite and thicknesses finite and > 0 m")
+            raise InputError("slice heights must be finite and thicknesses finite and > 0 m")
         order = np.argsort(heights)
         lows = np.maximum(heights[order] - thickness[order] / 2.0, 0.0)
         highs = heights[order] + thickness[order] / 2.0
         tolerance = 1e-9 * float(highs[-1])
         if np.any(lows[1:] < highs[:-1] - tolerance):
-            raise ConfigError("slices overlap; give disjoint slices (height -+ thickness / 2)")
+            raise InputError("slices overlap; give disjoint slices (height -+ thickness / 2)")
         bounds = [float(lows[0])]
         intervals: list[list[tuple[float, float]]] = []
         for rank, index in enumerate(order):
@@ -264,12 +264,12 @@ class ImmersionIntervals:
 
 def _check_width(diameter_m: float, width_m: float) -> None:
     if not (math.isfinite(width_m) and 0.0 < width_m <= diameter_m * (1.0 + 1e-12)):
-        raise ConfigError(f"width of cut {width_m!r} m; give 0 < ae <= D ({diameter_m!r} m)")
+        raise InputError(f"width of cut {width_m!r} m; give 0 < ae <= D ({diameter_m!r} m)")
 
 
 def _depth_bounds(depth_m: float, slices: int) -> np.ndarray:
     if not (math.isfinite(depth_m) and depth_m > 0.0):
-        raise ConfigError(f"depth of cut {depth_m!r} m; give a finite ap > 0 m")
+        raise InputError(f"depth of cut {depth_m!r} m; give a finite ap > 0 m")
     if isinstance(slices, bool) or not isinstance(slices, (int, np.integer)) or slices < 1:
-        raise ConfigError(f"slices={slices!r}; give an integer >= 1")
+        raise InputError(f"slices={slices!r}; give an integer >= 1")
     return np.linspace(0.0, depth_m, int(slices) + 1)

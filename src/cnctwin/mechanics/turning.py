@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 
 __all__ = [
     "TurningCoefficients",
@@ -92,11 +92,11 @@ def turning_chip(
         Tool cutting-edge angle kr in rad, 0 < kr <= pi/2 (pi/2: orthogonal edge).
     """
     if not (math.isfinite(feed_per_rev_m) and feed_per_rev_m > 0.0):
-        raise ConfigError(f"feed_per_rev_m={feed_per_rev_m!r}; give a finite feed > 0 m")
+        raise InputError(f"feed_per_rev_m={feed_per_rev_m!r}; give a finite feed > 0 m")
     if not (math.isfinite(depth_m) and depth_m > 0.0):
-        raise ConfigError(f"depth_m={depth_m!r}; give a finite depth of cut > 0 m")
+        raise InputError(f"depth_m={depth_m!r}; give a finite depth of cut > 0 m")
     if not (math.isfinite(approach_rad) and 0.0 < approach_rad <= math.pi / 2):
-        raise ConfigError(f"approach_rad={approach_rad!r}; give 0 < kr <= pi/2 rad")
+        raise InputError(f"approach_rad={approach_rad!r}; give 0 < kr <= pi/2 rad")
     sin_kr = math.sin(approach_rad)
     return feed_per_rev_m * sin_kr, depth_m / sin_kr
 
@@ -118,7 +118,7 @@ def kienzle_specific_force(
     _check_kienzle(kc11_pa, mc)
     h = np.asarray(chip_thickness_m, dtype=np.float64)
     if not np.all(np.isfinite(h) & (h > 0.0)):
-        raise ConfigError(f"chip_thickness_m={chip_thickness_m!r}; give finite values > 0 m")
+        raise InputError(f"chip_thickness_m={chip_thickness_m!r}; give finite values > 0 m")
     kc = kc11_pa * (h / _MM) ** (-mc)
     return float(kc) if kc.ndim == 0 else kc
 
@@ -138,7 +138,7 @@ def kienzle_cutting_force(
         Chip width b in m, > 0.
     """
     if not (math.isfinite(chip_width_m) and chip_width_m > 0.0):
-        raise ConfigError(f"chip_width_m={chip_width_m!r}; give a finite width > 0 m")
+        raise InputError(f"chip_width_m={chip_width_m!r}; give a finite width > 0 m")
     kc = kienzle_specific_force(kc11_pa, mc, chip_thickness_m)
     return float(kc) * chip_width_m * chip_thickness_m
 
@@ -157,7 +157,7 @@ def edge_force_turning(
     """
     h, b = chip_thickness_m, chip_width_m
     if not (math.isfinite(h) and h >= 0.0 and math.isfinite(b) and b >= 0.0):
-        raise ConfigError(f"chip h={h!r} m, b={b!r} m; give finite values >= 0")
+        raise InputError(f"chip h={h!r} m, b={b!r} m; give finite values >= 0")
     k = coefficients
     return TurningForces(
         cutting_n=(k.ktc * h + k.kte) * b,
@@ -204,13 +204,13 @@ def oblique_coefficients(
         Inclination (oblique) angle i of the edge in rad, |i| < pi/2; 0 for orthogonal cutting.
     """
     if not (math.isfinite(shear_stress_pa) and shear_stress_pa > 0.0):
-        raise ConfigError(f"shear_stress_pa={shear_stress_pa!r}; give a finite stress > 0 Pa")
+        raise InputError(f"shear_stress_pa={shear_stress_pa!r}; give a finite stress > 0 Pa")
     if not (math.isfinite(shear_angle_rad) and 0.0 < shear_angle_rad < math.pi / 2):
-        raise ConfigError(f"shear_angle_rad={shear_angle_rad!r}; give 0 < phi < pi/2 rad")
+        raise InputError(f"shear_angle_rad={shear_angle_rad!r}; give 0 < phi < pi/2 rad")
     if not (math.isfinite(inclination_rad) and abs(inclination_rad) < math.pi / 2):
-        raise ConfigError(f"inclination_rad={inclination_rad!r}; give |i| < pi/2 rad")
+        raise InputError(f"inclination_rad={inclination_rad!r}; give |i| < pi/2 rad")
     if not (math.isfinite(friction_angle_rad) and math.isfinite(rake_angle_rad)):
-        raise ConfigError(
+        raise InputError(
             f"friction_angle_rad={friction_angle_rad!r}, rake_angle_rad={rake_angle_rad!r}; "
             "give finite angles"
         )
@@ -229,6 +229,6 @@ def oblique_coefficients(
 
 def _check_kienzle(kc11_pa: float, mc: float) -> None:
     if not (math.isfinite(kc11_pa) and kc11_pa > 0.0):
-        raise ConfigError(f"kc11_pa={kc11_pa!r}; give a finite kc1.1 > 0 Pa")
+        raise InputError(f"kc11_pa={kc11_pa!r}; give a finite kc1.1 > 0 Pa")
     if not (math.isfinite(mc) and 0.0 <= mc < 1.0):
-        raise ConfigError(f"mc={mc!r}; give a Kienzle exponent 0 <= mc < 1")
+        raise InputError(f"mc={mc!r}; give a Kienzle exponent 0 <= mc < 1")

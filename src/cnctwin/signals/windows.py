@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import ConfigError, DataError, InputError
 
 __all__ = [
     "SCALAR_FEATURES",
@@ -60,7 +60,7 @@ def quantiles(x: ArrayLike, q: float | Sequence[float]) -> NDArray[np.float64]:
     """Quantiles ``q`` (each in [0, 1]) of the samples, linear interpolation (numpy default)."""
     probs = np.atleast_1d(np.asarray(q, dtype=float))
     if not np.all((probs >= 0.0) & (probs <= 1.0)):
-        raise ConfigError(f"quantile levels {q!r}; give levels between 0 and 1")
+        raise InputError(f"quantile levels {q!r}; give levels between 0 and 1")
     return np.asarray(np.quantile(_values(x), probs), dtype=float)
 
 
@@ -97,7 +97,7 @@ def amplitude_at(
     values = _values(x)
     freqs = np.atleast_1d(np.asarray(freqs_hz, dtype=float))
     if not (sample_rate_hz > 0.0 and np.all((freqs >= 0) & (freqs <= sample_rate_hz / 2))):
-        raise ConfigError(
+        raise InputError(
             f"frequencies {freqs_hz!r} Hz at {sample_rate_hz!r} Hz; give a rate > 0 and "
             f"frequencies between 0 and Nyquist"
         )
@@ -119,7 +119,7 @@ def band_rms(x: ArrayLike, sample_rate_hz: float, low_hz: float, high_hz: float)
     """
     values = _values(x)
     if not (sample_rate_hz > 0.0 and 0.0 <= low_hz <= high_hz):
-        raise ConfigError(
+        raise InputError(
             f"band {low_hz!r}-{high_hz!r} Hz at {sample_rate_hz!r} Hz; give 0 <= low <= high"
         )
     n = values.size
