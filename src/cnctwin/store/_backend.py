@@ -90,6 +90,12 @@ class Backend(ABC):
             run_id BIGINT NOT NULL, kind SMALLINT NOT NULL, seq BIGINT NOT NULL,
             t_s {real} NOT NULL, layout_id BIGINT NOT NULL, vals {blob} NOT NULL,
             PRIMARY KEY (run_id, kind, seq)){end}"""
+        # What a run holds (frames and instants per layout, names in first-recorded order,
+        # last time) is read from this index alone, never from the frames' values.
+        yield (
+            "CREATE INDEX IF NOT EXISTS hist_frames_by_layout "
+            "ON hist_frames (run_id, kind, layout_id, seq, t_s)"
+        )
         yield f"""CREATE TABLE IF NOT EXISTS hist_events (
             run_id BIGINT NOT NULL, seq BIGINT NOT NULL, t_s {real} NOT NULL,
             kind TEXT NOT NULL, message TEXT NOT NULL, data TEXT NOT NULL,

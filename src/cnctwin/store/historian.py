@@ -21,7 +21,7 @@ import logging
 import math
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from itertools import count
 from pathlib import Path
 from typing import Any
@@ -72,16 +72,15 @@ _INSERT_DECISION = (
     "INSERT INTO hist_decisions (run_id, seq, t_s, rule, action, value, reason, accepted, "
     "readback) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)"
 )
-_SUMMARY = """SELECT r.id, r.status, r.started_at, r.ended_at, r.meta, r.summary,
- (SELECT COUNT(*) FROM hist_frames f WHERE f.run_id = r.id AND f.kind = 0),
- (SELECT CAST(COALESCE(SUM(LENGTH(f.vals)), 0) AS BIGINT) FROM hist_frames f
-   WHERE f.run_id = r.id AND f.kind = 0),
- (SELECT CAST(COALESCE(SUM(LENGTH(f.vals)), 0) AS BIGINT) FROM hist_frames f
-   WHERE f.run_id = r.id AND f.kind = 1),
+_RUNS = """SELECT r.id, r.status, r.started_at, r.ended_at, r.meta, r.summary,
  (SELECT COUNT(*) FROM hist_events e WHERE e.run_id = r.id),
- (SELECT COUNT(*) FROM hist_decisions d WHERE d.run_id = r.id),
- (SELECT MAX(f.t_s) FROM hist_frames f WHERE f.run_id = r.id AND f.kind = 0)
+ (SELECT COUNT(*) FROM hist_decisions d WHERE d.run_id = r.id)
 FROM hist_runs r"""
+#: One layout a run used: (kind, layout id, frames, first seq, last time s).
+_LayoutCount = tuple[int, int, int, int, float]
+#: Per run, kind and layout: frames, first sequence number and last time (index only).
+_LAYOUT_COUNTS = """SELECT run_id, kind, layout_id, COUNT(*), MIN(seq), MAX(t_s)
+FROM hist_frames {where} GROUP BY run_id, kind, layout_id"""
 
 
 def default_database_path() -> Path:
@@ -187,6 +186,7 @@ class Historian:
         self._batches = 0
         self._last_error: str | None = None
         self._layouts: dict[tuple[str, ...], int] = {}
+        self._names_of_layout: dict[int, tuple[str, ...]] = {}
         self._writer = threading.Thread(
             target=self._write_loop, name="cnctwin-historian", daemon=True
         )
@@ -630,25 +630,71 @@ class Historian:
     def runs(self) -> list[RunSummary]:
         """Every run, oldest first (after committing this historian's queue)."""
         self._sync()
-        return [_summary(row) for row in self._read(_SUMMARY + " ORDER BY r.id")]
+        counts = self._layout_counts(None)
+        return [
+            self._run_summary(row, counts.get(int(row[0]), []))
+            for row in self._read(_RUNS + " ORDER BY r.id")
+        ]
 
-    def _summary(self, run_id: int) -> RunSummary:
+    def _summary(self, run_id: int) -> tuple[RunSummary, list[_LayoutCount]]:
+        """A run's summary, and its layout counts (:meth:`_layout_counts`)."""
         self._sync()
-        rows = self._read(_SUMMARY + " WHERE r.id = ?", (int(run_id),))
+        rows = self._read(_RUNS + " WHERE r.id = ?", (int(run_id),))
         if not rows:
             raise self._unknown_run(run_id)
-        return _summary(rows[0])
+        counts = self._layout_counts(run_id).get(int(run_id), [])
+        return self._run_summary(rows[0], counts), counts
 
-    def _names(self, run_id: int, kind: int) -> tuple[str, ...]:
-        rows = self._read(
-            "SELECT l.names FROM hist_layouts l JOIN (SELECT layout_id, MIN(seq) AS first "
-            "FROM hist_frames WHERE run_id = ? AND kind = ? GROUP BY layout_id) f "
-            "ON f.layout_id = l.id ORDER BY f.first",
-            (int(run_id), kind),
+    def _layout_counts(self, run_id: int | None) -> dict[int, list[_LayoutCount]]:
+        """Per run: (kind, layout id, frames, first seq, last time s) of each layout it used."""
+        where, args = ("", ()) if run_id is None else ("WHERE run_id = ?", (int(run_id),))
+        counts: dict[int, list[_LayoutCount]] = {}
+        for run, kind, layout, n, first, last in self._read(
+            _LAYOUT_COUNTS.format(where=where), args
+        ):
+            counts.setdefault(int(run), []).append(
+                (int(kind), int(layout), int(n), int(first), float(last))
+            )
+        return counts
+
+    def _layout_names(self, layout_ids: Iterable[int]) -> dict[int, tuple[str, ...]]:
+        """The signal names of layouts (read once: a layout never changes)."""
+        ids = [int(i) for i in layout_ids]
+        missing = sorted(set(ids) - self._names_of_layout.keys())
+        if missing:
+            marks = ", ".join("?" * len(missing))
+            for i, text in self._read(
+                f"SELECT id, names FROM hist_layouts WHERE id IN ({marks})", tuple(missing)
+            ):
+                self._names_of_layout[int(i)] = tuple(json.loads(text))
+        return {i: self._names_of_layout[i] for i in ids}
+
+    def _run_summary(self, row: Sequence[Any], counts: Sequence[_LayoutCount]) -> RunSummary:
+        """A run's summary from its ``hist_runs`` row and its layout counts."""
+        widths = {i: len(names) for i, names in self._layout_names(c[1] for c in counts).items()}
+        measured = [c for c in counts if c[0] == _SAMPLE]
+        return RunSummary(
+            run_id=int(row[0]),
+            status=row[1],
+            started_at=float(row[2]),
+            ended_at=None if row[3] is None else float(row[3]),
+            meta=json.loads(row[4]),
+            summary=None if row[5] is None else json.loads(row[5]),
+            frames=sum(c[2] for c in measured),
+            values=sum(c[2] * widths[c[1]] for c in measured),
+            predicted_values=sum(c[2] * widths[c[1]] for c in counts if c[0] == _PREDICTION),
+            events=int(row[6]),
+            decisions=int(row[7]),
+            last_t_s=max((c[4] for c in measured), default=None),
         )
+
+    def _names(self, counts: Sequence[_LayoutCount], kind: int) -> tuple[str, ...]:
+        """The signal names of one kind, in the order a run first recorded them."""
+        used = sorted((first, layout) for k, layout, _, first, _ in counts if k == kind)
+        layouts = self._layout_names(layout for _, layout in used)
         names: dict[str, None] = {}
-        for (text,) in rows:
-            names.update(dict.fromkeys(json.loads(text)))
+        for _, layout in used:
+            names.update(dict.fromkeys(layouts[layout]))
         return tuple(names)
 
     def run(self, run_id: int) -> RunDetail:
@@ -659,7 +705,7 @@ class Historian:
         DataError
             For an unknown run id.
         """
-        summary = self._summary(run_id)
+        summary, counts = self._summary(run_id)
         events = [
             EventRecord(int(r[0]), float(r[1]), r[2], r[3], json.loads(r[4]))
             for r in self._read(
@@ -687,8 +733,8 @@ class Historian:
         ]
         return RunDetail(
             summary,
-            self._names(run_id, _SAMPLE),
-            self._names(run_id, _PREDICTION),
+            self._names(counts, _SAMPLE),
+            self._names(counts, _PREDICTION),
             events,
             decisions,
         )
@@ -720,13 +766,10 @@ class Historian:
         self, run_id: int, names: Sequence[str] | None, kind: int
     ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         """Columns and, per signal, where it was recorded (a bool mask)."""
-        self._summary(run_id)
-        rows = self._read(
-            "SELECT t_s, layout_id, vals FROM hist_frames WHERE run_id = ? AND kind = ? "
-            "ORDER BY seq",
-            (int(run_id), kind),
-        )
-        available = self._names(run_id, kind)
+        self._sync()
+        if not self._read("SELECT 1 FROM hist_runs WHERE id = ?", (int(run_id),)):
+            raise self._unknown_run(run_id)
+        available = self._names(self._layout_counts(run_id).get(int(run_id), []), kind)
         wanted = available if names is None else tuple(names)
         unknown = [name for name in wanted if name not in available]
         if unknown:
@@ -734,6 +777,11 @@ class Historian:
                 f"run {run_id} has no {_KIND_NAMES[kind]} named {', '.join(map(repr, unknown))}"
                 f" (recorded: {', '.join(available) or 'none'})"
             )
+        rows = self._read(
+            "SELECT t_s, layout_id, vals FROM hist_frames WHERE run_id = ? AND kind = ? "
+            "ORDER BY seq",
+            (int(run_id), kind),
+        )
         n = len(rows)
         layout_of = np.fromiter((r[1] for r in rows), dtype=np.int64, count=n)
         columns = {TIME_COLUMN: np.fromiter((r[0] for r in rows), dtype=np.float64, count=n)}
@@ -742,14 +790,7 @@ class Historian:
             columns[name] = np.full(n, np.nan)
             masks[name] = np.zeros(n, dtype=bool)
         layout_ids = np.unique(layout_of)
-        layouts = {
-            int(i): json.loads(text)
-            for i, text in self._read(
-                "SELECT id, names FROM hist_layouts WHERE id IN "
-                "(SELECT DISTINCT layout_id FROM hist_frames WHERE run_id = ? AND kind = ?)",
-                (int(run_id), kind),
-            )
-        }
+        layouts = self._layout_names(int(i) for i in layout_ids)
         for layout in layout_ids:
             layout_names = layouts[int(layout)]
             index = np.flatnonzero(layout_of == layout)
@@ -800,23 +841,6 @@ class Historian:
             path,
             fmt,
         )
-
-
-def _summary(row: Sequence[Any]) -> RunSummary:
-    return RunSummary(
-        run_id=int(row[0]),
-        status=row[1],
-        started_at=float(row[2]),
-        ended_at=None if row[3] is None else float(row[3]),
-        meta=json.loads(row[4]),
-        summary=None if row[5] is None else json.loads(row[5]),
-        frames=int(row[6]),
-        values=int(row[7]) // _FLOAT64.itemsize,
-        predicted_values=int(row[8]) // _FLOAT64.itemsize,
-        events=int(row[9]),
-        decisions=int(row[10]),
-        last_t_s=None if row[11] is None else float(row[11]),
-    )
 
 
 def _bad_values(values: Mapping[str, object]) -> str:
