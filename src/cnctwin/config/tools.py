@@ -93,7 +93,7 @@ class ToolConfig(Section):
         diameter = info.data.get("diameter_mm")
         if kind is None or diameter is None:
             return value  # kind or diameter is itself invalid and reported
-        half = diameter / 2.0
+        half: float = diameter / 2.0
         if kind == "flat" or kind in _CONES:
             if value:
                 raise PydanticCustomError(

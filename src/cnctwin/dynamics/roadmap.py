@@ -391,7 +391,7 @@ def program_roadmap(
     teeth = {tool.number: tool.flutes for tool in config.tools}
     stock = DexelStock.box(config.stock.min_mm, config.stock.max_mm, rho)
     speeds: dict[int, float] = {}
-    segments = _recording(Interpreter(config.nc_setup()).run_file(program), speeds)
+    segments = _recording(Interpreter(config.nc_setup()).run_file(os.fspath(program)), speeds)
     try:
         emap = EngagementMap.build(segments, stock, cutters, step_mm=step)
     except NCError as err:
