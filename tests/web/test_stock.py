@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from cnctwin.errors import InputError
-from cnctwin.geometry import Cutter, DexelStock, cut
-from cnctwin.web.stock import height_map, stock_view
+from cnctwin.geometry import Cutter, DexelStock, cut, height_map
+from cnctwin.web.stock import stock_view
 
 #: A 40 x 30 x 10 mm block (top at z = 0) at 4 rays/mm; a 6 mm end mill slots 2 mm deep
 #: along x at y = 15 from x = 8 to x = 32.

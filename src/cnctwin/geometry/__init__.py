@@ -28,6 +28,7 @@ from cnctwin.geometry.engagement_map import (
     load_engagement_map,
     save_engagement_map,
 )
+from cnctwin.geometry.height_map import HeightMap, height_map
 from cnctwin.geometry.mesh import stock_mesh
 from cnctwin.geometry.removal import ContactRecord, Removal, remove
 from cnctwin.geometry.stl import write_stl
@@ -42,6 +43,7 @@ __all__ = [
     "DexelStock",
     "Engagement",
     "EngagementMap",
+    "HeightMap",
     "MapCursor",
     "MapMatch",
     "MapSlices",
@@ -49,6 +51,7 @@ __all__ = [
     "Removal",
     "cut",
     "cut_path",
+    "height_map",
     "load_engagement_map",
     "remove",
     "save_engagement_map",

@@ -46,7 +46,7 @@ def simulation_report(
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
-    from cnctwin.web import height_map
+    from cnctwin.geometry import height_map
 
     report = Report(
         f"Simulation of {Path(str(result['file'])).name}",

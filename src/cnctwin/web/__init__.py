@@ -10,18 +10,16 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from cnctwin.web.runs import RunBrowser, runs_app
     from cnctwin.web.server import LiveDashboard, check_host
-    from cnctwin.web.stock import height_map
 
 # FastAPI and uvicorn load with these: imported on first use.
 _LAZY = {
     "LiveDashboard": "cnctwin.web.server",
     "RunBrowser": "cnctwin.web.runs",
     "check_host": "cnctwin.web.server",
-    "height_map": "cnctwin.web.stock",
     "runs_app": "cnctwin.web.runs",
 }
 
-__all__ = ["LiveDashboard", "RunBrowser", "check_host", "height_map", "runs_app"]
+__all__ = ["LiveDashboard", "RunBrowser", "check_host", "runs_app"]
 
 
 def __getattr__(name: str) -> Any:
