@@ -14,10 +14,10 @@ Example::
 
     [[rules]]
     name = "hole_in_blank"
-    condition = "force_resultant_n < force_band_low_n and feed_mm_min > 10"
+    condition = "measured_force_xy_n < force_band_low_n and feed_mm_min > 10"
     for_s = 0.025
     action = "stop"
-    reason = "force {force_resultant_n:.0f} N below band {force_band_low_n:.0f} N"
+    reason = "force {measured_force_xy_n:.0f} N below band {force_band_low_n:.0f} N"
 
     [[rules]]
     name = "form_error"

@@ -67,7 +67,7 @@ class Expression:
     Parameters
     ----------
     text
-        The expression, e.g. ``"force_resultant_n < force_band_low_n and feed_mm_min > 10"``.
+        The expression, e.g. ``"measured_force_xy_n < force_band_low_n and feed_mm_min > 10"``.
     valid_names
         The names it may use (signals and predictions); ``None`` accepts any identifier
         (unknown names then make :meth:`evaluate` raise ``KeyError``).
