@@ -11,9 +11,11 @@ from __future__ import annotations
 import asyncio
 import socket
 import sqlite3
+import threading
 import time
+from collections.abc import Callable, Coroutine
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import httpx
 import pytest
@@ -34,8 +36,30 @@ from cnctwin.web.server import DASHBOARD_RULE, LiveDashboard
 REPO = Path(__file__).resolve().parents[2]
 DEMO_CONFIG = REPO / "src" / "cnctwin" / "examples" / "demo_twin.toml"
 
+T = TypeVar("T")
+
 #: Machine time per lockstep cycle, s (the demo's 2x real time at its 12.5 ms cycle).
 STEP_S = 0.025
+
+
+def _run(main: Callable[[], Coroutine[Any, Any, T]]) -> T:
+    """``asyncio.run(main())`` on a thread of its own: the session's Playwright (the browser
+    tests') keeps an event loop running on the main thread."""
+    out: list[T] = []
+    errors: list[BaseException] = []
+
+    def body() -> None:
+        try:
+            out.append(asyncio.run(main()))
+        except BaseException as err:  # handed to the test's thread
+            errors.append(err)
+
+    thread = threading.Thread(target=body)
+    thread.start()
+    thread.join()
+    if errors:
+        raise errors[0]
+    return out[0]
 
 
 # ---------------------------------------------------------------------- the token
@@ -52,6 +76,22 @@ def test_cli_refuses_a_non_loopback_host_in_one_line(
     _, err = capsys.readouterr()
     assert code == 2
     assert err.count("\n") == 1 and "--host '0.0.0.0'" in err and "--insecure" in err
+
+
+def test_a_port_in_use_is_one_line_and_exit_2(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        with pytest.raises(ConfigError, match=f"--port {port}: cannot listen on 127.0.0.1:{port}"):
+            LiveDashboard(port=port)
+        argv = ["demo", "--web", "--port", str(port), "--db", str(tmp_path / "h.sqlite")]
+        code = cli_run(argv)
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert err.count("\n") == 1 and f"--port {port}: cannot listen" in err
 
 
 def test_insecure_dashboard_needs_the_token_for_every_page() -> None:
@@ -163,7 +203,7 @@ def _lockstep(
             await conn.close()
             return twin.actions.results
 
-    results = asyncio.run(main())
+    results = _run(main)
     board.close()
     return board, overrides, codes, results, db
 
@@ -250,7 +290,7 @@ def test_hub_drops_a_browser_whose_queue_is_full_without_waiting() -> None:
         assert slow.closed and hub.subscribers == {fast} and hub.dropped == 1
         assert await hub.next_message(slow, 0.01) is None
 
-    asyncio.run(main())
+    _run(main)
 
 
 def test_a_page_that_stops_reading_is_dropped_while_another_keeps_its_stream() -> None:
