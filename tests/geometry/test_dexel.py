@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import DataError, InputError
 from cnctwin.geometry import DexelGrid, DexelStock
 from cnctwin.geometry._dexel_kernels import subtract_interval
 
@@ -32,13 +32,13 @@ def test_box_grid_represents_the_box_exactly() -> None:
 
 
 def test_invalid_boxes_are_rejected() -> None:
-    with pytest.raises(ConfigError, match="max_mm must exceed min_mm"):
+    with pytest.raises(InputError, match="max_mm must exceed min_mm"):
         DexelGrid.from_box((0, 0, 0), (1, 0, 1), 10)
-    with pytest.raises(ConfigError, match="density_per_mm=0"):
+    with pytest.raises(InputError, match="density_per_mm=0"):
         DexelGrid.from_box((0, 0, 0), (1, 1, 1), 0)
-    with pytest.raises(ConfigError, match="capacity=0"):
+    with pytest.raises(InputError, match="capacity=0"):
         DexelStock(DexelGrid.from_box((0, 0, 0), (1, 1, 1), 1), capacity=0)
-    with pytest.raises(ConfigError, match="axis='w'"):
+    with pytest.raises(InputError, match="axis='w'"):
         DexelStock.box((0, 0, 0), (1, 1, 1), 1).volume_mm3("w")  # type: ignore[arg-type]
 
 

@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
 from cnctwin.geometry.engagement import cut_path
 
@@ -369,13 +369,13 @@ def test_volume_is_conserved_along_a_winding_path() -> None:
 
 def test_invalid_arguments_are_rejected() -> None:
     stock = DexelStock.box((0.0, 0.0, -1.0), (1.0, 1.0, 0.0), 2.0)
-    with pytest.raises(ConfigError, match="feed_per_tooth_mm=-1"):
+    with pytest.raises(InputError, match="feed_per_tooth_mm=-1"):
         cut(stock, FLAT, (0, 0, 0), None, -1.0, CYCLE_S)
-    with pytest.raises(ConfigError, match="cycle_s=0"):
+    with pytest.raises(InputError, match="cycle_s=0"):
         cut(stock, FLAT, (0, 0, 0), None, FZ, 0.0)
-    with pytest.raises(ConfigError, match="position_mm="):
+    with pytest.raises(InputError, match="position_mm="):
         cut(stock, FLAT, (0, math.nan, 0), None, FZ, CYCLE_S)
-    with pytest.raises(ConfigError, match="previous_position_mm="):
+    with pytest.raises(InputError, match="previous_position_mm="):
         cut(stock, FLAT, (0, 0, 0), (1, 2), FZ, CYCLE_S)
 
 
@@ -403,7 +403,7 @@ def test_cut_path_equals_cut_position_by_position() -> None:
                     assert x == y or (x != x and y != y), (i, name, x, y)
         assert batch.contact.any() and a.volume_mm3() == b.volume_mm3()
         assert a.overflow_rays("x") + a.overflow_rays("y") > 0  # capacity 1 overflowed
-    with pytest.raises(ConfigError, match="positions_mm of shape"):
+    with pytest.raises(InputError, match="positions_mm of shape"):
         cut_path(a, FLAT, np.zeros((3, 2)), None, FZ, CYCLE_S)
-    with pytest.raises(ConfigError, match="feed_per_tooth_mm"):
+    with pytest.raises(InputError, match="feed_per_tooth_mm"):
         cut_path(a, FLAT, np.zeros((3, 3)), None, [FZ, -1.0, FZ], CYCLE_S)

@@ -21,7 +21,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cnctwin.errors import ConfigError, DataError, NCError
+from cnctwin.errors import ConfigError, DataError, InputError, NCError
 from cnctwin.geometry import Cutter, DexelStock, cut
 from cnctwin.geometry.engagement_map import (
     EngagementMap,
@@ -368,21 +368,21 @@ def test_path_parameter_is_the_path_length_whatever_the_feed() -> None:
 
 def test_invalid_input_is_rejected(tmp_path: Path, line_map: EngagementMap) -> None:
     stock = DexelStock.box((0.0, 0.0, -1.0), (1.0, 1.0, 0.0), DENSITY)
-    with pytest.raises(ConfigError, match="step_mm"):
+    with pytest.raises(InputError, match="step_mm"):
         EngagementMap.build(interpret_text(LINE), stock, {0: FLAT}, step_mm=0.0)
     with pytest.raises(NCError, match="T0"):
         EngagementMap.build(interpret_text(LINE), stock, {1: FLAT})
     with pytest.raises(ConfigError, match="no motion"):
         EngagementMap.build(interpret_text("G21\nM2\n"), stock, {0: FLAT})
-    with pytest.raises(ConfigError, match="lookahead_mm"):
+    with pytest.raises(InputError, match="lookahead_mm"):
         line_map.lookup((0.0, 10.0, -2.0), 0.0, lookahead_mm=0.0)
-    with pytest.raises(ConfigError, match="tolerance_mm"):
+    with pytest.raises(InputError, match="tolerance_mm"):
         MapCursor(line_map, tolerance_mm=-1.0)
-    with pytest.raises(ConfigError, match="position_mm"):
+    with pytest.raises(InputError, match="position_mm"):
         line_map.lookup((0.0, math.nan, 0.0))
-    with pytest.raises(ConfigError, match="column"):
+    with pytest.raises(InputError, match="column"):
         line_map.column("force")
-    with pytest.raises(ConfigError, match="index"):
+    with pytest.raises(InputError, match="index"):
         line_map.slices(len(line_map))
     with pytest.raises(DataError, match="not a readable"):
         load_engagement_map(tmp_path / "absent.npz")

@@ -17,7 +17,7 @@ from typing import cast
 
 import numpy as np
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.geometry._engagement_kernels import EngageWork
 from cnctwin.geometry._removal_kernels import (
     ARCS_FULL,
@@ -205,7 +205,7 @@ def xyz_mm(value: object, name: str) -> tuple[float, float, float]:
 
     Raises
     ------
-    ConfigError
+    InputError
         When ``value`` is not three finite numbers; the message names ``name``.
     """
     try:
@@ -215,7 +215,7 @@ def xyz_mm(value: object, name: str) -> tuple[float, float, float]:
         )
         x, y, z = float(u), float(v), float(w)
     except (TypeError, ValueError):
-        raise ConfigError(f"{name}={value!r}; give three finite numbers (x, y, z) mm") from None
+        raise InputError(f"{name}={value!r}; give three finite numbers (x, y, z) mm") from None
     if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
-        raise ConfigError(f"{name}={value!r}; give three finite numbers (x, y, z) mm")
+        raise InputError(f"{name}={value!r}; give three finite numbers (x, y, z) mm")
     return x, y, z

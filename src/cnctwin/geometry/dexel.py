@@ -60,7 +60,7 @@ from typing import Literal
 
 import numpy as np
 
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import ConfigError, DataError, InputError
 from cnctwin.geometry._dexel_kernels import Family, fill, total_length
 from cnctwin.memory import check_memory
 
@@ -117,21 +117,21 @@ class DexelGrid:
 
         Raises
         ------
-        ConfigError
+        InputError
             On a box that is not strictly ordered or not finite, or a density that is not
             finite and > 0.
         """
         lo = _vec3(min_mm, "min_mm")
         hi = _vec3(max_mm, "max_mm")
         if not (math.isfinite(density_per_mm) and density_per_mm > 0.0):
-            raise ConfigError(
+            raise InputError(
                 f"density_per_mm={density_per_mm!r}; give a finite dexel density > 0 per mm"
             )
         shape = []
         pitch = []
         for axis, a, b in zip("xyz", lo, hi, strict=True):
             if not b > a:
-                raise ConfigError(f"box {axis} from {a} to {b} mm; max_mm must exceed min_mm")
+                raise InputError(f"box {axis} from {a} to {b} mm; max_mm must exceed min_mm")
             n = max(1, round((b - a) * density_per_mm))
             shape.append(int(n))
             pitch.append((b - a) / n)
@@ -242,7 +242,7 @@ class DexelStock:
 
     def __init__(self, grid: DexelGrid, capacity: int = 2) -> None:
         if isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1:
-            raise ConfigError(f"capacity={capacity!r}; give an integer >= 1 intervals per ray")
+            raise InputError(f"capacity={capacity!r}; give an integer >= 1 intervals per ray")
         _check_size(grid, capacity)
         self.grid = grid
         self.capacity = capacity
@@ -395,7 +395,7 @@ class DexelStock:
         axis = _check_axis(axis)
         ray, a, b = _family_axes(axis)
         if not (0 <= u < self.grid.shape[a] and 0 <= v < self.grid.shape[b]):
-            raise ConfigError(
+            raise InputError(
                 f"ray ({u}, {v}) of the {axis} family; give indices below "
                 f"({self.grid.shape[a]}, {self.grid.shape[b]})"
             )
@@ -419,15 +419,15 @@ def _vec3(value: Sequence[float], name: str) -> tuple[float, float, float]:
     try:
         vec = tuple(float(v) for v in value)
     except (TypeError, ValueError):
-        raise ConfigError(f"{name}={value!r}; give three numbers (x, y, z) in mm") from None
+        raise InputError(f"{name}={value!r}; give three numbers (x, y, z) in mm") from None
     if len(vec) != 3 or not all(math.isfinite(v) for v in vec):
-        raise ConfigError(f"{name}={value!r}; give three finite numbers (x, y, z) in mm")
+        raise InputError(f"{name}={value!r}; give three finite numbers (x, y, z) in mm")
     return (vec[0], vec[1], vec[2])
 
 
 def _check_axis(axis: str) -> Axis:
     if axis not in _FAMILY_AXES:
-        raise ConfigError(f"axis={axis!r}; give 'x', 'y' or 'z'")
+        raise InputError(f"axis={axis!r}; give 'x', 'y' or 'z'")
     return axis  # type: ignore[return-value]
 
 

@@ -52,7 +52,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.geometry._engagement_kernels import (
     N_OUT,
     O_ABOVE,
@@ -271,7 +271,7 @@ def cut(
 
     Raises
     ------
-    ConfigError
+    InputError
         On a position that is not three finite numbers, a negative or non-finite feed per
         tooth, or a cycle time that is not finite and > 0.
 
@@ -367,18 +367,18 @@ def cut_path(
 
     Raises
     ------
-    ConfigError
+    InputError
         On positions that are not an (n, 3) array of finite numbers, feeds per tooth that are
         negative, not finite or of another length, or a cycle time that is not finite and > 0.
     """
     tips = np.asarray(positions_mm, dtype=np.float64)
     if tips.ndim != 2 or tips.shape[1] != 3 or not np.all(np.isfinite(tips)):
-        raise ConfigError(
+        raise InputError(
             f"positions_mm of shape {tips.shape}; give an (n, 3) array of finite tool tips, mm"
         )
     fz = np.broadcast_to(np.asarray(feed_per_tooth_mm, dtype=np.float64), (len(tips),))
     if fz.size and not (np.all(np.isfinite(fz)) and fz.min() >= 0.0):
-        raise ConfigError("feed_per_tooth_mm: give finite feeds per tooth >= 0 mm")
+        raise InputError("feed_per_tooth_mm: give finite feeds per tooth >= 0 mm")
     _check_feed_and_cycle(0.0, cycle_s)
     previous = (
         None
@@ -464,11 +464,11 @@ class _Outputs:
 
 def _check_feed_and_cycle(feed_per_tooth_mm: float, cycle_s: float) -> None:
     if not (math.isfinite(feed_per_tooth_mm) and feed_per_tooth_mm >= 0.0):
-        raise ConfigError(
+        raise InputError(
             f"feed_per_tooth_mm={feed_per_tooth_mm!r}; give a finite feed per tooth >= 0 mm"
         )
     if not (math.isfinite(cycle_s) and cycle_s > 0.0):
-        raise ConfigError(f"cycle_s={cycle_s!r}; give a finite cycle time > 0 s")
+        raise InputError(f"cycle_s={cycle_s!r}; give a finite cycle time > 0 s")
 
 
 def _run(

@@ -55,7 +55,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from cnctwin.errors import ConfigError, DataError, NCError
+from cnctwin.errors import ConfigError, DataError, InputError, NCError
 from cnctwin.geometry._workspace import xyz_mm
 from cnctwin.geometry.cutter import Cutter
 from cnctwin.geometry.dexel import DexelStock
@@ -354,14 +354,15 @@ class EngagementMap:
 
         Raises
         ------
-        ConfigError
-            On a step or band height that is not finite and > 0, or a program without motion.
+        InputError
+            On a step or band height that is not finite and > 0 (a program without motion:
+            :class:`ConfigError`).
         NCError
             When the program moves a tool that has no geometry, naming the tool and the line.
         """
         for name, value in (("step_mm", step_mm), ("band_mm", band_mm)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0.0):
-                raise ConfigError(f"{name}={value!r}; give a finite length > 0 mm")
+                raise InputError(f"{name}={value!r}; give a finite length > 0 mm")
         # One path speed for every move and one sample per second: s_k = k * step_mm.
         speed_mm_min = 60.0 * step_mm
         sampler = TrajectorySampler(
@@ -428,13 +429,13 @@ class EngagementMap:
 
         Raises
         ------
-        ConfigError
+        InputError
             On a name that is not a column.
         """
         try:
             k = _COLUMN_NAMES.index(name)
         except ValueError:
-            raise ConfigError(f"column {name!r}; give one of {', '.join(_COLUMN_NAMES)}") from None
+            raise InputError(f"column {name!r}; give one of {', '.join(_COLUMN_NAMES)}") from None
         view = self.table[:, k]
         view.flags.writeable = False
         return view
@@ -444,11 +445,11 @@ class EngagementMap:
 
         Raises
         ------
-        ConfigError
+        InputError
             On an index outside ``0 .. len - 1``.
         """
         if not 0 <= index < len(self):
-            raise ConfigError(f"index={index!r}; give a location in 0..{len(self) - 1}")
+            raise InputError(f"index={index!r}; give a location in 0..{len(self) - 1}")
         b0, b1 = int(self.band_ptr[index]), int(self.band_ptr[index + 1])
         lo = self.band_lo_mm[b0:b1].astype(np.float64)
         hi = self.band_hi_mm[b0:b1].astype(np.float64)
@@ -496,12 +497,12 @@ class EngagementMap:
 
         Raises
         ------
-        ConfigError
+        InputError
             On a position that is not three finite numbers or a window parameter out of range.
         """
         _check_window(lookahead_mm, tolerance_mm, tie_mm)
         if hint_s_mm is not None and not math.isfinite(hint_s_mm):
-            raise ConfigError(f"hint_s_mm={hint_s_mm!r}; give a finite path parameter in mm")
+            raise InputError(f"hint_s_mm={hint_s_mm!r}; give a finite path parameter in mm")
         x, y, z = xyz_mm(position_mm, "position_mm")
         return self._lookup(x, y, z, hint_s_mm, lookahead_mm, tolerance_mm, tie_mm)
 
@@ -649,7 +650,7 @@ class MapCursor:
 
     Raises
     ------
-    ConfigError
+    InputError
         On a window parameter out of range.
 
     Notes
@@ -688,11 +689,11 @@ class MapCursor:
 
         Raises
         ------
-        ConfigError
+        InputError
             On a path parameter that is not finite.
         """
         if s_mm is not None and not math.isfinite(s_mm):
-            raise ConfigError(f"s_mm={s_mm!r}; give a finite path parameter in mm or None")
+            raise InputError(f"s_mm={s_mm!r}; give a finite path parameter in mm or None")
         self._hint = None if s_mm is None else float(s_mm)
 
     def lookup(self, position_mm: np.ndarray | tuple[float, float, float]) -> MapMatch:
@@ -700,7 +701,7 @@ class MapCursor:
 
         Raises
         ------
-        ConfigError
+        InputError
             On a position that is not three finite numbers.
         """
         x, y, z = xyz_mm(position_mm, "position_mm")
@@ -842,11 +843,11 @@ class _MapWriter:
 
 def _check_window(lookahead_mm: float, tolerance_mm: float, tie_mm: float) -> None:
     if not (math.isfinite(lookahead_mm) and lookahead_mm > 0.0):
-        raise ConfigError(f"lookahead_mm={lookahead_mm!r}; give a finite length > 0 mm")
+        raise InputError(f"lookahead_mm={lookahead_mm!r}; give a finite length > 0 mm")
     if not (math.isfinite(tolerance_mm) and tolerance_mm > 0.0):
-        raise ConfigError(f"tolerance_mm={tolerance_mm!r}; give a finite distance > 0 mm")
+        raise InputError(f"tolerance_mm={tolerance_mm!r}; give a finite distance > 0 mm")
     if not (math.isfinite(tie_mm) and tie_mm >= 0.0):
-        raise ConfigError(f"tie_mm={tie_mm!r}; give a finite distance >= 0 mm")
+        raise InputError(f"tie_mm={tie_mm!r}; give a finite distance >= 0 mm")
 
 
 def _constant_speed(segments: Iterable[Segment], speed_mm_min: float) -> Iterator[Segment]:

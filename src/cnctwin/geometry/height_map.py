@@ -100,4 +100,5 @@ def height_map(stock: DexelStock, max_cells: int = 160) -> HeightMap:
 def _centres(origin: float, pitch: float, n: int, step: int, cells: int) -> NDArray[np.float64]:
     first = np.arange(cells) * step
     last = np.minimum(first + step, n) - 1
-    return origin + (0.5 * (first + last) + 0.5) * pitch
+    centres: NDArray[np.float64] = origin + (0.5 * (first + last) + 0.5) * pitch
+    return centres
