@@ -27,7 +27,7 @@ from cnctwin.dynamics.stability import (
     ToolMode,
     floquet_multipliers,
 )
-from cnctwin.errors import ConfigError, DataError
+from cnctwin.errors import ConfigError, DataError, InputError
 from cnctwin.geometry import Cutter
 from cnctwin.mechanics import CuttingCoefficients
 
@@ -169,12 +169,12 @@ def test_fit_process_damping_model_groups_cuts_by_speed() -> None:
     ("call", "error"),
     [
         (lambda: relative_error(1.0, 0.0), DataError),
-        (lambda: match_cpd(lambda c: 1.0, 1.0, bounds_pa=(1e9, 1e8)), ConfigError),
+        (lambda: match_cpd(lambda c: 1.0, 1.0, bounds_pa=(1e9, 1e8)), InputError),
         (lambda: match_cpd(lambda c: math.nan, 1.0), DataError),
         (lambda: fit_gamma(1.0, [1e-3, 2e-3], [1e-4, 1e-4], [1e10, 1e10]), DataError),
         (lambda: fit_gamma(1.0, [1e-3, 2e-3, 3e-3], [1e-4] * 3, [1e10, -1.0, 1e10]), DataError),
         (lambda: ProcessDampingModel(()), ConfigError),
-        (lambda: ProcessDampingModel.royandi2026().cpd_pa(0.0, 1e-4, 600.0), ConfigError),
+        (lambda: ProcessDampingModel.royandi2026().cpd_pa(0.0, 1e-4, 600.0), InputError),
     ],
 )
 def test_invalid_input(call: object, error: type[Exception]) -> None:

@@ -17,7 +17,7 @@ import pytest
 
 from cnctwin.dynamics.roadmap import engagement_segments, stability_roadmap
 from cnctwin.dynamics.stability import MillingProcess, ToolDynamics, ToolMode, zoa_lobes
-from cnctwin.errors import ConfigError
+from cnctwin.errors import ConfigError, InputError
 from cnctwin.geometry import Cutter, DexelStock
 from cnctwin.geometry.engagement_map import EngagementMap
 from cnctwin.mechanics import CuttingCoefficients
@@ -160,11 +160,11 @@ def test_sdm_agrees_with_zoa_on_the_slots(engagement) -> None:
         )
 
 
-def test_bad_arguments_are_config_errors(engagement) -> None:
+def test_bad_arguments_are_input_errors(engagement) -> None:
     emap, speeds = engagement
-    with pytest.raises(ConfigError, match="margin=0.9"):
+    with pytest.raises(InputError, match="margin=0.9"):
         stability_roadmap(emap, speeds, TOOL, COEFFICIENTS, {1: 2}, GRID, margin=0.9)
-    with pytest.raises(ConfigError, match="increasing"):
+    with pytest.raises(InputError, match="increasing"):
         stability_roadmap(emap, speeds, TOOL, COEFFICIENTS, {1: 2}, GRID[::-1])
     with pytest.raises(ConfigError, match="tool T1"):
         stability_roadmap(emap, speeds, TOOL, COEFFICIENTS, {2: 2}, GRID)

@@ -26,7 +26,7 @@ from cnctwin.dynamics.stability import (
     zoa_absolute_depth,
     zoa_lobes,
 )
-from cnctwin.errors import ConfigError
+from cnctwin.errors import InputError
 from cnctwin.mechanics import CuttingCoefficients
 
 RPM = math.pi / 30.0  # rad/s per rpm
@@ -421,6 +421,6 @@ def test_tool_mode_from_mass_and_from_a_modal_fit() -> None:
         (lambda: ProcessDamping(-1.0, 1e-4, 0.01), "C_pd"),
     ],
 )
-def test_bad_input_raises_config_error(build, message: str) -> None:  # type: ignore[no-untyped-def]
-    with pytest.raises(ConfigError, match=message):
+def test_bad_input_raises_input_error(build, message: str) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(InputError, match=message):
         build()

@@ -131,7 +131,7 @@ def match_cpd(
         raise DataError(f"measured RMS {measured_rms!r}; give a finite value > 0")
     low, high = (float(b) for b in bounds_pa)
     if not (math.isfinite(low) and math.isfinite(high) and 0.0 < low < high):
-        raise ConfigError(f"bounds_pa={bounds_pa!r}; give 0 < low < high in N/m^2")
+        raise InputError(f"bounds_pa={bounds_pa!r}; give 0 < low < high in N/m^2")
     calls = 0
     target = math.log(measured_rms)
     cache: dict[float, float] = {}
@@ -368,7 +368,7 @@ def fit_gamma(
     else:
         bounds = (float(depth_scale_bounds_m[0]), float(depth_scale_bounds_m[1]))
         if not (0.0 < bounds[0] < bounds[1] and math.isfinite(bounds[1])):
-            raise ConfigError(f"depth_scale_bounds_m={depth_scale_bounds_m!r}; give 0 < lo < hi")
+            raise InputError(f"depth_scale_bounds_m={depth_scale_bounds_m!r}; give 0 < lo < hi")
 
     def solve(log_a0: float) -> tuple[float, np.ndarray]:
         design = np.column_stack((np.ones_like(a), np.exp(-a / math.exp(log_a0)))) / gamma[:, None]
@@ -446,7 +446,7 @@ class ProcessDampingModel:
     def cpd_pa(self, depth_m: float, feed_per_tooth_m: float, spindle_rad_s: float) -> float:
         """C_pd in N/m^2 (Eq. 20) at depth and feed per tooth in m, speed in rad/s (> 0)."""
         if not (depth_m > 0.0 and feed_per_tooth_m > 0.0):
-            raise ConfigError(
+            raise InputError(
                 f"depth {depth_m!r} m, feed per tooth {feed_per_tooth_m!r} m; give both > 0"
             )
         return self.gamma_n(depth_m, spindle_rad_s) / (depth_m * feed_per_tooth_m)

@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from cnctwin.dynamics.stability import MillingProcess, ToolDynamics, sdm_lobes, zoa_lobes
-from cnctwin.errors import ConfigError, NCError
+from cnctwin.errors import ConfigError, InputError, NCError
 from cnctwin.geometry import Cutter, DexelStock, EngagementMap
 from cnctwin.mechanics import CuttingCoefficients
 
@@ -287,15 +287,15 @@ def stability_roadmap(
     """
     grid = np.asarray(spindle_rpm, dtype=np.float64)
     if grid.ndim != 1 or grid.size < 1 or not np.all(np.isfinite(grid) & (grid > 0.0)):
-        raise ConfigError(f"spindle speed grid {spindle_rpm!r}; give speeds > 0 rpm")
+        raise InputError(f"spindle speed grid {spindle_rpm!r}; give speeds > 0 rpm")
     if grid.size > 1 and np.any(np.diff(grid) <= 0.0):
-        raise ConfigError("spindle speed grid: give increasing speeds")
+        raise InputError("spindle speed grid: give increasing speeds")
     if not (math.isfinite(margin) and margin >= 1.0):
-        raise ConfigError(f"margin={margin!r}; give a factor >= 1")
+        raise InputError(f"margin={margin!r}; give a factor >= 1")
     if method not in ("zoa", "sdm"):
-        raise ConfigError(f"method={method!r}; give 'zoa' or 'sdm'")
+        raise InputError(f"method={method!r}; give 'zoa' or 'sdm'")
     if not 0.5 <= quantile <= 1.0:
-        raise ConfigError(f"quantile={quantile!r}; give 0.5 <= quantile <= 1")
+        raise InputError(f"quantile={quantile!r}; give 0.5 <= quantile <= 1")
     runs = [_Run(*group) for group in engagement_segments(engagement_map)]
     ap = engagement_map.column("ap_mm")
     depth_limit = max(max_depth_mm, 1.5 * margin * max((float(ap[r.rows].max()) for r in runs),

@@ -48,7 +48,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from cnctwin.dynamics import _sdm, _zoa
-from cnctwin.errors import ConfigError
+from cnctwin.errors import ConfigError, InputError
 from cnctwin.mechanics import CuttingCoefficients, immersion_angles
 
 __all__ = [
@@ -158,7 +158,7 @@ class ToolMode:
         try:
             w, zeta, k = mode.omega_n, mode.zeta, mode.stiffness  # type: ignore[attr-defined]
         except AttributeError:
-            raise ConfigError(f"{mode!r} is not a mode of a modal fit") from None
+            raise InputError(f"{mode!r} is not a mode of a modal fit") from None
         return cls(w, zeta, k, direction_rad)
 
     @property
@@ -302,7 +302,7 @@ class MillingProcess:
         """
         ratio = _finite("radial immersion ae/D", radial_immersion)
         if ratio > 1.0:
-            raise ConfigError(f"radial immersion ae/D={ratio!r}; give 0 < ae/D <= 1")
+            raise InputError(f"radial immersion ae/D={ratio!r}; give 0 < ae/D <= 1")
         entry, exit_ = immersion_angles(1.0, ratio, down_milling)
         return cls(teeth, coefficients.ktc, coefficients.krc, entry, exit_)
 
@@ -761,14 +761,14 @@ def _auto_steps(tool: ToolDynamics, process: Process, spindle_rad_s: float) -> i
 def _speeds(spindle_rad_s: Sequence[float] | np.ndarray) -> np.ndarray:
     speeds = np.atleast_1d(np.asarray(spindle_rad_s, dtype=np.float64))
     if speeds.ndim != 1 or speeds.size == 0 or not np.all(np.isfinite(speeds) & (speeds > 0)):
-        raise ConfigError(f"spindle speeds {spindle_rad_s!r}; give one or more finite values > 0")
+        raise InputError(f"spindle speeds {spindle_rad_s!r}; give one or more finite values > 0")
     return speeds
 
 
 def _frequencies(frequency_rad_s: np.ndarray) -> np.ndarray:
     omega = np.asarray(frequency_rad_s, dtype=np.float64)
     if omega.ndim != 1 or omega.size < 2 or not np.all(np.isfinite(omega) & (omega > 0)):
-        raise ConfigError("chatter frequencies: give two or more finite values > 0 rad/s")
+        raise InputError("chatter frequencies: give two or more finite values > 0 rad/s")
     if np.any(np.diff(omega) <= 0):
-        raise ConfigError("chatter frequencies must increase")
+        raise InputError("chatter frequencies must increase")
     return omega
