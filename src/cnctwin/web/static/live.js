@@ -355,7 +355,7 @@ function handle(message) {
   live.messages += 1;
   const now = performance.now();
   live.arrivals.push(now);
-  while (live.arrivals.length > 2 && now - live.arrivals[0] > 3000) live.arrivals.shift();
+  while (live.arrivals.length > 2 && now - live.arrivals[0] > 10000) live.arrivals.shift();
   setText("v-rate", fmt(live.rateHz(), 1));
   const snap = message.snapshot || {};
   if (message.type === "update" && snap.run_state === "running" && !snap.ended) {
