@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 import sys
-import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -26,16 +25,10 @@ from cnctwin import finite_json
 from cnctwin.cli._options import check_count, check_number
 from cnctwin.cli.chatter_detect import detect
 from cnctwin.config import MAX_SPINDLE_RPM, MAX_TOOL_DIAMETER_MM
-from cnctwin.errors import ConfigError, InputError
+from cnctwin.errors import InputError
 
 if TYPE_CHECKING:
-    from cnctwin.dynamics import (
-        MillingProcess,
-        MillingVibration,
-        ProcessDampingModel,
-        StabilityConfig,
-    )
-    from cnctwin.geometry import Cutter
+    from cnctwin.dynamics import MillingVibration, ProcessDampingModel, StabilityConfig
 
 __all__ = [
     "app",
@@ -102,14 +95,10 @@ def _chatter() -> None:
     """Time-domain milling vibration and chatter; process-damping calibration."""
 
 
-def _milling(config: StabilityConfig) -> MillingProcess:
-    """The config's cut, which must be milling."""
-    from cnctwin.dynamics import MillingProcess
-
-    process = config.process()
-    if not isinstance(process, MillingProcess):
-        raise ConfigError("cut.operation is 'orthogonal'; the time-domain model simulates milling")
-    return process
+def _check_helix(helix_deg: float) -> None:
+    """The helix angle option, degrees: 0 <= helix < 90."""
+    if not (math.isfinite(helix_deg) and 0.0 <= helix_deg < 90.0):
+        raise InputError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
 
 
 def check_time_options(
@@ -127,8 +116,7 @@ def check_time_options(
         check_number(
             "--diameter-mm", diameter_mm, 0.0, MAX_TOOL_DIAMETER_MM, low_open=True, unit="mm"
         )
-    if not (math.isfinite(helix_deg) and 0.0 <= helix_deg < 90.0):
-        raise InputError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
+    _check_helix(helix_deg)
     check_number("--seconds", seconds, MIN_SIMULATED_S, MAX_SIMULATED_S, unit="s")
     if transient_s is not None:
         check_number("--transient-s", transient_s, 0.0, MAX_SIMULATED_S, unit="s")
@@ -139,45 +127,9 @@ def check_time_options(
         check_count("--steps", steps, MIN_STEPS_PER_TOOTH, MAX_STEPS_PER_TOOTH)
 
 
-def _edges(config: StabilityConfig, kte: float | None, kre: float | None) -> tuple[float, float]:
-    """Edge coefficients in N/m: the options (N/mm), else the config's material, else 0."""
-    base = config.coefficients()
-    return (
-        base.kte if kte is None else kte * 1e3,
-        base.kre if kre is None else kre * 1e3,
-    )
-
-
-def _diameter(config: StabilityConfig, given: float | None) -> float | None:
-    """Cutter diameter in mm from the option or the ``[process_damping]`` table."""
-    if given is not None:
-        return check_number(
-            "--diameter-mm", given, 0.0, MAX_TOOL_DIAMETER_MM, low_open=True, unit="mm"
-        )
-    if config.process_damping is not None:
-        return config.process_damping.diameter_mm
-    return None
-
-
-def _end_mill(teeth: int, diameter_mm: float, helix_deg: float, depth_mm: float) -> Cutter:
-    """A flat end mill with flutes as long as the (deepest) cut ``depth_mm``: the time-domain
-    model reads only its flutes, helix and diameter."""
-    from cnctwin.geometry import Cutter
-
-    if not (math.isfinite(helix_deg) and 0.0 <= helix_deg < 90.0):
-        raise InputError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
-    return Cutter.flat(diameter_mm, depth_mm, flutes=teeth, helix_rad=math.radians(helix_deg))
-
-
-def _cutter(
-    teeth: int, diameter_mm: float | None, helix_deg: float, depth_mm: float
-) -> Cutter | None:
-    """The cutter, or None (straight flutes) when no diameter is known."""
-    if diameter_mm is None:
-        if helix_deg != 0.0:
-            raise InputError("--helix-deg needs the cutter diameter: give --diameter-mm")
-        return None
-    return _end_mill(teeth, diameter_mm, helix_deg, depth_mm)
+def _diameter_given(config: StabilityConfig, diameter_mm: float | None) -> bool:
+    """Whether a cutter diameter is known: --diameter-mm or ``[process_damping]``."""
+    return diameter_mm is not None or config.process_damping is not None
 
 
 def simulation_report(
@@ -197,7 +149,8 @@ def simulation_report(
     damping_model: ProcessDampingModel | None = None,
     steps: int | None = None,
 ) -> tuple[dict[str, Any], MillingVibration]:
-    """Simulate one cut of a stability configuration and summarise it.
+    """Check the options of one cut, run it (:func:`cnctwin.dynamics.run_milling`) and
+    summarise it.
 
     Parameters
     ----------
@@ -230,73 +183,59 @@ def simulation_report(
         ``nonsynchronous_ratio``, ``growth``, ``chatter_frequency_hz``,
         ``sdm_spectral_radius``, ``sdm_stable`` and ``wall_s``.
     """
-    from cnctwin.dynamics import cut_process_damping, floquet_multipliers, simulate_milling
+    from cnctwin.dynamics import run_milling
 
-    process = _milling(config)
     speed = check_number("--rpm", rpm, 1.0, MAX_SPINDLE_RPM, low_open=True, unit="rpm") * _RPM
     depth = check_number("--depth-mm", depth_mm, 0.0, 1000.0, low_open=True, unit="mm") * 1e-3
-    section = config.process_damping
-    if feed_mm is None:
-        if section is None:
-            raise InputError("give --feed-mm (feed per tooth, mm)")
-        feed_mm = section.chip_thickness_mm
-    feed = check_number("--feed-mm", feed_mm, 0.0, 100.0, low_open=True, unit="mm") * 1e-3
+    if feed_mm is None and config.process_damping is None:
+        raise InputError("give --feed-mm (feed per tooth, mm)")
+    if feed_mm is not None:
+        check_number("--feed-mm", feed_mm, 0.0, 100.0, low_open=True, unit="mm")
     check_number("--seconds", seconds, 0.0, math.inf, low_open=True, unit="s")
-    diameter = _diameter(config, diameter_mm)
-    cutter = _cutter(process.teeth, diameter, helix_deg, depth_mm)
-    kte, kre = _edges(config, kte_n_mm, kre_n_mm)
+    if diameter_mm is not None:
+        check_number(
+            "--diameter-mm", diameter_mm, 0.0, MAX_TOOL_DIAMETER_MM, low_open=True, unit="mm"
+        )
+    _check_helix(helix_deg)
+    if helix_deg != 0.0 and not _diameter_given(config, diameter_mm):
+        raise InputError("--helix-deg needs the cutter diameter: give --diameter-mm")
     if cpd_n_m2 is not None:
         check_number("--cpd-n-m2", cpd_n_m2, 0.0, math.inf, unit="N/m^2")
     if cpd_n_m2 is not None and damping_model is not None:
         raise InputError("--cpd-n-m2 and --damping-model exclude each other; give one")
     try:
-        damping = cut_process_damping(
-            depth_m=depth,
-            feed_per_tooth_m=feed,
+        run = run_milling(
+            config,
             spindle_rad_s=speed,
-            diameter_m=None if cutter is None else cutter.diameter_m,
+            depth_m=depth,
+            feed_per_tooth_m=None if feed_mm is None else feed_mm * 1e-3,
+            duration_s=seconds,
+            transient_s=transient_s,
+            diameter_mm=diameter_mm,
+            helix_rad=math.radians(helix_deg),
+            edge_tangential_n_m=None if kte_n_mm is None else kte_n_mm * 1e3,
+            edge_radial_n_m=None if kre_n_mm is None else kre_n_mm * 1e3,
+            helical_edge=helical_edge,
             cpd_pa=cpd_n_m2,
-            model=damping_model,
-            default_cpd_pa=None if section is None else section.cpd_n_m2,
+            damping_model=damping_model,
+            steps_per_tooth=steps,
         )
     except InputError as err:
-        if diameter is None:  # the only refusal the checks above leave
+        # Without a diameter, process damping (C_pd > 0) is the refusal the checks above leave.
+        if not _diameter_given(config, diameter_mm) and (cpd_n_m2 or damping_model is not None):
             raise InputError(f"{err}; give --diameter-mm") from None
         raise
-    cpd = None if damping is None else damping.coefficient_pa
-    started = time.perf_counter()
-    result = simulate_milling(
-        config.tool_dynamics(),
-        process,
-        spindle_rad_s=speed,
-        depth_m=depth,
-        feed_per_tooth_m=feed,
-        duration_s=seconds,
-        cutter=cutter,
-        edge_tangential_n_m=kte,
-        edge_radial_n_m=kre,
-        helical_edge=helical_edge,
-        damping=damping,
-        steps_per_tooth=steps,
-    )
-    rms = result.rms(transient_s)
-    verdict = result.chatter(transient_s=transient_s)
-    wall = time.perf_counter() - started
-    window = result.steady_window(transient_s)
-    radius = float(
-        abs(floquet_multipliers(config.tool_dynamics(), process, speed, depth, damping=damping)[0])
-    )
-    displacement = result.displacement_m[window]
+    result, rms, verdict = run.vibration, run.rms, run.verdict
     report = {
         "spindle_rpm": rpm,
         "depth_mm": depth_mm,
-        "feed_per_tooth_mm": feed * 1e3,
-        "simulated_s": float(result.time_s.size * result.tooth_period_s / result.steps_per_tooth),
-        "transient_s": float(window.start * result.tooth_period_s / result.steps_per_tooth),
+        "feed_per_tooth_mm": run.feed_per_tooth_m * 1e3,
+        "simulated_s": run.simulated_s,
+        "transient_s": run.transient_s,
         "steps_per_tooth": result.steps_per_tooth,
         "slices": result.slices,
         "tooth_passing_hz": result.tooth_passing_hz,
-        "cpd_n_m2": cpd,
+        "cpd_n_m2": run.cpd_pa,
         "process_damping_n_s_m": result.process_damping_n_s_m,
         "rms": {
             "displacement_um": _pair(rms.displacement_m * 1e6),
@@ -305,17 +244,17 @@ def simulation_report(
             "acceleration_g": _pair(rms.acceleration_g),
             "force_n": _pair(rms.force_n),
         },
-        "mean_force_n": _pair(result.force_n[window].mean(axis=0)),
-        "peak_to_peak_um": _pair(np.ptp(displacement, axis=0) * 1e6),
+        "mean_force_n": _pair(run.mean_force_n),
+        "peak_to_peak_um": _pair(run.peak_to_peak_m * 1e6),
         "chatter": verdict.chatter,
         "nonsynchronous_ratio": verdict.nonsynchronous_ratio,
         "growth": finite_json.finite(float(verdict.growth)),
         "chatter_frequency_hz": (
             finite_json.finite(float(verdict.frequency_hz)) if verdict.chatter else None
         ),
-        "sdm_spectral_radius": radius,
-        "sdm_stable": radius < 1.0,
-        "wall_s": wall,
+        "sdm_spectral_radius": run.sdm_spectral_radius,
+        "sdm_stable": run.sdm_stable,
+        "wall_s": run.wall_s,
     }
     return report, result
 
@@ -419,7 +358,8 @@ def calibration_report(
     seconds: float = 0.2,
     steps: int | None = None,
 ) -> dict[str, Any]:
-    """Calibrate C_pd per cut (Royandi 2026, Eq. 14) and fit Gamma per speed (Eq. 15-19).
+    """Check the options, calibrate C_pd per cut and fit Gamma per speed
+    (:func:`cnctwin.dynamics.calibrate_damping_cuts`; Royandi 2026, Eq. 14-19) and tabulate.
 
     Parameters
     ----------
@@ -445,89 +385,73 @@ def calibration_report(
         (``Gamma = A + B exp(-a_p / a0)``, the decaying form), ``mape_percent`` and
         ``rmse_n_m2``; ``unfitted_rpm``: the speeds without a fit; ``axis``, ``wall_s``.
     """
-    from cnctwin.dynamics import (
-        CalibrationSetup,
-        calibrate_cpd,
-        fit_process_damping_model,
-    )
+    from cnctwin.dynamics import calibrate_damping_cuts
 
     if axis not in ("x", "y"):
         raise InputError(f"--axis {axis!r}; give x or y")
-    process = _milling(config)
-    diameter = _diameter(config, diameter_mm)
-    if diameter is None:
+    if diameter_mm is not None:
+        check_number(
+            "--diameter-mm", diameter_mm, 0.0, MAX_TOOL_DIAMETER_MM, low_open=True, unit="mm"
+        )
+    elif config.process_damping is None:
         raise InputError("give --diameter-mm: the cutting speed of Eq. 3 needs the diameter")
+    _check_helix(helix_deg)
     if not cuts["ap_mm"]:
         raise InputError("cuts: no rows; give at least one cut (ap_mm, spindle_rpm, ...)")
-    cutter = _end_mill(process.teeth, diameter, helix_deg, max(cuts["ap_mm"]))
-    kte, kre = _edges(config, kte_n_mm, kre_n_mm)
-    setup = CalibrationSetup(
-        config.tool_dynamics(),
-        process,
-        cutter,
-        kte,
-        kre,
-        helical_edge,
-        check_number("--seconds", seconds, 0.0, math.inf, low_open=True, unit="s"),
-        steps,
-        "x" if axis == "x" else "y",
+    check_number("--seconds", seconds, 0.0, math.inf, low_open=True, unit="s")
+    rpms = cuts["spindle_rpm"]
+    speeds = [rpm * _RPM for rpm in rpms]
+    calibration = calibrate_damping_cuts(
+        config,
+        depth_mm=cuts["ap_mm"],
+        spindle_rad_s=speeds,
+        feed_per_tooth_mm=cuts["fz_mm"],
+        measured_rms_m_s2=[vib * _G for vib in cuts["vibration_g"]],
+        diameter_mm=diameter_mm,
+        helix_rad=math.radians(helix_deg),
+        edge_tangential_n_m=None if kte_n_mm is None else kte_n_mm * 1e3,
+        edge_radial_n_m=None if kre_n_mm is None else kre_n_mm * 1e3,
+        helical_edge=helical_edge,
+        axis="x" if axis == "x" else "y",
+        duration_s=seconds,
+        steps_per_tooth=steps,
     )
-    started = time.perf_counter()
-    rows = []
-    for ap, rpm, fz, vib in zip(*(cuts[name] for name in CUT_COLUMNS), strict=True):
-        speed = rpm * _RPM
-        found = calibrate_cpd(
-            setup,
-            spindle_rad_s=speed,
-            depth_m=ap * 1e-3,
-            feed_per_tooth_m=fz * 1e-3,
-            measured_rms_m_s2=vib * _G,
+    rpm_of = dict(zip(speeds, rpms, strict=True))
+    rows = [
+        {
+            "ap_mm": ap,
+            "spindle_rpm": rpm,
+            "fz_mm": fz,
+            "vibration_g": vib,
+            "simulated_g": cut.simulated_rms_m_s2 / _G,
+            "relative_error": cut.relative_error,
+            "cpd_n_m2": cut.cpd_pa,
+            "gamma_n": cut.gamma_n,
+            "effective_damping_n_s_m": cut.effective_damping_n_s_m,
+            "status": cut.status,
+            "runs": cut.evaluations,
+        }
+        for cut, ap, rpm, fz, vib in zip(
+            calibration.cuts, *(cuts[name] for name in CUT_COLUMNS), strict=True
         )
-        gamma = found.cpd_pa * ap * fz * 1e-6  # Eq. 15, N
-        rows.append(
-            {
-                "ap_mm": ap,
-                "spindle_rpm": rpm,
-                "fz_mm": fz,
-                "vibration_g": vib,
-                "simulated_g": found.simulated_rms / _G,
-                "relative_error": found.relative_error,
-                "cpd_n_m2": found.cpd_pa,
-                "gamma_n": gamma,
-                "effective_damping_n_s_m": gamma / (speed * cutter.radius_m),
-                "status": found.status,
-                "runs": found.evaluations,
-            }
-        )
-    fits, unfitted = [], []
-    for rpm in sorted({row["spindle_rpm"] for row in rows}):
-        group = [r for r in rows if r["spindle_rpm"] == rpm and r["status"] == "matched"]
-        if len({r["ap_mm"] for r in group}) < 3:
-            unfitted.append(rpm)
-            continue
-        model = fit_process_damping_model(
-            [r["spindle_rpm"] * _RPM for r in group],
-            [r["ap_mm"] * 1e-3 for r in group],
-            [r["fz_mm"] * 1e-3 for r in group],
-            [r["cpd_n_m2"] for r in group],
-        )
-        fit = model.fits[0]
-        fits.append(
-            {
-                "spindle_rpm": rpm,
-                "a_n": fit.asymptote_n,
-                "b_n": fit.amplitude_n,
-                "a0_mm": fit.depth_scale_m * 1e3,
-                "mape_percent": fit.mape_percent,
-                "rmse_n_m2": fit.rmse_pa,
-            }
-        )
+    ]
+    fits = [
+        {
+            "spindle_rpm": rpm_of[fit.spindle_rad_s],
+            "a_n": fit.asymptote_n,
+            "b_n": fit.amplitude_n,
+            "a0_mm": fit.depth_scale_m * 1e3,
+            "mape_percent": fit.mape_percent,
+            "rmse_n_m2": fit.rmse_pa,
+        }
+        for fit in calibration.fits
+    ]
     return {
         "cuts": rows,
         "fits": fits,
-        "unfitted_rpm": unfitted,
+        "unfitted_rpm": [rpm_of[speed] for speed in calibration.unfitted_rad_s],
         "axis": axis,
-        "wall_s": time.perf_counter() - started,
+        "wall_s": calibration.wall_s,
     }
 
 

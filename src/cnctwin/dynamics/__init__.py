@@ -34,6 +34,13 @@ from cnctwin.dynamics.frf import (
     impact_frf,
     window_damping_correction,
 )
+from cnctwin.dynamics.milling_run import (
+    CalibratedCut,
+    DampingCalibration,
+    MillingRun,
+    calibrate_damping_cuts,
+    run_milling,
+)
 from cnctwin.dynamics.modal import ModalFit, Mode, default_band, fit_modes, modal_frf
 from cnctwin.dynamics.process_damping import (
     CalibrationSetup,
@@ -60,9 +67,11 @@ from cnctwin.dynamics.stability import (
 from cnctwin.dynamics.time_domain import MillingVibration, simulate_milling
 
 __all__ = [
+    "CalibratedCut",
     "CalibrationSetup",
     "ChatterDetection",
     "DEFAULT_THRESHOLD",
+    "DampingCalibration",
     "DetectorSettings",
     "FRF",
     "FRFQuantity",
@@ -70,6 +79,7 @@ __all__ = [
     "MAX_POINTS",
     "MIN_IMMERSION",
     "MillingProcess",
+    "MillingRun",
     "MillingVibration",
     "ModalFit",
     "Mode",
@@ -84,6 +94,7 @@ __all__ = [
     "ToolMode",
     "accelerance_to_receptance",
     "calibrate_cpd",
+    "calibrate_damping_cuts",
     "cut_process_damping",
     "default_band",
     "detect_chatter",
@@ -97,6 +108,7 @@ __all__ = [
     "modal_frf",
     "program_roadmap",
     "read_damping_model",
+    "run_milling",
     "sdm_lobes",
     "simulate_milling",
     "stability_roadmap",
