@@ -1,13 +1,21 @@
-"""``cnctwin web``: bad options end in one line and exit 2 before anything is served; good
-ones serve the historian's runs at the address printed."""
+"""``cnctwin web`` and ``--web`` on ``run``/``demo``: bad options end in one line and exit 2
+before anything is served or opened; good ones serve the historian's runs at the address
+printed."""
 
 import json
+import socket
 import subprocess
 import sys
 import urllib.request
+from pathlib import Path
+
+import pytest
 
 from cnctwin.cli import run as cli_run
 from cnctwin.store import Historian
+
+REPO = Path(__file__).resolve().parents[2]
+DEMO_CONFIG = REPO / "src" / "cnctwin" / "examples" / "demo_twin.toml"
 
 
 def test_cli_refuses_bad_input_in_one_line(tmp_path, capsys) -> None:
@@ -48,3 +56,28 @@ def test_serves_the_historian_at_the_printed_address(tmp_path) -> None:
     finally:
         server.terminate()
         server.wait(20)
+
+
+def test_cli_refuses_a_non_loopback_host_in_one_line(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    argv = ["run", "--config", str(DEMO_CONFIG), "--db", str(tmp_path / "h.sqlite")]
+    code = cli_run([*argv, "--web", "--host", "0.0.0.0", "--port", "0"])
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert err.count("\n") == 1 and "--host '0.0.0.0'" in err and "--insecure" in err
+    assert not (tmp_path / "h.sqlite").exists()  # refused before the historian is opened
+
+
+def test_a_port_in_use_is_one_line_and_exit_2(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        argv = ["demo", "--web", "--port", str(port), "--db", str(tmp_path / "h.sqlite")]
+        code = cli_run(argv)
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert err.count("\n") == 1 and f"--port {port}: cannot listen" in err

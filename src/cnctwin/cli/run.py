@@ -124,6 +124,10 @@ def run(
         check_number("--duration", duration, 0.0, MAX_RUN_S, low_open=True, unit="s")
     check_number("--connect-timeout", connect_timeout, 0.0, MAX_WAIT_S, low_open=True, unit="s")
     check_count("--port", port, 0, 65535)
+    if web:  # before anything is opened or created (the historian file)
+        from cnctwin.web import check_host
+
+        check_host(host, insecure)
     settings = load_run_config(config)
     quiet_protocol_logs()
     if endpoint is not None:
