@@ -5,10 +5,10 @@ Playwright drives it through ``executable_path``, so nothing is downloaded. Wher
 or Playwright is missing the tests skip with the reason, and fail in CI
 (``CNCTWIN_REQUIRE_SERVICES=1``, tests/skips.py).
 
-The fixtures reach the tests through ``tests/web/conftest.py`` (imported there once: a
-session fixture imported into several test modules would start one Playwright per module).
+The fixtures reach the tests through ``tests/web/conftest.py`` (imported there once, so that
+every module shares the one definition).
 
-``browser`` is one Chromium per test session (per xdist worker); ``page`` is a fresh page in
+``browser`` is one Chromium per test module; ``page`` is a fresh page in
 its own context for each test, and fails the test if the page raised a JavaScript error.
 """
 
@@ -44,9 +44,14 @@ def chromium_path() -> str:
     raise AssertionError("unreachable")  # missing skips or fails
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def browser() -> Iterator[Any]:
-    """One headless Chromium for the session (a ``playwright.sync_api.Browser``)."""
+    """One headless Chromium per test module (a ``playwright.sync_api.Browser``).
+
+    Per module, not per session: while Playwright's sync API is open it keeps an asyncio loop
+    running on the main thread, where ``asyncio.run`` then fails; closed after each browser
+    module, it leaves the tests that follow a thread without a running loop.
+    """
     try:
         from playwright.sync_api import sync_playwright
     except ImportError as err:

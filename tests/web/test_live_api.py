@@ -11,11 +11,9 @@ from __future__ import annotations
 import asyncio
 import socket
 import sqlite3
-import threading
 import time
-from collections.abc import Callable, Coroutine
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import httpx
 import pytest
@@ -35,30 +33,9 @@ from cnctwin.web.server import DASHBOARD_RULE, LiveDashboard
 REPO = Path(__file__).resolve().parents[2]
 DEMO_CONFIG = REPO / "src" / "cnctwin" / "examples" / "demo_twin.toml"
 
-T = TypeVar("T")
 
 #: Machine time per lockstep cycle, s (the demo's 2x real time at its 12.5 ms cycle).
 STEP_S = 0.025
-
-
-def _run(main: Callable[[], Coroutine[Any, Any, T]]) -> T:
-    """``asyncio.run(main())`` on a thread of its own: the session's Playwright (the browser
-    tests') keeps an event loop running on the main thread."""
-    out: list[T] = []
-    errors: list[BaseException] = []
-
-    def body() -> None:
-        try:
-            out.append(asyncio.run(main()))
-        except BaseException as err:  # handed to the test's thread
-            errors.append(err)
-
-    thread = threading.Thread(target=body)
-    thread.start()
-    thread.join()
-    if errors:
-        raise errors[0]
-    return out[0]
 
 
 # ---------------------------------------------------------------------- the token
@@ -185,7 +162,7 @@ def _lockstep(
             await conn.close()
             return twin.actions.results
 
-    results = _run(main)
+    results = asyncio.run(main())
     board.close()
     return board, overrides, codes, results, db
 
@@ -272,7 +249,7 @@ def test_hub_drops_a_browser_whose_queue_is_full_without_waiting() -> None:
         assert slow.closed and hub.subscribers == {fast} and hub.dropped == 1
         assert await hub.next_message(slow, 0.01) is None
 
-    _run(main)
+    asyncio.run(main())
 
 
 def test_a_page_that_stops_reading_is_dropped_while_another_keeps_its_stream() -> None:
