@@ -69,7 +69,8 @@ def _write_csv(path: Path, result: MachineSignals) -> None:
         writer = csv.writer(handle)
         writer.writerow(SIGNAL_COLUMNS)
         for row in result.table():
-            writer.writerow([f"{v:.6g}" for v in row])
+            # t_s to 12 digits: a segment end lies between two cycle times.
+            writer.writerow([f"{row[0]:.12g}", *(f"{v:.6g}" for v in row[1:])])
 
 
 def _plot(path: Path, result: MachineSignals, title: str) -> None:

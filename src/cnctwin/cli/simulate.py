@@ -77,7 +77,8 @@ def simulate_report(
             writer.writerow(COLUMNS)
             data = np.column_stack([cut.table.column(name) for name in COLUMNS])
             for row in data:
-                writer.writerow([f"{v:.6g}" for v in row])
+                # t_s to 12 digits: a segment end lies between two cycle times.
+                writer.writerow([f"{row[0]:.12g}", *(f"{v:.6g}" for v in row[1:])])
         write_stl(out / "stock.stl", stock_mesh(cut.stock), f"cnctwin stock after {program.name}")
         (out / "summary.json").write_text(finite_json.dumps(report, indent=2) + "\n")
     if html is not None:

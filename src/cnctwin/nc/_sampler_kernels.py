@@ -61,6 +61,7 @@ G_TOUT = 25  # 3 columns: unit tangent at the end
 N_GEO = 28
 
 KIND_RAPID = 0
+KIND_LINEAR = 1
 KIND_ARC = 2
 KIND_DWELL = 3
 
@@ -103,6 +104,12 @@ I_PLAN_FEED = 7  # feed-override index the plan used
 I_PLAN_RAPID = 8  # rapid-override index the plan used
 N_ISTATE = 9
 
+# Segment-end samples of run(): none; all but the junctions of two feed moves; every segment.
+ENDS_NONE = 0
+ENDS_KIND = 1
+ENDS_ALL = 2
+#: A segment end this close to a sample time (in cycles) falls on it (segment-end samples).
+END_TOLERANCE = 1e-9
 #: Segments shorter than this (mm) and without dwell take no time.
 MIN_LENGTH_MM = 1e-9
 #: Share of an in-plane axis' acceleration left to the tangential acceleration on arcs; the
@@ -518,6 +525,7 @@ def run(
     rapid_v: np.ndarray,
     limited: bool,
     dt: float,
+    ends: int,
     fs: np.ndarray,
     ist: np.ndarray,
     out_t: np.ndarray,
@@ -530,7 +538,14 @@ def run(
     out_rpm: np.ndarray,
     n_out: int,
 ) -> int:
-    """Sample segments up to n_exec (exclusive) or until the output is full; returns n_out."""
+    """Sample segments up to n_exec (exclusive) or until the output is full; returns n_out.
+
+    With ``ends`` (``ENDS_ALL``: every segment; ``ENDS_KIND``: all but a feed move followed by
+    a feed move of the same tool, see :func:`_end_sampled`) a segment also gives a sample at its end
+    time, labelled with it: the grid sample there when the end falls on the grid (within
+    ``END_TOLERANCE * dt``), else an extra one; none when a grid sample of the segment already
+    lies that close before its end.
+    """
     cap = out_t.shape[0]
     while True:
         if ist[I_HAVE] == 0:
@@ -578,6 +593,26 @@ def run(
             out_rpm[n_out] = row[G_RPM]
             n_out += 1
             k += 1
+        if (
+            ist[I_ENDS] != 0
+            and _end_sampled(geo, j, n_buf, ends)
+            and not (k > 0 and (k - 1) * dt > t1 - END_TOLERANCE * dt)
+        ):
+            if n_out >= cap:
+                ist[I_K] = k
+                return n_out
+            tk = t1
+            if k * dt - t1 <= END_TOLERANCE * dt:
+                tk = k * dt  # the end is on the grid: the grid sample is the end sample
+                k += 1
+            _emit(row, kind, length, fs[F_V1], out_p, out_v, n_out)
+            out_t[n_out] = tk
+            out_speed[n_out] = 60.0 * fs[F_V1]
+            out_line[n_out] = int(row[G_LINE])
+            out_kind[n_out] = kind
+            out_tool[n_out] = int(row[G_TOOL])
+            out_rpm[n_out] = row[G_RPM]
+            n_out += 1
         ist[I_K] = k
         fs[F_T] = t1
         fs[F_S] = fs[F_S1]
@@ -586,6 +621,21 @@ def run(
             ist[I_J] = j + 1
             fs[F_S] = 0.0
         ist[I_HAVE] = 0
+
+
+@njit(cache=True)
+def _end_sampled(geo: np.ndarray, j: int, n_buf: int, ends: int) -> bool:
+    """Whether segment j's end gets a sample of its own in mode ``ends`` (ENDS_*): with
+    ENDS_KIND, unless it and the next segment are both feed moves (linear or arc) of the same
+    tool (the buffer holds the next one unless the program ends with j)."""
+    if ends == ENDS_NONE:
+        return False
+    if ends == ENDS_ALL or j + 1 >= n_buf:
+        return True
+    here = int(geo[j, G_KIND])
+    there = int(geo[j + 1, G_KIND])
+    feeds = here in (KIND_LINEAR, KIND_ARC) and there in (KIND_LINEAR, KIND_ARC)
+    return not feeds or geo[j, G_TOOL] != geo[j + 1, G_TOOL]
 
 
 @njit(cache=True)

@@ -66,6 +66,7 @@ __all__ = [
 ]
 
 _NAN3: Vec3 = (math.nan, math.nan, math.nan)
+_ENDS = {"none": _k.ENDS_NONE, "kind": _k.ENDS_KIND, "all": _k.ENDS_ALL}
 _PLANE_INDEX = {Plane.XY: 0, Plane.ZX: 1, Plane.YZ: 2}
 _ERRORS = {
     _k.ERR_FEED: "feed move with feed_mm_min={feed!r}; a feed move needs a finite feed > 0 mm/min",
@@ -193,7 +194,7 @@ class SampleChunk(NamedTuple):
     Attributes
     ----------
     t_s
-        (n,) sample times ``k * cycle_s`` in s.
+        (n,) sample times ``k * cycle_s`` in s (and segment end times with ``segment_ends``).
     tcp_mm
         (n, 3) tool tip in machine coordinates in mm.
     velocity_mm_s
@@ -273,6 +274,16 @@ class TrajectorySampler:
         ``limits``).
     batch_segments
         Segments read from ``segments`` at a time, >= 1.
+    segment_ends
+        Also sample segment ends, at their end time and labelled with their segment, so that
+        a step does not span them (offline simulation: what a step cuts belongs to the segment
+        that moved the tool there). ``"all"``: the end of every segment (dwells included);
+        ``"kind"``: every end but the junction of two feed moves (linear or arc) of the same
+        tool, where a step may still span the junction (every rapid's and dwell's start and
+        end are sampled, and every change of tool); ``"none"`` (the default): grid
+        samples only. Where an end falls on a grid time (within 1e-9 cycles) that grid sample
+        is the end sample; elsewhere the chunk gets an extra sample between two grid times.
+        With ``"all"`` or ``"kind"`` the last sample is the program's end.
 
     Raises
     ------
@@ -300,6 +311,7 @@ class TrajectorySampler:
         chunk_samples: int = 16384,
         lookahead: int = 128,
         batch_segments: int = 4096,
+        segment_ends: str = "none",
     ) -> None:
         if not (math.isfinite(rapid_mm_min) and rapid_mm_min > 0.0):
             raise InputError(f"rapid_mm_min={rapid_mm_min!r}; give a finite rapid rate > 0 mm/min")
@@ -312,6 +324,10 @@ class TrajectorySampler:
         ):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise InputError(f"{name}={value!r}; give an integer >= 1")
+        if not isinstance(segment_ends, str) or segment_ends not in _ENDS:
+            raise InputError(
+                f"segment_ends={segment_ends!r}; give one of {', '.join(map(repr, _ENDS))}"
+            )
         if limits is not None and not isinstance(limits, AxisLimits):
             raise InputError(f"limits={limits!r}; give an AxisLimits or None")
         self._feed = _as_override(feed_override, "feed_override")
@@ -323,6 +339,7 @@ class TrajectorySampler:
         self._chunk = chunk_samples
         self._lookahead = lookahead
         self._batch = batch_segments
+        self._ends = _ENDS[segment_ends]
         self._duration_s = 0.0
         self._finished = False
         self._gen = self._generate()
@@ -427,6 +444,7 @@ class TrajectorySampler:
                 rapid_v,
                 limited,
                 self._dt,
+                self._ends,
                 fs,
                 ist,
                 *out,

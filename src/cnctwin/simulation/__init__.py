@@ -1,7 +1,7 @@
 """Offline simulation: an NC program cut through the stock, step by step, and the machine signals
 that cut gives (engagement, forces, spindle load per step)."""
 
-from cnctwin.simulation.cut import COLUMNS, CutStep, StepTable, simulate_cut
+from cnctwin.simulation.cut import COLUMNS, CutStep, StepTable, simulate_cut, step_durations
 from cnctwin.simulation.program import (
     ProgramCut,
     ProgramSignals,
@@ -33,5 +33,6 @@ __all__ = [
     "StepForces",
     "immersion_intervals",
     "spindle_drive_parameters",
+    "step_durations",
     "step_forces",
 ]

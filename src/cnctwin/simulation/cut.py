@@ -5,11 +5,24 @@ sample the virtual tool cuts the tri-dexel stock (:func:`cnctwin.geometry.cut`, 
 discrete-position method of Heide 2025) and the engagement of that step is recorded. This is
 the loop of the twin cycle (docs/twin.md: kinematics, cut, engagement) without a machine.
 
+Attribution: the sampler also samples segment ends (``segment_ends``), so that the material a
+move leaves between its last cycle and its end point is cut by a step of that move, not by the
+first step of the next one (a rapid retract after a cut would otherwise "cut" it, a collision
+that is not). By default every end is sampled but the junction of two feed moves of one tool:
+no step spans a rapid's or a dwell's start or end; between two feed moves a step may
+span their junction (the cut of at most one cycle booked to the later line), which keeps dense
+CAM programs (blocks shorter than a cycle) at their cost. ``segment_ends="all"`` samples every
+block's end: every step then belongs to one line, at up to one extra cut per block (2.3 times
+the steps of CAMotics' ``bear.nc``). An end step lies between two cycle times: ``t_s`` is its
+true time, and each row stands for the time since the row before (:func:`step_durations`);
+the rates (``mrr_mm3_s``, ``feed_mm_min``) are per that time.
+
 Units as in the NC and geometry layers: mm, mm/min, rpm, s (names say so).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 
@@ -21,7 +34,7 @@ from cnctwin.geometry import Cutter, DexelStock, Engagement, cut_path
 from cnctwin.memory import check_memory
 from cnctwin.nc import AxisLimits, MotionKind, Segment, TrajectorySampler
 
-__all__ = ["COLUMNS", "CutStep", "StepTable", "simulate_cut"]
+__all__ = ["COLUMNS", "CutStep", "StepTable", "simulate_cut", "step_durations"]
 
 #: Columns of a :class:`StepTable`, with their units.
 COLUMNS = (
@@ -139,6 +152,22 @@ class StepTable:
         return self.rows
 
 
+def step_durations(t_s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The time each row of a step table stands for: since the row before, s (0 for the first).
+
+    Parameters
+    ----------
+    t_s
+        (n,) row times, s, increasing (the ``t_s`` column).
+
+    Returns
+    -------
+    numpy.ndarray
+        (n,) durations, s; they add up to the last row's time (the program's duration).
+    """
+    return np.diff(t_s, prepend=t_s[:1]) if t_s.size else np.empty(0)
+
+
 def simulate_cut(
     segments: Iterable[Segment],
     stock: DexelStock,
@@ -148,6 +177,7 @@ def simulate_cut(
     cycle_s: float = 0.0125,
     limits: AxisLimits | None = None,
     on_step: Callable[[CutStep], None] | None = None,
+    segment_ends: str = "kind",
 ) -> Iterator[NDArray[np.float64]]:
     """Cut the stock along a program, yielding per-step rows chunk by chunk.
 
@@ -167,24 +197,42 @@ def simulate_cut(
         Optional axis acceleration limits for the sampler.
     on_step
         Called with every step that touches material (a :class:`CutStep`).
+    segment_ends
+        Which segment ends are steps of their own: ``"kind"`` (all but the junction of two
+        feed moves of one tool), ``"all"`` (every segment) or ``"none"`` (cycles only, as the
+        live twin samples); see the module notes and
+        :class:`~cnctwin.nc.TrajectorySampler`.
 
     Yields
     ------
     numpy.ndarray
-        (n, len(COLUMNS)) rows, in the order of :data:`COLUMNS`.
+        (n, len(COLUMNS)) rows, in the order of :data:`COLUMNS`: one per cycle and one at each
+        sampled segment end (then the last row is the program's end, ``t_s`` its duration);
+        the rates of a row are per the time since the row before (the cycle for the first row).
 
     Raises
     ------
     cnctwin.errors.NCError
         When the program moves a tool that has no geometry, naming the tool and the line.
     """
-    sampler = TrajectorySampler(segments, rapid_mm_min=rapid_mm_min, cycle_s=cycle_s, limits=limits)
+    sampler = TrajectorySampler(
+        segments,
+        rapid_mm_min=rapid_mm_min,
+        cycle_s=cycle_s,
+        limits=limits,
+        segment_ends=segment_ends,
+    )
     previous: NDArray[np.float64] | None = None
     previous_tool = -1
     index = 0
     rapid = float(MotionKind.RAPID)
+    t_before = math.nan
     for chunk in sampler:
         n = chunk.t_s.size
+        # Rates per the time each row stands for (the cut divides by the cycle time).
+        dt = np.diff(chunk.t_s, prepend=t_before if index else chunk.t_s[0] - cycle_s)
+        scale = cycle_s / dt
+        t_before = float(chunk.t_s[-1])
         rows = np.zeros((n, len(COLUMNS)))
         rows[:, 0] = chunk.t_s
         rows[:, 1:4] = chunk.tcp_mm
@@ -219,12 +267,13 @@ def simulate_cut(
             run = rows[lo:hi]
             run[:, 9] = fz
             hit = path.contact
-            feed = np.where(np.isfinite(path.feed_mm_min), path.feed_mm_min, 0.0)
+            rate = scale[lo:hi]
+            feed = np.where(np.isfinite(path.feed_mm_min), path.feed_mm_min * rate, 0.0)
             run[hit, 10:] = np.column_stack(
                 (
                     np.ones(int(hit.sum())),
                     path.removed_volume_mm3[hit],
-                    path.mrr_mm3_s[hit],
+                    path.mrr_mm3_s[hit] * rate[hit],
                     path.ae_mm[hit],
                     path.ap_mm[hit],
                     feed[hit],

@@ -34,7 +34,13 @@ if TYPE_CHECKING:
     from cnctwin.config import MachiningConfig
     from cnctwin.nc import Interpreter
 
-__all__ = ["ProgramCut", "ProgramSignals", "predict_program_signals", "simulate_program"]
+__all__ = [
+    "ProgramCut",
+    "ProgramSignals",
+    "collision_warning",
+    "predict_program_signals",
+    "simulate_program",
+]
 
 
 @dataclass
@@ -83,7 +89,7 @@ class ProgramCut:
         """
         table = self.table
         n = len(table)
-        process_time = float(table.column("t_s")[-1]) + self.cycle_s if n else 0.0
+        process_time = float(table.column("t_s")[-1]) if n else 0.0
         removed = float(table.column("removed_mm3").sum())
         after = self.stock.volume_mm3()
         runtime = self.runtime_s
@@ -185,6 +191,36 @@ def _naming(program: Path) -> Iterator[None]:
         raise
 
 
+def collision_warning(table: StepTable) -> str | None:
+    """The rapid moves of a cut that meet material, as ``LINE: ...`` naming every such line.
+
+    Each step of :func:`~cnctwin.simulation.cut.simulate_cut` belongs to the move that did it
+    (the step to a segment's end point is that segment's), so a rapid with contact is a rapid
+    that really moves the tool through material: a collision on the machine.
+
+    Parameters
+    ----------
+    table
+        The steps of a cut.
+
+    Returns
+    -------
+    str or None
+        ``"FIRST: a rapid move cuts material (... at lines A, B, ...): a collision ..."``, with
+        the removed volume (mm^3); None when no rapid meets material.
+    """
+    crash = (table.column("contact") > 0) & (table.column("rapid") > 0)
+    if not crash.any():
+        return None
+    lines = table.column("line")[crash].astype(np.int64)
+    volume = float(table.column("removed_mm3")[crash].sum())
+    named = ", ".join(str(line) for line in np.unique(lines))
+    return (
+        f"{int(lines[0])}: a rapid move cuts material ({volume:.4g} mm^3 in "
+        f"{int(crash.sum())} steps, at lines {named}): a collision on the machine"
+    )
+
+
 def simulate_program(
     program: Path,
     config: MachiningConfig,
@@ -237,12 +273,9 @@ def simulate_program(
                 on_chunk(float(rows[-1, 0]) if len(rows) else 0.0)
     runtime = time.perf_counter() - started
     warnings = list(interpreter.warnings)
-    crash = np.flatnonzero((table.column("contact") > 0) & (table.column("rapid") > 0))
-    if crash.size:
-        warnings.append(
-            f"{program}:{int(table.column('line')[crash[0]])}: a rapid move cuts material "
-            f"({crash.size} steps in all): a collision on the machine"
-        )
+    crash = collision_warning(table)
+    if crash:
+        warnings.append(f"{program}:{crash}")
     shank = np.flatnonzero(table.column("above_flutes") > 0)
     if shank.size:
         warnings.append(

@@ -54,12 +54,13 @@ from cnctwin.mechanics import (
     milling_forces,
 )
 from cnctwin.nc import AxisLimits, Segment
-from cnctwin.simulation.cut import CutStep, StepTable, simulate_cut
+from cnctwin.simulation.cut import CutStep, StepTable, simulate_cut, step_durations
 
 __all__ = [
     "SIGNAL_COLUMNS",
     "MachineSignals",
     "StepForces",
+    "headline_warnings",
     "immersion_intervals",
     "simulate_signals",
     "spindle_drive_parameters",
@@ -111,6 +112,16 @@ _FORCE_COLUMNS = (
     "cutting_power_w",
 )
 _WAVEFORM_STEPS = 360  # spindle angles per revolution for the peak force (1 degree)
+#: A headline maximum more than this times the larger of the two steps beside it is a
+#: single-step spike (warned, see :func:`headline_warnings`).
+SPIKE_FACTOR = 1.5
+#: The headline maxima checked by :func:`headline_warnings`: column, summary key, unit.
+_HEADLINES = (
+    ("f_peak_n", "max_force_n", "N"),
+    ("f_mean_n", "max_mean_force_n", "N"),
+    ("cutting_power_w", "max_power_w", "W"),
+    ("cutting_torque_nm", "max_spindle_torque_nm", "N m"),
+)
 #: Memory one cycle of :func:`simulate_signals` takes, bytes: the step table, the signal
 #: columns, the drive's arrays and the forces of a step in contact (measured: about 700 B a
 #: cycle on the demo program; rounded up).
@@ -164,7 +175,11 @@ class StepForces:
 
 @dataclass(slots=True)
 class MachineSignals:
-    """Predicted machine signals, one row per cycle of the program (see :data:`SIGNAL_COLUMNS`).
+    """Predicted machine signals, one row per step of the program (see :data:`SIGNAL_COLUMNS`).
+
+    The rows are those of :func:`~cnctwin.simulation.cut.simulate_cut`: one per cycle and one at
+    the end of every segment; each stands for the time since the row before
+    (:func:`~cnctwin.simulation.cut.step_durations`), and the time sums are weighted so.
 
     Attributes
     ----------
@@ -210,21 +225,27 @@ class MachineSignals:
         n = len(self)
         contact = c["contact"] > 0
         cutting = int(contact.sum())
+        dt = step_durations(c["t_s"])
+        cutting_s = float(dt[contact].sum())
 
         def peak(name: str) -> float:
             return float(np.max(c[name])) if n else 0.0
 
         def mean(name: str) -> float:
-            return float(np.mean(c[name][contact])) if cutting else 0.0
+            if not cutting:
+                return 0.0
+            if cutting_s <= 0.0:
+                return float(np.mean(c[name][contact]))
+            return float(np.sum(c[name][contact] * dt[contact]) / cutting_s)
 
         return {
-            "process_time_s": n * self.cycle_s,
-            "cutting_time_s": cutting * self.cycle_s,
+            "process_time_s": float(c["t_s"][-1]) if n else 0.0,
+            "cutting_time_s": cutting_s,
             "max_force_n": peak("f_peak_n"),
             "max_mean_force_n": peak("f_mean_n"),
             "mean_power_w": mean("cutting_power_w"),
             "max_power_w": peak("cutting_power_w"),
-            "cutting_energy_j": float(np.sum(c["cutting_power_w"]) * self.cycle_s),
+            "cutting_energy_j": float(np.sum(c["cutting_power_w"] * dt)),
             "max_spindle_torque_nm": peak("cutting_torque_nm"),
             "max_motor_torque_nm": peak("motor_torque_nm"),
             "max_spindle_current_a": peak("spindle_current_a"),
@@ -500,7 +521,7 @@ def simulate_signals(
         with np.errstate(divide="ignore"):
             available = np.minimum(available, rated_power_w / omega)
     columns["overload"] = (columns["cutting_torque_nm"] > available).astype(np.float64)
-    warnings = []
+    warnings = headline_warnings(columns, table.column("rapid") > 0)
     over = np.flatnonzero(columns["overload"])
     if over.size:
         k = int(over[np.argmax(columns["cutting_torque_nm"][over])])
@@ -515,23 +536,105 @@ def simulate_signals(
 def _spindle(
     columns: dict[str, NDArray[np.float64]], params: SpindleDriveParameters, cycle_s: float
 ) -> None:
-    """Run the spindle drive over the cycles; fill speed, current, motor torque and power."""
+    """Run the spindle drive over the cycles; fill speed, current, motor torque and power.
+
+    The drive runs on the cycle grid (the rows at ``k * cycle_s``): each cycle's load is the
+    cutting torque averaged over the rows of that cycle (the cycle's row and the segment ends
+    before it, weighted by the time each stands for), its contact whether any of them cuts.
+    The rows between two cycle times take the drive's values interpolated in time.
+    """
     n = columns["t_s"].size
     if n == 0:
         return
+    t_rows = columns["t_s"]
+    grid_k = np.rint(t_rows / cycle_s)
+    grid = np.flatnonzero(t_rows == grid_k * cycle_s)
+    # Each row belongs to the cycle of the first grid row at or after it.
+    cycle = np.searchsorted(grid, np.arange(n))
+    m = grid.size
+    dt = step_durations(t_rows)
+    torque = np.bincount(cycle, columns["cutting_torque_nm"] * dt, m + 1)[:m] / cycle_s
+    torque[0] = columns["cutting_torque_nm"][grid[0]]  # the first row stands for no time
+    touched = np.bincount(cycle, columns["contact"], m + 1)[:m] > 0
     # The drive needs a time grid of at least two samples: a one-cycle program gets a copy.
-    pad = 1 if n == 1 else 0
-    t = np.arange(n + pad) * cycle_s
-    rpm = np.append(columns["spindle_cmd_rpm"], columns["spindle_cmd_rpm"][-1:] if pad else [])
-    load = np.append(columns["cutting_torque_nm"], columns["cutting_torque_nm"][-1:] if pad else [])
+    pad = 1 if m == 1 else 0
+    t = np.arange(m + pad) * cycle_s
+    rpm = columns["spindle_cmd_rpm"][grid]
+    rpm = np.append(rpm, rpm[-1:] if pad else [])
+    load = np.append(torque, torque[-1:] if pad else [])
 
-    def flags(name: str) -> NDArray[np.bool_]:
-        values = columns[name] > 0
+    def flags(values: NDArray[np.bool_]) -> NDArray[np.bool_]:
         return np.append(values, values[-1:]) if pad else values
 
-    events = MachiningEvents(flags("spindle_on"), flags("feed_on"), flags("contact"))
+    events = MachiningEvents(
+        flags(columns["spindle_on"][grid] > 0), flags(columns["feed_on"][grid] > 0), flags(touched)
+    )
     result = SpindleDrive(params).simulate(t, rpm, load, events)
-    columns["spindle_speed_rpm"] = result.speed_rpm[:n]
-    columns["spindle_current_a"] = result.current[:n]
-    columns["motor_torque_nm"] = result.torque[:n]
-    columns["spindle_power_w"] = (result.torque * result.speed)[:n]
+    t_grid = t_rows[grid]
+
+    def at_rows(values: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.interp(t_rows, t_grid, values[:m]) if m < n else values[:m]
+
+    columns["spindle_speed_rpm"] = at_rows(result.speed_rpm)
+    columns["spindle_current_a"] = at_rows(result.current)
+    columns["motor_torque_nm"] = at_rows(result.torque)
+    columns["spindle_power_w"] = at_rows(result.torque * result.speed)
+
+
+def headline_warnings(
+    columns: Mapping[str, NDArray[np.float64]], rapid: NDArray[np.bool_]
+) -> list[str]:
+    """Warnings for a headline maximum of the summary that is not a steady cut.
+
+    A maximum (largest peak force, mean force, cutting power, cutting torque) is warned when
+    the step it comes from is a rapid move (a collision, not a cut: its feed per tooth is the
+    rapid rate's), or when it is a single-step spike: more than :data:`SPIKE_FACTOR` times the
+    larger of the two steps beside it (a transient of one step, e.g. a corner, an entry, or an
+    artefact of the discretisation; the steady value is the one beside it).
+
+    Parameters
+    ----------
+    columns
+        The signal columns (:data:`SIGNAL_COLUMNS`; N, W, N m).
+    rapid
+        (n,) whether each step belongs to a rapid move.
+
+    Returns
+    -------
+    list of str
+        One line per step and finding, naming the source line and the maxima it holds.
+    """
+    found: dict[tuple[int, str], list[str]] = {}
+    n = columns["t_s"].size
+    for name, key, unit in _HEADLINES:
+        values = columns[name]
+        if n == 0 or not values.max() > 0.0:
+            continue
+        k = int(np.argmax(values))
+        value = float(values[k])
+        if rapid[k]:
+            found.setdefault((k, "rapid"), []).append(f"{key} {value:.4g} {unit}")
+            continue
+        beside = max(
+            float(values[k - 1]) if k > 0 else 0.0, float(values[k + 1]) if k + 1 < n else 0.0
+        )
+        if value > SPIKE_FACTOR * beside:
+            found.setdefault((k, "spike"), []).append(
+                f"{key} {value:.4g} {unit} (the steps beside it: {beside:.4g} {unit})"
+            )
+    warnings = []
+    for (k, reason), maxima in found.items():
+        line = int(columns["line"][k])
+        what = "; ".join(maxima)
+        verb = ("comes", "is") if len(maxima) == 1 else ("come", "are")
+        if reason == "rapid":
+            warnings.append(
+                f"line {line}: {what} {verb[0]} from a rapid move that meets material (a "
+                "collision, not a cut)"
+            )
+        else:
+            warnings.append(
+                f"line {line}: {what} {verb[1]} a single-step spike at t = "
+                f"{columns['t_s'][k]:.4g} s, more than {SPIKE_FACTOR:g} times the steps beside it"
+            )
+    return warnings

@@ -378,7 +378,7 @@ def run_one(cut: SideMillingCut, spec: RunSpec) -> RunResult:
         volume_deviation_pct=(removed_mm3 - nominal_mm3) / nominal_mm3 * 100.0,
         runtime_s=wall,
         cpu_s=cpu,
-        process_s=float(rows[-1, _COL["t_s"]]) + spec.cycle_s,
+        process_s=float(rows[-1, _COL["t_s"]]),  # the last row is the program's end
         steps=int(rows.shape[0]),
         steady_steps=int(steady.sum()),
     )
