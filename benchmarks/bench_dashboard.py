@@ -24,7 +24,9 @@ without and with the 3D stock), independent of the machine's background load.
 Usage::
 
     python benchmarks/bench_dashboard.py [--trials N] [--clients sse|chromium]
-        [--speed X] [--screenshots DIR] [--nice N]
+        [--speed X] [--screenshots DIR] [--nice N] [--quick]
+
+``--quick`` (CI) runs one trial with stream readers.
 """
 
 from __future__ import annotations
@@ -291,7 +293,12 @@ def main() -> None:
         help="niceness of the demo's processes (e.g. -10: ahead of a loaded machine's other "
         "work, as a twin would be run; negative needs root)",
     )
+    parser.add_argument(
+        "--quick", action="store_true", help="CI: one trial with stream readers (sse)"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.trials, args.clients, args.screenshots = 1, "sse", None
     global NICE
     NICE = args.nice
     if args.trials < 1:

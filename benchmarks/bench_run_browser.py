@@ -22,6 +22,8 @@ cached, so the run's columns are read from the database), served by uvicorn on 1
 Usage::
 
     python benchmarks/bench_run_browser.py [--minutes 60] [--repeat 5] [--no-browser]
+
+``--quick`` (CI) records 5 minutes and times the API once, without the browser.
 """
 
 from __future__ import annotations
@@ -181,7 +183,12 @@ def main() -> None:
     parser.add_argument("--minutes", type=float, default=60.0, help="Length of the run, min.")
     parser.add_argument("--repeat", type=int, default=5, help="Fresh servers per measurement.")
     parser.add_argument("--no-browser", action="store_true", help="API timings only.")
+    parser.add_argument(
+        "--quick", action="store_true", help="CI: a 5-minute run, one fresh server, API only"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.minutes, args.repeat, args.no_browser = 5.0, 1, True
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
           f"load {os.getloadavg()[0]:.2f}, Python {platform.python_version()}")  # fmt: skip
     with tempfile.TemporaryDirectory(prefix="cnctwin-bench-") as folder:
