@@ -81,3 +81,19 @@ def test_a_port_in_use_is_one_line_and_exit_2(
     _, err = capsys.readouterr()
     assert code == 2
     assert err.count("\n") == 1 and f"--port {port}: cannot listen" in err
+
+
+def test_web_on_a_port_in_use_is_one_line_and_exit_2(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    db = tmp_path / "h.sqlite"
+    with Historian.open(db):
+        pass
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        code = cli_run(["web", "--db", str(db), "--port", str(port)])
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert err.count("\n") == 1 and f"--port {port}: cannot listen" in err

@@ -3,34 +3,16 @@
 from __future__ import annotations
 
 import secrets
-import socket
 from typing import Annotated
 
 import typer
 
 from cnctwin.cli._options import check_count
-from cnctwin.errors import InputError
 
 __all__ = ["WEB_PORT", "web"]
 
 #: Default port of the run browser (the live dashboard's is 8765).
 WEB_PORT = 8766
-
-
-def _listen(host: str, port: int) -> socket.socket:
-    """A listening socket on ``host:port``, or a one-line error naming the option."""
-    family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    sock = socket.socket(family, socket.SOCK_STREAM)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    try:
-        sock.bind((host, port))
-    except OSError as err:
-        sock.close()
-        raise InputError(
-            f"--host {host} --port {port}: cannot listen there: {err.strerror}"
-        ) from None
-    sock.listen(64)
-    return sock
 
 
 def web(
@@ -57,14 +39,14 @@ def web(
     import uvicorn
 
     from cnctwin.virtual import is_loopback
-    from cnctwin.web import RunBrowser, check_host, runs_app
+    from cnctwin.web import RunBrowser, check_host, listen_socket, runs_app
 
     check_count("--port", port, 0, 65535)
     check_host(host, insecure)
     token = None if is_loopback(host) else secrets.token_urlsafe(18)
     browser = RunBrowser(db)
     try:
-        sock = _listen(host, port)
+        sock = listen_socket(host, port)
         shown = f"[{host}]" if ":" in host else host
         address = f"http://{shown}:{sock.getsockname()[1]}/runs"
         typer.echo(f"run browser of {browser.location} at {address}"

@@ -9,17 +9,18 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from cnctwin.web.runs import RunBrowser, runs_app
-    from cnctwin.web.server import LiveDashboard, check_host
+    from cnctwin.web.server import LiveDashboard, check_host, listen_socket
 
 # FastAPI and uvicorn load with these: imported on first use.
 _LAZY = {
     "LiveDashboard": "cnctwin.web.server",
     "RunBrowser": "cnctwin.web.runs",
     "check_host": "cnctwin.web.server",
+    "listen_socket": "cnctwin.web.server",
     "runs_app": "cnctwin.web.runs",
 }
 
-__all__ = ["LiveDashboard", "RunBrowser", "check_host", "runs_app"]
+__all__ = ["LiveDashboard", "RunBrowser", "check_host", "listen_socket", "runs_app"]
 
 
 def __getattr__(name: str) -> Any:

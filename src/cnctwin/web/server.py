@@ -190,7 +190,7 @@ class LiveDashboard:
         self._timeline: deque[dict[str, Any]] = deque(maxlen=500)
         self._stock: dict[str, Any] | None = None
         self._stock_due_s = 0.0
-        self._sock = _bind(host, port)
+        self._sock = listen_socket(host, port)
         self.port: int = self._sock.getsockname()[1]
         self._server: Any = None
         self._thread: threading.Thread | None = None
@@ -617,7 +617,14 @@ def _program_lines(program: Path | None) -> list[str]:
         return []
 
 
-def _bind(host: str, port: int) -> socket.socket:
+def listen_socket(host: str, port: int) -> socket.socket:
+    """A listening TCP socket on ``host:port`` (port 0: a free one), inheritable by a server.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the port and the reason when the address cannot be bound.
+    """
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
     sock = socket.socket(family, socket.SOCK_STREAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
