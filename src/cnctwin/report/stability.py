@@ -150,27 +150,18 @@ def roadmap_report(
             )  # fmt: skip
         )
     for i, seg in enumerate(segments):
-        road.add_trace(
-            go.Scatter(
-                x=[seg.start_s_mm, seg.end_s_mm],
-                y=[seg.programmed_rpm] * 2,
-                mode="lines",
-                line={"color": "black", "width": 2},
-                name="programmed",
-                legendgroup="p",
-                showlegend=i == 0,
-                hovertemplate=f"line {seg.line}: %{{y:.0f}} rpm<extra></extra>",
-            )  # fmt: skip
-        )
+        speeds = [(seg.programmed_rpm, "programmed", "p", "black", 2)]
         if seg.has_stable_speed:
+            speeds.append((seg.scheduled_rpm, "scheduled", "s", "#1f77b4", 3))
+        for rpm, name, group, colour, width in speeds:
             road.add_trace(
                 go.Scatter(
                     x=[seg.start_s_mm, seg.end_s_mm],
-                    y=[seg.scheduled_rpm] * 2,
+                    y=[rpm] * 2,
                     mode="lines",
-                    line={"color": "#1f77b4", "width": 3},
-                    name="scheduled",
-                    legendgroup="s",
+                    line={"color": colour, "width": width},
+                    name=name,
+                    legendgroup=group,
                     showlegend=i == 0,
                     hovertemplate=f"line {seg.line}: %{{y:.0f}} rpm<extra></extra>",
                 )  # fmt: skip
