@@ -424,3 +424,72 @@ def test_tool_mode_from_mass_and_from_a_modal_fit() -> None:
 def test_bad_input_raises_input_error(build, message: str) -> None:  # type: ignore[no-untyped-def]
     with pytest.raises(InputError, match=message):
         build()
+
+
+# ----------------------------------------------------------------------------------------
+# The automatic step count at any radial immersion (issue 16, item 7)
+
+
+@pytest.mark.parametrize("tool", ["x", "xy"])
+@pytest.mark.parametrize("immersion", [0.01, 0.05, 0.1, 0.5, 1.0])
+def test_auto_steps_are_within_one_percent_of_a_converged_run(
+    immersion: float, tool: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The benchmark's cutter (NOTES.md section 1) from a/D 0.01 to slotting, 1-DOF and
+    # symmetric 2-DOF. Converged: the same grid with 100 instead of 30 steps per cycle in the
+    # cut and 80 instead of 20 in the shortest cut (the error falls as 1/m^2, so this one is
+    # about ten times smaller). Measured: 0.65 % at most over 6000-24000 rpm.
+    from cnctwin.dynamics import stability
+
+    dynamics = X_ONLY if tool == "x" else SYMMETRIC
+    process = milling(immersion)
+    speeds = np.array([9000.0, 15000.0, 21000.0]) * RPM
+    auto = sdm_lobes(dynamics, process, speeds, max_depth_m=0.2)
+    monkeypatch.setattr(stability, "_CUT_STEPS_PER_CYCLE", 100)
+    monkeypatch.setattr(stability, "_MIN_CUT_STEPS", 80)
+    converged = sdm_lobes(dynamics, process, speeds, max_depth_m=0.2)
+    assert np.all(np.isfinite(converged.critical_depth_m))
+    assert auto.critical_depth_m == pytest.approx(converged.critical_depth_m, rel=0.01)
+    assert auto.bifurcation == converged.bifurcation
+
+
+@pytest.mark.parametrize("rpm", [9000.0, 15000.0, 21000.0])
+def test_auto_steps_at_one_percent_immersion_match_the_independent_integrator(
+    rpm: float,
+) -> None:
+    # a/D = 0.01: a tooth cuts for 6 % of the period. The old default (40 equal steps, a
+    # cut of 2.6 steps whose edges fall inside steps) was off by up to 6 % here; the grid
+    # with nodes at the entry and exit puts the boundary where the RK4 period map's spectral
+    # radius crosses 1, within 1 %.
+    process = milling(0.01)
+    lobes = sdm_lobes(X_ONLY, process, [rpm * RPM], max_depth_m=0.2)
+    depth = float(lobes.critical_depth_m[0])
+    assert rk4_spectral_radius(process, rpm, 0.99 * depth, per=200) < 1.0
+    assert rk4_spectral_radius(process, rpm, 1.01 * depth, per=200) > 1.0
+
+
+def test_equal_steps_miss_the_short_cut_that_the_auto_grid_resolves() -> None:
+    # The reason for the grid: 40 equal steps per period (the old default at these speeds)
+    # put the a/D = 0.01 boundary at 15000 rpm more than 4 % off the converged one.
+    process = milling(0.01)
+    speeds = [15000.0 * RPM]
+    auto = sdm_lobes(X_ONLY, process, speeds, max_depth_m=0.2).critical_depth_m[0]
+    equal = sdm_lobes(X_ONLY, process, speeds, max_depth_m=0.2, steps=40).critical_depth_m[0]
+    assert abs(equal / auto - 1.0) > 0.04
+
+
+def test_four_tooth_slot_sdm_matches_the_closed_form_within_one_percent() -> None:
+    # Time-invariant H (N = 4, slot): the Altintas-Budak closed form is exact; at its lobe
+    # bottom a_lim = 1 / (2 max Re mu) (zoa_absolute_depth, a bounded search, no grid) the
+    # semi-discretization's lowest critical depth must agree within 1 %.
+    process = milling(1.0, teeth=4)
+    absolute, hz = zoa_absolute_depth(SYMMETRIC, process)
+    # Lobe k = 1 .. 4 bottoms sit where the tooth period holds k + epsilon / 2 pi cycles.
+    speeds = np.linspace(5000.0, 25000.0, 801) * RPM
+    zoa = zoa_lobes(SYMMETRIC, process, speeds)
+    bottom = speeds[int(np.argmin(zoa.critical_depth_m))]
+    near = np.linspace(0.995, 1.005, 11) * bottom
+    sdm = sdm_lobes(SYMMETRIC, process, near, max_depth_m=2 * absolute)
+    assert sdm.min_critical_depth_m == pytest.approx(absolute, rel=0.01)
+    assert hz == pytest.approx(sdm.chatter_frequency_hz[int(np.argmin(sdm.critical_depth_m))],
+                               rel=0.01)  # fmt: skip

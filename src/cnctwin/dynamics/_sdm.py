@@ -8,9 +8,10 @@ equations with discrete delay, Int. J. Numer. Meth. Eng. 61, 117-141 (first-orde
 The system is ``y' = A(t) y + B(t) s(t - tau)`` with ``y = [q, q']`` (modal displacements and
 velocities) and ``s = U^T Phi q`` the tool-tip displacement in an orthonormal basis ``U`` of the
 plane the modes span (``d`` = 1 or 2 components). One period ``T = tau`` is cut into ``m`` steps
-of ``dt = T / m``. On step i, ``A`` and ``B`` are replaced by their means over the step and the
-delayed displacement by the straight line through its samples ``s_(i-m)`` and ``s_(i-m+1)``; the
-step is then solved exactly:
+``dt_i`` (equal steps ``T / m`` in the paper; here any grid of the period, the same in every
+period, so that the node a delay ``T`` earlier is again a node). On step i, ``A`` and ``B`` are
+replaced by their means over the step and the delayed displacement by the straight line through
+its samples ``s_(i-m)`` and ``s_(i-m+1)``; the step is then solved exactly:
 
     y_(i+1) = Phi0_i y_i + (Gamma1_i - Gamma2_i) s_(i-m) + Gamma2_i s_(i-m+1),
 
@@ -18,6 +19,11 @@ with ``Phi0 = exp(A dt)``, ``Gamma1 = int_0^dt exp(A (dt - u)) du B`` and
 ``Gamma2 = int_0^dt exp(A (dt - u)) u / dt du B``, the three blocks of one exponential of an
 augmented matrix (Van Loan 1978). The monodromy (Floquet transition) matrix maps
 ``z_0 = [y_0, s_(-1), ..., s_(-m)]`` to ``z_m``.
+
+Where the directional matrix jumps (a tooth entering or leaving the cut) inside a step, the step
+mean of ``H`` smears the jump over the step and the error of the critical depth falls only as
+``1 / m`` instead of ``1 / m^2``; the automatic grid of :mod:`cnctwin.dynamics.stability`
+therefore puts nodes at the jumps (a variant of the paper's equal steps, not in it).
 """
 
 from __future__ import annotations
@@ -131,7 +137,7 @@ def monodromy(
     phi: np.ndarray,
     basis: np.ndarray,
     depth: float,
-    dt: float,
+    dts: np.ndarray,
     active: np.ndarray,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """The Floquet transition matrix of one period.
@@ -149,8 +155,8 @@ def monodromy(
         ``(2, d)`` orthonormal basis of the columns of ``phi``.
     depth
         Depth of cut (chip width) in m.
-    dt
-        Step length in s.
+    dts
+        ``(m,)`` step lengths in s.
     active
         ``(m,)``: False where ``H_i`` is zero (no tooth cutting during the step).
 
@@ -165,7 +171,8 @@ def monodromy(
     ny = 2 * n
     size = ny + m * d
     cs = _mm(basis.T, phi)  # (d, n): s = cs q
-    free = expm(a0 * dt)
+    free = np.eye(ny)
+    free_dt = -1.0
     y = np.zeros((ny, size))
     for i in range(ny):
         y[i, i] = 1.0
@@ -178,7 +185,11 @@ def monodromy(
     augmented = np.zeros((big, big))
     for i in range(m):
         s[i + m] = _mm(cs, y[:n])
+        dt = dts[i]
         if not active[i]:
+            if dt != free_dt:
+                free = expm(a0 * dt)
+                free_dt = dt
             y = _mm(free, y)
             continue
         augmented[:, :] = 0.0
@@ -200,7 +211,7 @@ def monodromy(
 
 @dataclass(frozen=True)
 class SdmModel:
-    """A tool and process discretised with ``steps`` steps per period (speed and depth free).
+    """A tool and process discretised on a grid of the period (speed and depth free).
 
     Arrays in SI units; built by :meth:`build`.
     """
@@ -216,13 +227,26 @@ class SdmModel:
     projector: np.ndarray  # (2, 2) process-damping directions
     process: Process
     steps: int
+    nodes: np.ndarray  # (m + 1,) the grid as fractions of the period, 0 ... 1
 
     @classmethod
-    def build(cls, tool: ToolDynamics, process: Process, steps: int) -> SdmModel:
-        """Precompute the step matrices and the live columns of ``tool`` cutting ``process``."""
-        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 2:
+    def build(cls, tool: ToolDynamics, process: Process, steps: int | np.ndarray) -> SdmModel:
+        """Precompute the step matrices and the live columns of ``tool`` cutting ``process``.
+
+        ``steps`` is the number of equal steps per period, or the grid itself: increasing
+        fractions of the period from 0 to 1 (``m + 1`` nodes).
+        """
+        if isinstance(steps, np.ndarray):
+            nodes = np.asarray(steps, dtype=np.float64)
+            if nodes.ndim != 1 or nodes.size < 3 or nodes[0] != 0.0 or nodes[-1] != 1.0:
+                raise ConfigError("semi-discretization grid: give fractions 0 ... 1, >= 3 nodes")
+            if np.any(np.diff(nodes) <= 0.0):
+                raise ConfigError("semi-discretization grid: give increasing fractions")
+        elif isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 2:
             raise ConfigError(f"steps={steps!r}; give an integer >= 2 steps per period")
-        steps = int(steps)
+        else:
+            nodes = np.linspace(0.0, 1.0, int(steps) + 1)
+        count = nodes.size - 1
         wn = np.array([m.frequency_rad_s for m in tool.modes])
         zeta = np.array([m.damping_ratio for m in tool.modes])
         k = np.array([m.stiffness_n_m for m in tool.modes])
@@ -230,14 +254,14 @@ class SdmModel:
         u, sv, _ = np.linalg.svd(phi, full_matrices=False)
         basis = np.ascontiguousarray(u[:, sv > 1e-9 * sv.max()])
         inverse_mass = wn * wn / k
-        h = process.step_matrices(steps)
+        h = process.interval_matrices(nodes)
         lq_h = np.ascontiguousarray((inverse_mass[:, None] * phi.T) @ h)  # (m, n, 2)
         active = np.any(h != 0.0, axis=(1, 2))
         n, d = wn.size, basis.shape[1]
         # Slot s_(-k) is read at step m - k (with s_(i-m)) and m - k - 1 (with s_(i-m+1)).
-        slots = np.arange(1, steps + 1)
-        later = np.where(slots < steps, active[(steps - slots - 1) % steps], False)
-        read = active[steps - slots] | later
+        slots = np.arange(1, count + 1)
+        later = np.where(slots < count, active[(count - slots - 1) % count], False)
+        read = active[count - slots] | later
         live = [np.arange(2 * n)]
         live += [2 * n + (kk - 1) * d + np.arange(d) for kk in slots[read]]
         return cls(
@@ -251,7 +275,8 @@ class SdmModel:
             np.concatenate(live),
             process.damping_projector(),
             process,
-            steps,
+            count,
+            nodes,
         )
 
     def state_matrix(self, damping_n_s_m: float) -> np.ndarray:
@@ -272,13 +297,14 @@ class SdmModel:
     def matrix(
         self, speed: float, depth: float, damping: ProcessDamping | None
     ) -> tuple[np.ndarray, float]:
-        """The full monodromy matrix and the step length in s."""
+        """The full monodromy matrix and the period in s."""
         extra = 0.0 if damping is None else damping.effective_damping(depth, speed)
-        dt = float(self.process.delay_s(speed)) / self.steps
+        period = float(self.process.delay_s(speed))
+        dts = np.diff(self.nodes) * period
         full = monodromy(
-            self.state_matrix(extra), self.lq_h, self.phi, self.basis, depth, dt, self.active
+            self.state_matrix(extra), self.lq_h, self.phi, self.basis, depth, dts, self.active
         )
-        return full, dt
+        return full, period
 
     def radius(self, speed: float, depth: float, damping: ProcessDamping | None) -> float:
         """Spectral radius of the monodromy matrix (its always-zero columns deflated)."""
@@ -297,12 +323,13 @@ class SdmModel:
     ) -> tuple[float, str]:
         """Chatter frequency in Hz and bifurcation kind of the critical multiplier.
 
-        The critical eigenvector holds the tool-tip displacement at the m samples of the last
-        period, ``s_j = p_j mu^(j/m)`` with ``p`` periodic; the strongest harmonic h of ``p``
-        gives the frequency ``(arg mu + 2 pi h) / T`` (Insperger & Stépán 2004: the solution
-        is ``p(t) exp(t ln(mu) / T)``).
+        The critical eigenvector holds the tool-tip displacement at the m nodes ``t_k`` of the
+        last period, ``s_k = p(t_k) mu^(t_k / T)`` with ``p`` periodic; the strongest harmonic h
+        of ``p`` gives the frequency ``(arg mu + 2 pi h) / T`` (Insperger & Stépán 2004: the
+        solution is ``p(t) exp(t ln(mu) / T)``). The harmonics are the trapezoidal-rule Fourier
+        coefficients on the nodes, up to the Nyquist limit of the widest step.
         """
-        full, dt = self.matrix(speed, depth, damping)
+        full, period = self.matrix(speed, depth, damping)
         values, vectors = dominant_eigenpairs(full[np.ix_(self.live, self.live)])
         j = int(np.argmax(np.abs(values)))
         mu = complex(values[j])
@@ -314,14 +341,16 @@ class SdmModel:
         ny = 2 * self.stiffness.size
         samples = z[ny:].reshape(m, d)  # s_(-1), ..., s_(-m)
         k = np.arange(1, m + 1)
-        root = abs(mu) ** (1.0 / m) * np.exp(1j * np.angle(mu) / m)
-        periodic = samples * (root**k)[:, None]
-        # c_h = sum_k p_(-k) exp(+i 2 pi h k / m); index k = m is k = 0 of the DFT.
-        ordered = np.roll(periodic, 1, axis=0)
-        energy = (np.abs(np.fft.ifft(ordered, axis=0)) ** 2).sum(axis=1)
-        h = int(np.argmax(energy))
-        h = h - m if h > m // 2 else h
-        frequency = abs(np.angle(mu) + _TWO_PI * h) / (m * dt) / _TWO_PI
+        times = self.nodes[m - k] - 1.0  # fractions of the period, -1 <= t < 0
+        periodic = samples * (abs(mu) ** (-times) * np.exp(-1j * np.angle(mu) * times))[:, None]
+        widths = np.diff(self.nodes)
+        weights = 0.5 * (widths[m - k] + widths[(m - k - 1) % m])  # periodic trapezoid
+        top = int(0.5 / widths.max())
+        harmonics = np.arange(-top, top + 1)
+        kernel = np.exp(-1j * _TWO_PI * np.outer(harmonics, times)) * weights
+        energy = (np.abs(kernel @ periodic) ** 2).sum(axis=1)
+        h = int(harmonics[int(np.argmax(energy))])
+        frequency = abs(np.angle(mu) + _TWO_PI * h) / period / _TWO_PI
         if abs(mu.imag) > 1e-7 * abs(mu):
             kind = "hopf"
         else:

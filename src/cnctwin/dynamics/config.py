@@ -153,8 +153,9 @@ class LobesSection(Section):
     max_depth_mm
         Semi-discretization: highest depth searched in mm (> 0, <= 1000).
     steps
-        Semi-discretization: steps per period, 2 to 10,000, or ``"auto"`` (20 per cycle of
-        the highest mode, at least 40). The work of the whole diagram must fit the work
+        Semi-discretization: equal steps per period, 2 to 10,000, or ``"auto"`` (nodes at
+        the teeth's entry and exit, 30 steps per cycle of the highest mode in the cut, at
+        least 20 in any cut). The work of the whole diagram must fit the work
         limit (:mod:`cnctwin.memory`).
     """
 
