@@ -53,13 +53,21 @@ def test_whole_run_is_min_max_per_pixel(client) -> None:
     assert (got["t0"], got["t1"]) == (0.0, (N1 - 1) * DT_S)
     t = np.array(got["t"])
     y = np.array([np.nan if v is None else v for v in got["y"]])
-    # Each bucket's min and max, computed here from the recorded values.
-    bucket = np.minimum((t_all / got["t1"] * 500).astype(int), 499)
-    got_bucket = np.minimum((t / got["t1"] * 500).astype(int), 499)
-    for b in (0, 123, int(bucket[SPIKE]), 499):
-        mine = y_all[bucket == b]
-        shown = y[got_bucket == b]
+    # The buckets split the run into 500 nearly equal spans (the overview's 4096 fine
+    # buckets merged), and each bucket's points are its min and max, computed here by brute
+    # force from the recorded values.
+    edges = np.array(got["edges"])
+    assert edges.size == 501 and edges[0] == 0.0 and edges[-1] == got["t1"]
+    np.testing.assert_allclose(edges, np.linspace(0.0, got["t1"], 501), atol=got["t1"] / 4096)
+    bucket = np.minimum(np.searchsorted(edges, t_all, side="right") - 1, 499)
+    got_bucket = np.minimum(np.searchsorted(edges, t, side="right") - 1, 499)
+    for b in range(500):
+        mine, shown = y_all[bucket == b], y[got_bucket == b]
+        if np.isnan(mine).all():
+            assert shown.size == 1 and np.isnan(shown[0])
+            continue
         assert np.nanmax(shown) == np.nanmax(mine) and np.nanmin(shown) == np.nanmin(mine)
+        assert shown.size == (1 if np.nanmax(mine) == np.nanmin(mine) else 2)
     assert y[np.argmax(np.nan_to_num(y))] == 900.0 and t[np.nanargmax(y)] == SPIKE * DT_S
     # every point is a recorded sample
     index = np.rint(t / DT_S).astype(int)

@@ -1,6 +1,7 @@
 """Storage: the historian of the twin's runs (SQLite or PostgreSQL) and the twin registry
 (SQLite, embedded) for machines, tools and their twins."""
 
+from cnctwin.store._overview import OVERVIEW_BUCKETS, Envelope, RunOverview
 from cnctwin.store.config import HistorianConfig
 from cnctwin.store.historian import (
     TIME_COLUMN,
@@ -16,12 +17,15 @@ from cnctwin.store.registry import MeasurementRecord, ToolRecord, TwinRegistry
 
 __all__ = [
     "DecisionRecord",
+    "Envelope",
     "EventRecord",
     "Historian",
     "HistorianConfig",
     "HistorianStats",
     "MeasurementRecord",
+    "OVERVIEW_BUCKETS",
     "RunDetail",
+    "RunOverview",
     "RunSummary",
     "TIME_COLUMN",
     "ToolRecord",

@@ -14,6 +14,12 @@ The schema (both databases; ``?`` is the placeholder, PostgreSQL gets ``%s``):
     little-endian IEEE 754 float64, in the layout's order (bit-exact, NaN included).
 ``hist_events``, ``hist_decisions``
     one row each, sharing the ``seq`` counter with the frames so a run replays in order.
+``hist_overview``
+    a closed run's overview (:mod:`cnctwin.store._overview`): per run and kind, one row named
+    ``""`` (instants per fine bucket and the first one's time) and one row per signal (its
+    min and max per fine bucket), each with the bucket count, the first and last instant's
+    time and the instants. Added after the first release: a database without it gets it on
+    the first overview written (:meth:`Backend.overview_table`).
 """
 
 from __future__ import annotations
@@ -105,6 +111,17 @@ class Backend(ABC):
             rule TEXT NOT NULL, action TEXT NOT NULL, value {real} NOT NULL,
             reason TEXT NOT NULL, accepted SMALLINT NOT NULL, readback {real},
             PRIMARY KEY (run_id, seq)){end}"""
+        yield self.overview_table()
+
+    def overview_table(self) -> str:
+        """The DDL of ``hist_overview`` (idempotent; also run before the first overview is
+        written into a database created before the table existed)."""
+        _, real, blob = self.types
+        return f"""CREATE TABLE IF NOT EXISTS hist_overview (
+            run_id BIGINT NOT NULL, kind SMALLINT NOT NULL, name TEXT NOT NULL,
+            buckets BIGINT NOT NULL, t_first {real} NOT NULL, t_last {real} NOT NULL,
+            frames BIGINT NOT NULL, data {blob} NOT NULL,
+            PRIMARY KEY (run_id, kind, name)){self.table_suffix}"""
 
     def create_schema(self, conn: Any) -> None:
         """Create the tables that are missing."""

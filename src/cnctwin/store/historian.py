@@ -34,6 +34,7 @@ from cnctwin import finite_json
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.store._backend import Backend, FrameRow
 from cnctwin.store._export import write_run
+from cnctwin.store._overview import RunOverview, compute_overview
 from cnctwin.store._records import (
     DecisionRecord,
     EventRecord,
@@ -307,6 +308,11 @@ class Historian:
         )
         if not rows:
             raise self._unknown_run(run_id)
+        for kind in (_SAMPLE, _PREDICTION):
+            try:
+                self._write_overview(int(run_id), kind)
+            except DataError as err:
+                logger.warning("run %s: no overview of its %s: %s", run_id, _KIND_NAMES[kind], err)
 
     # ------------------------------------------------------------------ recording
     def record_samples(self, run_id: int, t_s: float, values: Mapping[str, float]) -> None:
@@ -801,6 +807,119 @@ class Historian:
                     columns[name][index] = block[:, j]
                     masks[name][index] = True
         return columns, masks
+
+    def overview(
+        self, run_id: int, names: Sequence[str] | None = None, *, predicted: bool = False
+    ) -> RunOverview | None:
+        """The min and max of each signal per fine time bucket over a closed run.
+
+        Computed when the run is closed (:meth:`end_run`); for a run closed before overviews
+        existed, computed from its frames now and stored for the next time (when the
+        database can be written). See :mod:`cnctwin.store._overview` and docs/historian.md.
+
+        Parameters
+        ----------
+        run_id
+            The run.
+        names
+            Signals to include; None for all.
+        predicted
+            True for the predicted signals instead of the measured ones.
+
+        Returns
+        -------
+        RunOverview or None
+            None while the run is still ``"running"``.
+
+        Raises
+        ------
+        DataError
+            For an unknown run or signal.
+        """
+        kind = _PREDICTION if predicted else _SAMPLE
+        self._sync()
+        rows = self._read("SELECT status FROM hist_runs WHERE id = ?", (int(run_id),))
+        if not rows:
+            raise self._unknown_run(run_id)
+        if rows[0][0] == "running":
+            return None
+        found = self._stored_overview(int(run_id), kind, names)
+        if found is None:
+            found = self._write_overview(int(run_id), kind)
+        if names is None:
+            return found
+        unknown = [name for name in names if name not in found.signals]
+        if unknown:
+            available = self._names(self._layout_counts(run_id).get(int(run_id), []), kind)
+            raise DataError(
+                f"run {run_id} has no {_KIND_NAMES[kind]} named {', '.join(map(repr, unknown))}"
+                f" (recorded: {', '.join(available) or 'none'})"
+            )
+        return RunOverview(
+            found.t_first,
+            found.t_last,
+            found.frames,
+            found.count,
+            found.first_t,
+            {name: found.signals[name] for name in names},
+        )
+
+    def _stored_overview(
+        self, run_id: int, kind: int, names: Sequence[str] | None
+    ) -> RunOverview | None:
+        """The stored overview (only ``names`` and the header when given); None if absent."""
+        sql = "SELECT name, t_first, t_last, frames, data FROM hist_overview "
+        sql += "WHERE run_id = ? AND kind = ?"
+        args: tuple[Any, ...] = (run_id, kind)
+        if names is not None:
+            sql += f" AND name IN ({', '.join('?' * (len(names) + 1))})"
+            args += ("", *names)
+        try:
+            rows = self._read(sql, args)
+        except DataError:  # a database from before hist_overview
+            return None
+        blobs = {str(r[0]): bytes(r[4]) for r in rows}
+        header = next((r for r in rows if r[0] == ""), None)
+        if header is None:
+            return None
+        del blobs[""]
+        return RunOverview.from_blobs(header[1], header[2], header[3], bytes(header[4]), blobs)
+
+    def _write_overview(self, run_id: int, kind: int) -> RunOverview:
+        """Compute a run's overview of one kind from its frames and store it (a database
+        that cannot be written only logs why)."""
+        columns, _ = self._columns(run_id, None, kind)
+        t = columns.pop(TIME_COLUMN)
+        found = compute_overview(t, columns)
+        head = (run_id, kind)
+        tail = (found.buckets, found.t_first, found.t_last, found.frames)
+        rows = [(*head, "", *tail, found.header_blob())]
+        rows += [(*head, name, *tail, found.signal_blob(name)) for name in found.signals]
+        backend = self._backend
+        with self._db_lock:
+            if self._closed:
+                raise DataError(f"historian {self.location} is closed; open it again")
+            try:
+                with backend.transaction(self._conn):
+                    self._conn.execute(backend.overview_table())
+                    self._conn.execute(
+                        backend.sql("DELETE FROM hist_overview WHERE run_id = ? AND kind = ?"),
+                        head,
+                    )
+                    backend.executemany(
+                        self._conn,
+                        "INSERT INTO hist_overview (run_id, kind, name, buckets, t_first, "
+                        "t_last, frames, data) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                        rows,
+                    )
+            except backend.errors as err:
+                logger.info(
+                    "historian %s: overview of run %d not stored: %s",
+                    self.location,
+                    run_id,
+                    _one_line(err),
+                )
+        return found
 
     # ------------------------------------------------------------------ export
     def export(self, run_id: int, path: str | Path, format: str | None = None) -> list[Path]:

@@ -7,11 +7,15 @@ plot request names a time window and a width in pixels, and gets the min and max
 pixel's bucket (:func:`cnctwin.report.downsample.minmax_buckets`, at most two points per
 pixel); zooming asks again for the narrower window, down to the single samples.
 
-The historian stores each instant's values as one blob (docs/historian.md), so the server
-reads a run's columns once, on the first plot of it (:meth:`Historian.samples`), and keeps
-the columns of the last few opened runs in memory: a 1-hour run at the twin's default
-12.5 ms cycle is 288,000 instants, ~65 MB of float64 for its 28 measured signals. A run
-still being recorded is read again after :data:`LIVE_CACHE_S`.
+A plot of a whole closed run comes from the run's overview (:meth:`Historian.overview`: per
+signal the min and max of 4096 time buckets, stored when the run was closed), so opening even
+a 1-hour run reads a few hundred kB and decodes no frame; its plot buckets fall on the
+overview's bucket edges (``edges`` in the answer). A zoom, and any plot of a run still being
+recorded, reads the run's columns once (:meth:`Historian.samples`; the historian stores each
+instant's values as one blob, docs/historian.md) and keeps the columns of the last few
+opened runs in memory: a 1-hour run at the twin's default 12.5 ms cycle is 288,000 instants,
+~65 MB of float64 for its 28 measured signals. A run still being recorded is read again after
+:data:`LIVE_CACHE_S`.
 
 HTTP API (JSON; errors are ``{"error": one line}`` with status 404 or 422):
 
@@ -21,9 +25,9 @@ HTTP API (JSON; errors are ``{"error": one line}`` with status 404 or 422):
 ``GET /api/runs/{id}``
     The run (``cnctwin runs show --json``) with ``duration_s`` and ``machine``.
 ``GET /api/runs/{id}/signal?name=N&kind=measured|predicted&t0=S&t1=S&buckets=PX``
-    ``{"name", "kind", "t", "y", "samples", "raw", "t0", "t1", "t_first", "t_last"}``:
-    times in s since the run's start, ``null`` in ``y`` for a gap; ``t0``/``t1`` default to
-    the whole run.
+    ``{"name", "kind", "t", "y", "samples", "raw", "t0", "t1", "t_first", "t_last",
+    "edges"}``: times in s since the run's start, ``null`` in ``y`` for a gap; ``t0``/``t1``
+    default to the whole run; ``edges`` the plot buckets' edges, s (``null`` when ``raw``).
 ``GET /api/runs/{id}/export?format=csv|parquet``
     A zip of the four files of ``cnctwin runs export``.
 """
@@ -46,7 +50,7 @@ from fastapi.responses import FileResponse, JSONResponse, RedirectResponse, Resp
 from cnctwin import finite_json
 from cnctwin.errors import CnctwinError, DataError, InputError
 from cnctwin.report import MAX_BUCKETS, minmax_buckets
-from cnctwin.store import TIME_COLUMN, Historian, RunSummary
+from cnctwin.store import TIME_COLUMN, Historian, RunOverview, RunSummary
 
 __all__ = ["LIVE_CACHE_S", "RunBrowser", "runs_app", "runs_router"]
 
@@ -87,6 +91,44 @@ def _row(summary: RunSummary) -> dict[str, Any]:
     }
 
 
+def _answer(
+    run_id: int,
+    name: str,
+    kind: str,
+    t: np.ndarray,
+    y: np.ndarray,
+    samples: int,
+    raw: bool,
+    window: tuple[float, float],
+    span: tuple[float, float],
+    edges: np.ndarray | None,
+) -> dict[str, Any]:
+    """The JSON of ``GET .../signal`` (module notes)."""
+    return {
+        "run_id": run_id,
+        "name": name,
+        "kind": kind,
+        "t": t.tolist(),
+        "y": [None if v != v else v for v in y.tolist()],
+        "samples": samples,
+        "raw": raw,
+        "t0": window[0],
+        "t1": window[1],
+        "t_first": span[0],
+        "t_last": span[1],
+        "edges": None if edges is None else edges.tolist(),
+    }
+
+
+def _known(run_id: int, kind: str, name: str, recorded: list[str]) -> None:
+    """A DataError unless ``name`` is one of the ``recorded`` signals of the run."""
+    if name not in recorded:
+        raise DataError(
+            f"run {run_id} has no {kind} signal {name!r} (recorded: "
+            f"{', '.join(recorded) or 'none'})"
+        )
+
+
 class RunBrowser:
     """The run browser's access to one historian (thread-safe).
 
@@ -109,6 +151,7 @@ class RunBrowser:
         self._cache: OrderedDict[tuple[int, bool], tuple[float, dict[str, np.ndarray]]] = (
             OrderedDict()
         )
+        self._overviews: OrderedDict[tuple[int, bool], RunOverview] = OrderedDict()
         self._cache_lock = threading.Lock()
         self._load_lock = threading.Lock()
         self._finished: set[int] = set()
@@ -160,6 +203,23 @@ class RunBrowser:
                     self._cache.popitem(last=False)
         return columns
 
+    def overview(self, run_id: int, predicted: bool) -> RunOverview | None:
+        """A closed run's overview (cached), None while it is being recorded."""
+        key = (run_id, predicted)
+        with self._cache_lock:
+            hit = self._overviews.get(key)
+            if hit is not None:
+                self._overviews.move_to_end(key)
+                return hit
+        with self._load_lock:
+            found = self._loader.overview(run_id, predicted=predicted)
+        if found is not None:
+            with self._cache_lock:
+                self._overviews[key] = found
+                while len(self._overviews) > CACHED_COLUMNS:
+                    self._overviews.popitem(last=False)
+        return found
+
     def signal(
         self,
         run_id: int,
@@ -195,13 +255,18 @@ class RunBrowser:
             raise InputError(f"kind {kind!r}; give one of {', '.join(_KINDS)}")
         if not 1 <= buckets <= MAX_BUCKETS:
             raise InputError(f"buckets {buckets}; give 1 to {MAX_BUCKETS} (the plot's pixels)")
+        found = self.overview(run_id, kind == "predicted") if t0 is None and t1 is None else None
+        if found is not None:
+            _known(run_id, kind, name, list(found.signals))
+            if 2 * buckets < found.frames and buckets <= found.buckets:
+                envelope = found.envelope(name, buckets)
+                span = (found.t_first, found.t_last)
+                return _answer(
+                    run_id, name, kind, envelope.t, envelope.y, envelope.samples, False,
+                    span, span, envelope.edges,
+                )  # fmt: skip
         columns = self.columns(run_id, kind == "predicted")
-        if name not in columns or name == TIME_COLUMN:
-            recorded = [n for n in columns if n != TIME_COLUMN]
-            raise DataError(
-                f"run {run_id} has no {kind} signal {name!r} (recorded: "
-                f"{', '.join(recorded) or 'none'})"
-            )
+        _known(run_id, kind, name, [n for n in columns if n != TIME_COLUMN])
         t = columns[TIME_COLUMN]
         first = float(t[0]) if t.size else 0.0
         last = float(t[-1]) if t.size else 0.0
@@ -210,19 +275,11 @@ class RunBrowser:
         if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
             raise InputError(f"window t0={lo}, t1={hi} s; give finite t0 <= t1")
         points = minmax_buckets(t, columns[name], lo, hi, buckets)
-        return {
-            "run_id": run_id,
-            "name": name,
-            "kind": kind,
-            "t": points.t.tolist(),
-            "y": [None if v != v else v for v in points.y.tolist()],
-            "samples": points.samples,
-            "raw": points.raw,
-            "t0": lo,
-            "t1": hi,
-            "t_first": first,
-            "t_last": last,
-        }
+        edges = None if points.raw else np.linspace(lo, hi, buckets + 1)
+        return _answer(
+            run_id, name, kind, points.t, points.y, points.samples, points.raw, (lo, hi),
+            (first, last), edges,
+        )  # fmt: skip
 
     def export(self, run_id: int, fmt: str) -> bytes:
         """The run's four export files (:meth:`Historian.export`) as a zip archive."""
