@@ -83,7 +83,8 @@ def run(
         str | None,
         typer.Option(
             "--endpoint",
-            help="Machine address (opc.tcp://... or modbus://...), overriding [connection].",
+            help="Machine address (opc.tcp://..., modbus://... or an MTConnect agent's "
+            "http://...), overriding [connection].",
         ),
     ] = None,
     connect_timeout: Annotated[
@@ -136,9 +137,12 @@ def run(
             update["transport"] = "modbus"
         elif endpoint.startswith("opc.tcp://"):
             update["transport"] = "opcua"
+        elif endpoint.startswith("http://"):
+            update["transport"] = "mtconnect"
         else:
             raise InputError(
-                f"--endpoint {endpoint!r}; give opc.tcp://HOST:PORT/PATH or modbus://HOST:PORT"
+                f"--endpoint {endpoint!r}; give opc.tcp://HOST:PORT/PATH, modbus://HOST:PORT "
+                "or http://HOST:PORT (MTConnect)"
             )
         settings = settings.model_copy(
             update={"connection": settings.connection.model_copy(update=update)}

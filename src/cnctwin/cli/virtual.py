@@ -1,4 +1,4 @@
-"""``cnctwin virtual serve``: a virtual machine behind OPC UA or Modbus TCP, for a twin to watch.
+"""``cnctwin virtual serve``: a virtual machine behind OPC UA, Modbus TCP or MTConnect, for a twin.
 
 Serves the ``[virtual]`` machine of a twin configuration (default: the packaged demo's) until
 its program ends or Ctrl-C, so that ``cnctwin run`` (or any OPC UA / Modbus client) can be
@@ -32,7 +32,8 @@ if TYPE_CHECKING:
 __all__ = ["app", "hash_password_command", "serve"]
 
 app = typer.Typer(
-    help="The virtual machine: serve it over OPC UA or Modbus TCP.", no_args_is_help=True
+    help="The virtual machine: serve it over OPC UA, Modbus TCP or MTConnect.",
+    no_args_is_help=True,
 )
 
 #: The packaged twin configuration whose [virtual] table is served by default.
@@ -47,7 +48,9 @@ def serve(
             "--config", help="Twin configuration with a [virtual] table (default: the demo's)."
         ),
     ] = None,
-    transport: Annotated[str, typer.Option(help="Protocol: opcua or modbus.")] = "opcua",
+    transport: Annotated[
+        str, typer.Option(help="Protocol: opcua, modbus or mtconnect (an agent, read-only).")
+    ] = "opcua",
     host: Annotated[str, typer.Option(help="Address to listen on.")] = "127.0.0.1",
     port: Annotated[int, typer.Option(help="Port (0: a free one, printed).")] = 4840,
     speed: Annotated[
@@ -107,8 +110,8 @@ def serve(
     """
     from cnctwin.twin import load_run_config
 
-    if transport not in ("opcua", "modbus"):
-        raise InputError(f"--transport {transport!r}; valid: opcua, modbus")
+    if transport not in ("opcua", "modbus", "mtconnect"):
+        raise InputError(f"--transport {transport!r}; valid: opcua, modbus, mtconnect")
     secured = transport == "opcua" and security_mode != "None"
     check_exposure(host, transport, secured=secured, insecure=insecure)
     security, table = _access(
@@ -119,7 +122,7 @@ def serve(
     if speed is not None:
         check_number("--speed", speed, 0.0, MAX_SPEED_FACTOR, low_open=True, unit="x real time")
     check_number("--delay", delay, 0.0, MAX_WAIT_S, unit="s")
-    protocol: Literal["opcua", "modbus"] = "opcua" if transport == "opcua" else "modbus"
+    protocol = cast(Literal["opcua", "modbus", "mtconnect"], transport)
     quiet_protocol_logs()
     if config is None:
         with as_file(files("cnctwin.examples")) as folder:
@@ -186,10 +189,11 @@ def _access(
         )
         if value is not None
     ]
-    if transport == "modbus":
+    if transport in ("modbus", "mtconnect"):
         if given or mode != "None":
             options = ", ".join(given or ["--security-mode"])
-            raise InputError(f"{options}: OPC UA only; Modbus TCP has no security")
+            name = "Modbus TCP" if transport == "modbus" else "the MTConnect agent"
+            raise InputError(f"{options}: OPC UA only; {name} has no security")
         return None, UserTable()
     if mode not in ("None", "Sign", "SignAndEncrypt"):
         raise InputError(f"--security-mode {mode!r}; valid: None, Sign, SignAndEncrypt")
@@ -206,7 +210,7 @@ def _access(
 
 async def _serve(
     settings: RunConfig,
-    transport: Literal["opcua", "modbus"],
+    transport: Literal["opcua", "modbus", "mtconnect"],
     speed: float | None,
     host: str,
     port: int,

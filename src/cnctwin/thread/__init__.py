@@ -1,6 +1,7 @@
 """The digital thread: one :class:`MachineConnection` interface over industrial protocols.
 
-The transports (:class:`OpcUaConnection`, :class:`ModbusConnection`) load asyncua and pymodbus;
+The transports (:class:`OpcUaConnection`, :class:`ModbusConnection`, and the read-only
+:class:`MTConnectConnection`) load asyncua and pymodbus;
 they are imported on first use so that the signal catalogue and the connection interface stay
 light for the modules that only need those.
 """
@@ -29,6 +30,19 @@ if TYPE_CHECKING:
     )
     from cnctwin.thread.modbus import ModbusConnection
     from cnctwin.thread.modbus_map import READ_MAP, STATUS_MAP, WRITE_MAP, RegisterAddress
+    from cnctwin.thread.mtconnect import MTConnectConnection, SequenceGap
+    from cnctwin.thread.mtconnect_documents import (
+        AgentError,
+        DataItem,
+        Devices,
+        Observation,
+        ShdrFeed,
+        ShdrRecord,
+        Streams,
+        parse_devices,
+        parse_shdr,
+        parse_streams,
+    )
     from cnctwin.thread.opcua import (
         DEFAULT_SUBSCRIPTION_MS,
         NAMESPACE_URI,
@@ -48,6 +62,18 @@ _LAZY = {
     "LatencyStats": "cnctwin.thread.latency",
     "measure_endpoint_latency": "cnctwin.thread.latency",
     "ModbusConnection": "cnctwin.thread.modbus",
+    "MTConnectConnection": "cnctwin.thread.mtconnect",
+    "SequenceGap": "cnctwin.thread.mtconnect",
+    "AgentError": "cnctwin.thread.mtconnect_documents",
+    "DataItem": "cnctwin.thread.mtconnect_documents",
+    "Devices": "cnctwin.thread.mtconnect_documents",
+    "Observation": "cnctwin.thread.mtconnect_documents",
+    "ShdrFeed": "cnctwin.thread.mtconnect_documents",
+    "ShdrRecord": "cnctwin.thread.mtconnect_documents",
+    "Streams": "cnctwin.thread.mtconnect_documents",
+    "parse_devices": "cnctwin.thread.mtconnect_documents",
+    "parse_shdr": "cnctwin.thread.mtconnect_documents",
+    "parse_streams": "cnctwin.thread.mtconnect_documents",
     "READ_MAP": "cnctwin.thread.modbus_map",
     "STATUS_MAP": "cnctwin.thread.modbus_map",
     "WRITE_MAP": "cnctwin.thread.modbus_map",
@@ -68,6 +94,7 @@ __all__ = [
     "ConnectionState",
     "MachineConnection",
     "ModbusConnection",
+    "MTConnectConnection",
     "OpcUaConnection",
     "Reading",
     "RunState",
@@ -88,6 +115,17 @@ __all__ = [
     "JitterProxy",
     "measure_latency",
     "DEFAULT_SUBSCRIPTION_MS",
+    "SequenceGap",
+    "AgentError",
+    "DataItem",
+    "Devices",
+    "Observation",
+    "ShdrFeed",
+    "ShdrRecord",
+    "Streams",
+    "parse_devices",
+    "parse_shdr",
+    "parse_streams",
 ]
 
 

@@ -52,28 +52,34 @@ class ConnectionConfig(Section):
     Attributes
     ----------
     transport
-        ``"opcua"`` or ``"modbus"``.
+        ``"opcua"``, ``"modbus"`` or ``"mtconnect"`` (read-only: docs/mtconnect.md).
     endpoint
-        ``opc.tcp://HOST:PORT/PATH`` or ``modbus://HOST:PORT``.
+        ``opc.tcp://HOST:PORT/PATH``, ``modbus://HOST:PORT`` or, for an MTConnect agent,
+        ``http://HOST:PORT[/DEVICE]``.
     timeout_s
         Timeout of one request, s.
     reconnect_initial_s, reconnect_max_s
         Capped exponential backoff between reconnection attempts, s.
     unit_id
         Modbus unit (slave) id.
+    sample_count
+        MTConnect: observations asked for per ``/sample`` request.
     security
         OPC UA security.
     mapping
         Canonical signal name -> protocol address, overriding the transport's default map
         (the virtual machine's). OPC UA: a NodeId string (``"ns=2;s=Machine.X"``) or a browse
-        path; Modbus: ``"TABLE:ADDRESS:TYPE[:SCALE]"`` (see docs/modbus.md).
+        path; Modbus: ``"TABLE:ADDRESS:TYPE[:SCALE]"`` (see docs/modbus.md); MTConnect: a
+        data item selector, ``"TYPE[:SUBTYPE][@COMPONENT]"`` or ``"id=DATA_ITEM"`` (see
+        docs/mtconnect.md).
     """
 
-    transport: Literal["opcua", "modbus"] = "opcua"
+    transport: Literal["opcua", "modbus", "mtconnect"] = "opcua"
     endpoint: str = "opc.tcp://127.0.0.1:4840/cnctwin"
     timeout_s: float = Field(default=2.0, ge=0.001, le=600.0)
     reconnect_initial_s: float = Field(default=0.1, ge=0.001, le=3600.0)
     reconnect_max_s: float = Field(default=5.0, ge=0.001, le=3600.0)
     unit_id: int = Field(default=1, ge=0, le=247)
+    sample_count: int = Field(default=1000, ge=1, le=100_000)
     security: OpcUaSecurityConfig = Field(default_factory=OpcUaSecurityConfig)
     mapping: dict[str, str] = Field(default_factory=dict)

@@ -38,7 +38,7 @@ __all__ = ["MachineProcess", "MachineServer", "Transport", "serve"]
 
 logger = logging.getLogger(__name__)
 
-Transport = Literal["opcua", "modbus"]
+Transport = Literal["opcua", "modbus", "mtconnect"]
 
 
 class _Server(Protocol):
@@ -105,7 +105,11 @@ class MachineServer:
             from cnctwin.virtual import ModbusMachineServer
 
             return ModbusMachineServer(self.vm, self.host, port, insecure=self.insecure)
-        raise ConfigError(f"transport {self.transport!r}; valid: 'opcua', 'modbus'")
+        if self.transport == "mtconnect":
+            from cnctwin.virtual import MTConnectAgent
+
+            return MTConnectAgent(self.vm, self.host, port, insecure=self.insecure)
+        raise ConfigError(f"transport {self.transport!r}; valid: 'opcua', 'modbus', 'mtconnect'")
 
     async def _publish(self, snapshot: dict[str, float]) -> None:
         result = self.server.publish(snapshot)
@@ -114,7 +118,7 @@ class MachineServer:
 
     @property
     def endpoint(self) -> str:
-        """The server's address (``opc.tcp://...`` or ``modbus://...``)."""
+        """The server's address (``opc.tcp://...``, ``modbus://...`` or ``http://...``)."""
         return self.server.endpoint
 
     async def start(self) -> None:

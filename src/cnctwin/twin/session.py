@@ -23,7 +23,7 @@ logger = logging.getLogger(__name__)
 
 
 def open_connection(config: ConnectionConfig, base_dir: Path | None = None) -> MachineConnection:
-    """The client of ``[connection]``: OPC UA or Modbus TCP (not yet connected).
+    """The client of ``[connection]``: OPC UA, Modbus TCP or MTConnect (not yet connected).
 
     Parameters
     ----------
@@ -36,6 +36,10 @@ def open_connection(config: ConnectionConfig, base_dir: Path | None = None) -> M
         from cnctwin.thread import ModbusConnection
 
         return ModbusConnection(config)
+    if config.transport == "mtconnect":
+        from cnctwin.thread import MTConnectConnection
+
+        return MTConnectConnection(config)
     from cnctwin.thread import OpcUaConnection
 
     return OpcUaConnection(config, base_dir=base_dir)

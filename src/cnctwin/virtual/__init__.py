@@ -36,6 +36,7 @@ from cnctwin.virtual.users import ROLES, Role, UserTable, hash_password, load_us
 
 if TYPE_CHECKING:
     from cnctwin.virtual.modbus_server import ModbusMachineServer
+    from cnctwin.virtual.mtconnect_agent import MTConnectAgent
     from cnctwin.virtual.opcua_server import OpcUaMachineServer, OpcUaServerSecurity, SecurityMode
     from cnctwin.virtual.spawned import TRANSPORTS, virtual_machine_server
 
@@ -43,6 +44,7 @@ if TYPE_CHECKING:
 # first use.
 _LAZY = {
     "ModbusMachineServer": "cnctwin.virtual.modbus_server",
+    "MTConnectAgent": "cnctwin.virtual.mtconnect_agent",
     "OpcUaMachineServer": "cnctwin.virtual.opcua_server",
     "OpcUaServerSecurity": "cnctwin.virtual.opcua_server",
     "SecurityMode": "cnctwin.virtual.opcua_server",
@@ -60,6 +62,7 @@ __all__ = [
     "HoleFault",
     "MachineClock",
     "ModbusMachineServer",
+    "MTConnectAgent",
     "NoiseConfig",
     "OpcUaMachineServer",
     "OpcUaServerSecurity",

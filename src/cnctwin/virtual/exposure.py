@@ -27,7 +27,8 @@ def check_exposure(host: str, transport: str, *, secured: bool, insecure: bool) 
     host
         The address to listen on.
     transport
-        ``"opcua"`` or ``"modbus"`` (Modbus TCP has no security: never ``secured``).
+        ``"opcua"``, ``"modbus"`` or ``"mtconnect"`` (Modbus TCP and the MTConnect agent have
+        no security: never ``secured``).
     secured
         The server authenticates its peers (OPC UA Sign or SignAndEncrypt with a trust list).
     insecure
@@ -40,8 +41,9 @@ def check_exposure(host: str, transport: str, *, secured: bool, insecure: bool) 
     """
     if secured or insecure or is_loopback(host):
         return
-    if transport == "modbus":
-        fix = "Modbus TCP has no security: listen on 127.0.0.1"
+    if transport in ("modbus", "mtconnect"):
+        name = "Modbus TCP" if transport == "modbus" else "the MTConnect agent"
+        fix = f"{name} has no security: listen on 127.0.0.1"
     else:
         fix = (
             "give --security-mode SignAndEncrypt with --certificate, --private-key and --trust "
