@@ -71,7 +71,27 @@ def test_slot_volume_and_engagement(tmp_path: Path) -> None:
     assert np.median(cutting["feed_per_tooth_mm"]) == pytest.approx(600 / (10000 * 2))
     stl = (out / "stock.stl").read_bytes()
     triangles = int.from_bytes(stl[80:84], "little")
-    assert len(stl) == 84 + 50 * triangles and triangles > 0
+    # The default 0.5 mm: cells of two 0.2 mm dexels, 100 x 50 of them on the 40 x 20 mm block,
+    # 2 (100 + 1)(50 + 1) + 6 (100 + 50 + 2) triangles.
+    assert len(stl) == 84 + 50 * triangles and triangles == 2 * 101 * 51 + 6 * 152
+
+
+def test_stl_options(tmp_path: Path) -> None:
+    config, program, out = tmp_path / "cell.toml", tmp_path / "slot.ngc", tmp_path / "run"
+    config.write_text(CONFIG)
+    program.write_text(PROGRAM)
+    args = ["simulate", str(program), "--config", str(config), "--out", str(out), "--json"]
+    done = _cnctwin(*args, "--stl-resolution-mm", "2", "--stl-ascii")
+    assert done.returncode == 0, done.stderr
+    text = (out / "stock.stl").read_text()
+    # 2 mm cells: 20 x 10 of them.
+    assert text.startswith("solid cnctwin stock after slot.ngc\n")
+    assert text.count("endfacet") == 2 * 21 * 11 + 6 * 32
+    done = _cnctwin(*args, "--stl-resolution-mm", "0")
+    assert done.returncode == 2
+    assert done.stderr.strip() == (
+        "--stl-resolution-mm 0.0: give a resolution > 0 mm (below the dexel pitch: the pitch)"
+    )
 
 
 def test_missing_tool_geometry_names_the_line(tmp_path: Path) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import math
 import sys
 from pathlib import Path
 from typing import Annotated, Any
@@ -25,7 +26,10 @@ from cnctwin.config import (
 from cnctwin.errors import InputError
 from cnctwin.report import check_report_path
 
-__all__ = ["resolution", "simulate", "simulate_report"]
+__all__ = ["STL_RESOLUTION_MM", "resolution", "simulate", "simulate_report"]
+
+#: Default size of the cells of the written stock.stl, mm (the demo's file: about 2 MB).
+STL_RESOLUTION_MM = 0.5
 
 
 def resolution(
@@ -56,12 +60,16 @@ def simulate_report(
     out: Path | None = None,
     progress_bar: bool = False,
     html: Path | None = None,
+    stl_resolution_mm: float | None = STL_RESOLUTION_MM,
+    stl_ascii: bool = False,
 ) -> dict[str, Any]:
     """Run the program through the stock (:func:`~cnctwin.simulation.simulate_program`),
     write the outputs to ``out`` (``engagement.csv``, ``stock.stl``, ``summary.json``;
     created) and return the summary (:meth:`~cnctwin.simulation.ProgramCut.summary`).
     ``progress_bar`` shows a progress bar on stderr; ``html`` is the file of the HTML report
-    (:func:`~cnctwin.report.simulation.simulation_report`)."""
+    (:func:`~cnctwin.report.simulation.simulation_report`); ``stl_resolution_mm`` the cell size
+    of ``stock.stl`` (``None``: the dexel pitch; :func:`~cnctwin.geometry.stock_mesh`),
+    ``stl_ascii`` its format (else binary)."""
     from cnctwin.geometry import stock_mesh, write_stl
     from cnctwin.simulation import COLUMNS, simulate_program
 
@@ -79,7 +87,12 @@ def simulate_report(
             for row in data:
                 # t_s to 12 digits: a segment end lies between two cycle times.
                 writer.writerow([f"{row[0]:.12g}", *(f"{v:.6g}" for v in row[1:])])
-        write_stl(out / "stock.stl", stock_mesh(cut.stock), f"cnctwin stock after {program.name}")
+        write_stl(
+            out / "stock.stl",
+            stock_mesh(cut.stock, stl_resolution_mm),
+            f"cnctwin stock after {program.name}",
+            binary=not stl_ascii,
+        )
         (out / "summary.json").write_text(finite_json.dumps(report, indent=2) + "\n")
     if html is not None:
         from cnctwin.report import simulation_report
@@ -107,12 +120,27 @@ def simulate(
         Path | None,
         typer.Option("--report", help="Write a self-contained HTML report (interactive plots)."),
     ] = None,
+    stl_resolution_mm: Annotated[
+        float,
+        typer.Option(
+            "--stl-resolution-mm",
+            help="Cell size of stock.stl in mm (the dexel pitch or less: every dexel).",
+        ),
+    ] = STL_RESOLUTION_MM,
+    stl_ascii: Annotated[
+        bool, typer.Option("--stl-ascii", help="Write stock.stl as text (else binary).")
+    ] = False,
 ) -> None:
     """Cut the stock along a program: engagement per step, removed volume, final stock."""
     if html is not None:
         check_report_path(html)
     settings = load_config(config)
     rho, cycle_s = resolution(settings, density, cycle_ms)
+    if not (math.isfinite(stl_resolution_mm) and stl_resolution_mm > 0.0):
+        raise InputError(
+            f"--stl-resolution-mm {stl_resolution_mm}: give a resolution > 0 mm "
+            "(below the dexel pitch: the pitch)"
+        )
     report = simulate_report(
         program,
         settings,
@@ -121,6 +149,8 @@ def simulate(
         out=out,
         progress_bar=not as_json and sys.stderr.isatty(),
         html=html,
+        stl_resolution_mm=stl_resolution_mm,
+        stl_ascii=stl_ascii,
     )
     if as_json:
         sys.stdout.write(finite_json.dumps(report) + "\n")

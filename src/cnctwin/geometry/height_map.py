@@ -8,6 +8,10 @@ narrower than a cell still shows at its full depth. A ray without material has n
 cell has none only when all its rays are empty. The 3D stock views (the live dashboard, the
 simulate report) draw it.
 
+:func:`material_heights` resamples the other way, for the STL surface
+(:func:`cnctwin.geometry.mesh.stock_mesh`): each cell holds the *mean* length of material of its
+rays (an empty ray counts 0), so that cell area x mean height sums to the z rays' volume exactly.
+
 Units: mm throughout.
 """
 
@@ -22,7 +26,7 @@ from numpy.typing import NDArray
 from cnctwin.errors import InputError
 from cnctwin.geometry.dexel import DexelStock
 
-__all__ = ["HeightMap", "height_map"]
+__all__ = ["HeightMap", "MaterialHeights", "height_map", "material_heights"]
 
 #: Largest number of map cells a side.
 MAX_CELLS_LIMIT = 2000
@@ -102,3 +106,64 @@ def _centres(origin: float, pitch: float, n: int, step: int, cells: int) -> NDAr
     last = np.minimum(first + step, n) - 1
     centres: NDArray[np.float64] = origin + (0.5 * (first + last) + 0.5) * pitch
     return centres
+
+
+@dataclass(frozen=True, slots=True)
+class MaterialHeights:
+    """Material per cell of a coarsened z-ray grid, for a height-field surface.
+
+    Attributes
+    ----------
+    x_edges_mm, y_edges_mm
+        Cell boundaries along x ``(nx + 1,)`` and y ``(ny + 1,)``, mm (machine coordinates); the
+        last cell is narrower where the rays do not divide evenly.
+    height_mm
+        ``(ny, nx)`` mean length of material of the cell's rays (empty rays count 0), mm.
+    floor_mm
+        Bottom of the stock's grid, mm: the heights stand on it.
+    step
+        Rays per cell along x and y.
+    """
+
+    x_edges_mm: NDArray[np.float64]
+    y_edges_mm: NDArray[np.float64]
+    height_mm: NDArray[np.float64]
+    floor_mm: float
+    step: int
+
+
+def material_heights(stock: DexelStock, step: int) -> MaterialHeights:
+    """Mean material length of the z rays over cells of ``step x step`` rays (>= 1), mm.
+
+    The cells' volume, ``sum(area x height)``, equals ``stock.volume_mm3("z")`` (up to float
+    rounding): the heights keep the material, not its shape within a cell. A ray's material is
+    the summed length of its intervals, which is the height of its top above the floor for a
+    stock milled from above (one interval a ray, resting on the floor).
+
+    Raises
+    ------
+    InputError
+        For ``step`` < 1.
+    """
+    if isinstance(step, bool) or step < 1:
+        raise InputError(f"step={step!r}; give a whole number of rays per cell >= 1")
+    count, start, _block, rows, _heap_top = stock.family_arrays("z")
+    nx, ny, _ = stock.grid.shape
+    length = np.zeros(count.shape[0])
+    first = start.astype(np.int64)
+    for k in range(int(count.max(initial=0))):
+        has = count > k
+        row = rows[first[has] + k].astype(np.float64)
+        length[has] += row[:, 1] - row[:, 0]
+    per_ray = length.reshape(ny, nx)
+    mx, my = -(-nx // step), -(-ny // step)
+    sums = np.add.reduceat(
+        np.add.reduceat(per_ray, np.arange(0, ny, step), axis=0), np.arange(0, nx, step), axis=1
+    )
+    wx = np.minimum(np.arange(mx) * step + step, nx) - np.arange(mx) * step
+    wy = np.minimum(np.arange(my) * step + step, ny) - np.arange(my) * step
+    px, py, _ = stock.grid.pitch_mm
+    ox, oy, oz = stock.grid.origin_mm
+    x_edges = ox + np.minimum(np.arange(mx + 1) * step, nx) * px
+    y_edges = oy + np.minimum(np.arange(my + 1) * step, ny) * py
+    return MaterialHeights(x_edges, y_edges, sums / np.outer(wy, wx), float(oz), step)

@@ -1,195 +1,111 @@
 """A closed triangle mesh of the stock, for STL export and viewing.
 
-The mesh is built from the stock's z dexels as columns: each z interval is a prism over its
-dexel cell, and faces are emitted where material meets air: the top and bottom of every
-interval, and on each side of a cell the heights where the cell has material and its
-neighbour (or the outside) has none. The surface is closed and its enclosed volume equals the
-z family's volume exactly; where columns of different heights meet, edges end on other edges
-(T-junctions), which viewers and slicers accept but a strict manifold check does not. Its
-resolution is the dexel pitch (a voxel-like surface, as dexel viewers show before smoothing).
+The stock is resampled to cells of ``step x step`` z dexels (the output resolution), each
+holding its rays' mean material length (:func:`cnctwin.geometry.height_map.material_heights`),
+and meshed as a height field over a flat bottom:
 
-Units: mm.
+- the top surface passes through a node at every cell centre at the cell's height, plus nodes
+  on the stock's outline that repeat the height of the cell next to them; each square of four
+  nodes is split into two triangles along its diagonal of smaller height difference;
+- four vertical walls close the outline down to the floor, and a fan of triangles around the
+  outline's centroid closes the bottom.
+
+Every edge is shared by exactly two triangles, walked in opposite directions (a closed,
+consistently outward-wound 2-manifold; no T-junctions), so slicers and CAD take the file as a
+solid. The height field assumes the material of each z ray rests on the floor, which is what
+milling from above leaves; a ray cut through keeps a skin of :data:`MIN_THICKNESS_MM` so that
+the top never touches the bottom.
+
+Volume: the trapezoid rule through cell centres keeps the cells' volume where the heights vary
+linearly; it differs only in the cells beside a step (a wall of the part) and by the skin, so
+``|V_mesh - V_dexel| <= (length x height of the part's walls) x resolution`` plus the skin's
+``area x MIN_THICKNESS_MM`` (docs/simulate.md). Units: mm.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from cnctwin.errors import InputError
 from cnctwin.geometry.dexel import DexelStock
+from cnctwin.geometry.height_map import material_heights
 
-__all__ = ["stock_mesh", "mesh_volume_mm3"]
+__all__ = ["MIN_THICKNESS_MM", "mesh_step", "mesh_volume_mm3", "stock_mesh"]
 
-
-@njit(cache=True)
-def _intervals(
-    count: np.ndarray, start: np.ndarray, rows: np.ndarray, ray: int, out: np.ndarray
-) -> int:  # pragma: no cover - numba
-    n: int = count[ray]
-    first = start[ray]
-    for k in range(n):
-        out[k, 0] = rows[first + k, 0]
-        out[k, 1] = rows[first + k, 1]
-    return n
+#: Material kept over a ray cut through, mm, so that the top surface stays above the bottom.
+MIN_THICKNESS_MM = 1e-3
 
 
-@njit(cache=True)
-def _difference(
-    a: np.ndarray, na: int, b: np.ndarray, nb: int, out: np.ndarray
-) -> int:  # pragma: no cover - numba
-    """Parts of the sorted intervals a[:na] not covered by b[:nb]; returns how many."""
-    m = 0
-    j = 0
-    for i in range(na):
-        lo = a[i, 0]
-        hi = a[i, 1]
-        while j < nb and b[j, 1] <= lo:
-            j += 1
-        k = j
-        cur = lo
-        while k < nb and b[k, 0] < hi:
-            if b[k, 0] > cur:
-                out[m, 0] = cur
-                out[m, 1] = b[k, 0]
-                m += 1
-            if b[k, 1] > cur:
-                cur = b[k, 1]
-            if cur >= hi:
-                break
-            k += 1
-        if cur < hi:
-            out[m, 0] = cur
-            out[m, 1] = hi
-            m += 1
-    return m
+def mesh_step(stock: DexelStock, resolution_mm: float | None) -> int:
+    """Rays per mesh cell for an output resolution (mm; ``None``: every ray, the dexel pitch).
+
+    The cells are the largest whole number of rays not wider than ``resolution_mm`` (at least
+    one: a resolution finer than the dexel pitch gives the pitch).
+
+    Raises
+    ------
+    InputError
+        For a resolution that is not finite and > 0.
+    """
+    if resolution_mm is None:
+        return 1
+    if not (math.isfinite(resolution_mm) and resolution_mm > 0.0):
+        raise InputError(
+            f"STL resolution {resolution_mm!r} mm; give a finite resolution > 0 mm "
+            "(at most the stock's size)"
+        )
+    px, py, _ = stock.grid.pitch_mm
+    return max(1, math.floor(resolution_mm / max(px, py) * (1.0 + 1e-9)))
 
 
-@njit(cache=True)
-def _quad(
-    tris: np.ndarray, t: int, p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray
-) -> int:  # pragma: no cover - numba
-    """Two triangles (p0, p1, p2) and (p0, p2, p3); counter-clockwise seen from outside."""
-    for c in range(3):
-        tris[t, 0, c] = p0[c]
-        tris[t, 1, c] = p1[c]
-        tris[t, 2, c] = p2[c]
-        tris[t + 1, 0, c] = p0[c]
-        tris[t + 1, 1, c] = p2[c]
-        tris[t + 1, 2, c] = p3[c]
-    return t + 2
+def _nodes(edges: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The outline's two ends with the cell centres between them."""
+    return np.concatenate([edges[:1], 0.5 * (edges[:-1] + edges[1:]), edges[-1:]])
 
 
-@njit(cache=True)
-def _build(
-    count: np.ndarray,
-    start: np.ndarray,
-    rows: np.ndarray,
-    nx: int,
-    ny: int,
-    px: float,
-    py: float,
-    ox: float,
-    oy: float,
-    oz: float,
-    tris: np.ndarray,
-    emit: bool,
-) -> int:  # pragma: no cover
-    """Emit the mesh's triangles into ``tris`` (or only count them when ``emit`` is False)."""
-    maxn = 1
-    for r in range(count.size):
-        if count[r] > maxn:
-            maxn = count[r]
-    a = np.empty((maxn, 2), np.float32)
-    b = np.empty((maxn, 2), np.float32)
-    d = np.empty((maxn + maxn, 2), np.float32)
-    p0 = np.empty(3)
-    p1 = np.empty(3)
-    p2 = np.empty(3)
-    p3 = np.empty(3)
-    t = 0
-    for j in range(ny):
-        for i in range(nx):
-            na = _intervals(count, start, rows, j * nx + i, a)
-            if na == 0:
-                continue
-            x0 = ox + i * px
-            x1 = x0 + px
-            y0 = oy + j * py
-            y1 = y0 + py
-            for k in range(na):
-                zl = oz + a[k, 0]
-                zh = oz + a[k, 1]
-                if emit:
-                    p0[0], p0[1], p0[2] = x0, y0, zh
-                    p1[0], p1[1], p1[2] = x1, y0, zh
-                    p2[0], p2[1], p2[2] = x1, y1, zh
-                    p3[0], p3[1], p3[2] = x0, y1, zh
-                    _quad(tris, t, p0, p1, p2, p3)
-                    p0[0], p0[1], p0[2] = x0, y0, zl
-                    p1[0], p1[1], p1[2] = x0, y1, zl
-                    p2[0], p2[1], p2[2] = x1, y1, zl
-                    p3[0], p3[1], p3[2] = x1, y0, zl
-                    _quad(tris, t + 2, p0, p1, p2, p3)
-                t += 4
-            # Four sides: -x, +x, -y, +y.
-            for side in range(4):
-                if side == 0:
-                    ni, nj = i - 1, j
-                elif side == 1:
-                    ni, nj = i + 1, j
-                elif side == 2:
-                    ni, nj = i, j - 1
-                else:
-                    ni, nj = i, j + 1
-                nb = 0
-                if 0 <= ni < nx and 0 <= nj < ny:
-                    nb = _intervals(count, start, rows, nj * nx + ni, b)
-                m = _difference(a, na, b, nb, d)
-                for k in range(m):
-                    zl = oz + d[k, 0]
-                    zh = oz + d[k, 1]
-                    if emit:
-                        if side == 0:
-                            p0[0], p0[1], p0[2] = x0, y0, zl
-                            p1[0], p1[1], p1[2] = x0, y0, zh
-                            p2[0], p2[1], p2[2] = x0, y1, zh
-                            p3[0], p3[1], p3[2] = x0, y1, zl
-                        elif side == 1:
-                            p0[0], p0[1], p0[2] = x1, y0, zl
-                            p1[0], p1[1], p1[2] = x1, y1, zl
-                            p2[0], p2[1], p2[2] = x1, y1, zh
-                            p3[0], p3[1], p3[2] = x1, y0, zh
-                        elif side == 2:
-                            p0[0], p0[1], p0[2] = x0, y0, zl
-                            p1[0], p1[1], p1[2] = x1, y0, zl
-                            p2[0], p2[1], p2[2] = x1, y0, zh
-                            p3[0], p3[1], p3[2] = x0, y0, zh
-                        else:
-                            p0[0], p0[1], p0[2] = x0, y1, zl
-                            p1[0], p1[1], p1[2] = x0, y1, zh
-                            p2[0], p2[1], p2[2] = x1, y1, zh
-                            p3[0], p3[1], p3[2] = x1, y1, zl
-                        _quad(tris, t, p0, p1, p2, p3)
-                    t += 2
-    return t
-
-
-def stock_mesh(stock: DexelStock) -> NDArray[np.float32]:
+def stock_mesh(stock: DexelStock, resolution_mm: float | None = None) -> NDArray[np.float32]:
     """Triangles of the stock's surface, ``(n, 3, 3)`` vertices in machine coordinates, mm.
 
-    Triangles wind counter-clockwise seen from outside (normals point out of the material).
+    ``resolution_mm`` is the size of the resampled cells (see :func:`mesh_step`; ``None``: the
+    dexel pitch). Triangles wind counter-clockwise seen from outside (normals point out of the
+    material). A stock of ``nx x ny`` cells gives ``2 (nx + 1)(ny + 1) + 6 (nx + ny + 2)``
+    triangles.
     """
-    z = stock.family_arrays("z")
-    grid = stock.grid
-    nx, ny, _ = grid.shape
-    px, py, _ = grid.pitch_mm
-    ox, oy, oz = grid.origin_mm
-    dummy = np.empty((0, 3, 3), np.float32)
-    n = _build(z.count, z.start, z.rows, nx, ny, px, py, ox, oy, oz, dummy, False)
-    tris = np.empty((n, 3, 3), np.float32)
-    _build(z.count, z.start, z.rows, nx, ny, px, py, ox, oy, oz, tris, True)
-    return tris
+    cells = material_heights(stock, mesh_step(stock, resolution_mm))
+    xs, ys = _nodes(cells.x_edges_mm), _nodes(cells.y_edges_mm)
+    nx, ny = xs.size, ys.size
+    h = np.maximum(np.pad(cells.height_mm, 1, mode="edge"), MIN_THICKNESS_MM)
+    floor = cells.floor_mm
+    gx, gy = np.meshgrid(xs, ys)
+    top = np.column_stack([gx.ravel(), gy.ravel(), floor + h.ravel()])
+    # Top: the squares (a, b, c, d) counter-clockwise from above, split along a-c or b-d.
+    idx = np.arange(nx * ny).reshape(ny, nx)
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, d = idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    z = h.ravel()
+    ac = np.abs(z[a] - z[c]) <= np.abs(z[b] - z[d])
+    faces = [
+        np.where(ac[:, None], np.column_stack([a, b, c]), np.column_stack([a, b, d])),
+        np.where(ac[:, None], np.column_stack([a, c, d]), np.column_stack([b, c, d])),
+    ]
+    # The outline, counter-clockwise from above: bottom row, right column, top row, left column.
+    loop = np.concatenate([idx[0, :], idx[1:, -1], idx[-1, -2::-1], idx[-2:0:-1, 0]])
+    p, q = loop, np.roll(loop, -1)
+    base = nx * ny
+    pb = base + np.arange(loop.size)  # the outline's nodes again, on the floor
+    qb = np.roll(pb, -1)
+    faces += [np.column_stack([pb, qb, q]), np.column_stack([pb, q, p])]
+    centre = base + loop.size
+    faces.append(np.column_stack([np.full(loop.size, centre), qb, pb]))
+    bottom = top[loop].copy()
+    bottom[:, 2] = floor
+    middle = [0.5 * (xs[0] + xs[-1]), 0.5 * (ys[0] + ys[-1]), floor]
+    vertices = np.vstack([top, bottom, middle])
+    triangles: NDArray[np.float32] = vertices[np.concatenate(faces)].astype(np.float32)
+    return triangles
 
 
 def mesh_volume_mm3(triangles: NDArray[np.floating]) -> float:
