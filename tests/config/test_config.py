@@ -172,7 +172,7 @@ def test_missing_tool_table_names_the_key(tmp_path: Path) -> None:
             "[[tools]]\nnumber = 2\ndiameter_mm = 3\ncolour = 1\n",
             "tools[1].colour: unknown key; valid keys: number, kind, diameter_mm, "
             "corner_radius_mm, tip_diameter_mm, flutes, helix_deg, flute_length_mm, "
-            "tip_angle_deg, length_mm, x_offset_mm, orientation",
+            "tip_angle_deg, web_mm, pitch_mm, length_mm, x_offset_mm, orientation",
         ),
     ],
 )

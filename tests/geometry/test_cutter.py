@@ -101,7 +101,7 @@ def test_envelope_volume_matches_integral(cutter: Cutter) -> None:
             {"kind": "ball", "diameter_mm": 6.0, "flute_length_mm": 2.0, "corner_radius_mm": 3.0},
             "at least",
         ),
-        ({"kind": "drill", "diameter_mm": 6.0, "flute_length_mm": 5.0}, "kind='drill'"),
+        ({"kind": "reamer", "diameter_mm": 6.0, "flute_length_mm": 5.0}, "kind='reamer'"),
         (
             {"kind": "flat", "diameter_mm": 6.0, "flute_length_mm": 5.0, "tip_angle_rad": 1.0},
             "use kind 'conical'",

@@ -13,6 +13,7 @@ from cnctwin.nc import ToolEntry
 
 __all__ = [
     "CutterKind",
+    "DEFAULT_POINT_ANGLE_DEG",
     "MAX_FLUTES",
     "MAX_TOOL_DIAMETER_MM",
     "MAX_TOOL_LENGTH_MM",
@@ -29,10 +30,14 @@ MAX_FLUTES = 100
 MAX_TOOL_LENGTH_MM = 2000.0
 
 #: Cutter shapes: ``"flat"`` end mill, ``"ball"`` nose, ``"bull"`` nose (with a corner radius),
-#: ``"conical"`` (a V-bit, pointed) or ``"snub"`` nose (a cone with a flat tip). The one list of
-#: kinds, for the configuration and for :class:`cnctwin.geometry.Cutter`.
-CutterKind = Literal["flat", "ball", "bull", "conical", "snub"]
+#: ``"conical"`` (a V-bit, pointed), ``"snub"`` nose (a cone with a flat tip), ``"drill"`` (a twist
+#: drill: a cone of its point angle, cutting along its axis) or ``"tap"`` (a cutting tap of a
+#: thread pitch). The one list of kinds, for the configuration and for
+#: :class:`cnctwin.geometry.Cutter`.
+CutterKind = Literal["flat", "ball", "bull", "conical", "snub", "drill", "tap"]
 _CONES = ("conical", "snub")
+#: Point angle of a drill when the configuration names none, degrees (the common twist drill).
+DEFAULT_POINT_ANGLE_DEG = 118.0
 
 
 class ToolConfig(Section):
@@ -44,18 +49,22 @@ class ToolConfig(Section):
         Tool number (the T word), 0 to 99,999.
     kind
         ``"flat"`` end mill, ``"ball"`` nose, ``"bull"`` nose (corner radius), ``"conical"``
-        (V-bit) or ``"snub"`` nose (cone with a flat tip): :data:`CutterKind`.
+        (V-bit), ``"snub"`` nose (cone with a flat tip), ``"drill"`` (twist drill) or ``"tap"``
+        (cutting tap): :data:`CutterKind`. A drill's or a tap's forces are those of
+        :mod:`cnctwin.mechanics.drilling` (docs/drilling.md).
     diameter_mm
         Cutter diameter in mm, 0.01 to 1000.
     corner_radius_mm
-        Corner radius in mm: 0 for ``flat``, ``conical`` and ``snub`` (the default),
+        Corner radius in mm: 0 for ``flat``, ``conical``, ``snub``, ``drill`` and ``tap`` (the
+        default),
         ``diameter_mm / 2`` for ``ball`` (the default), and required, strictly between 0 and
         ``diameter_mm / 2``, for ``bull``.
     tip_diameter_mm
         Diameter of a snub nose's flat tip in mm: required for ``snub``, strictly between 0 and
         ``diameter_mm``; 0 (the default) for every other kind.
     flutes
-        Number of flutes (teeth), an integer 1 to 100.
+        Number of flutes (teeth), an integer 1 to 100; a drill's cutting lips (2 for a twist
+        drill).
     helix_deg
         Helix angle in degrees, 0 to 89.
     flute_length_mm
@@ -63,7 +72,15 @@ class ToolConfig(Section):
     tip_angle_deg
         Included angle of the cone of a ``conical`` or ``snub`` tool in degrees, in (0, 180)
         (90 for a common V-bit); none (the default): the cone spans the whole fluted length, as
-        CAMotics models these tools. Not allowed for the other kinds.
+        CAMotics models these tools. A ``drill``'s point angle, in (0, 180); none: 118
+        (:data:`DEFAULT_POINT_ANGLE_DEG`). Not allowed for the other kinds.
+    web_mm
+        Width of a drill's chisel edge (the web at the point) in mm, 0 (the default: a split
+        point or an indexable drill, no chisel edge) up to less than ``diameter_mm``; typically
+        0.1 to 0.2 times the diameter for a conventional twist drill. Only for ``drill``.
+    pitch_mm
+        Thread pitch of a ``tap`` in mm, required for a tap, greater than 0 and less than
+        ``diameter_mm / 2``; not allowed for the other kinds.
     length_mm
         Tool length offset along Z in mm (applied by G43), within +-2000.
     x_offset_mm
@@ -81,7 +98,9 @@ class ToolConfig(Section):
     flutes: int = Field(default=2, ge=1, le=MAX_FLUTES)
     helix_deg: float = Field(default=30.0, ge=0, le=89)
     flute_length_mm: float | None = Field(default=None, ge=0.01, le=MAX_TOOL_LENGTH_MM)
-    tip_angle_deg: float | None = Field(default=None, gt=0, lt=180)
+    tip_angle_deg: float | None = Field(default=None, gt=0, lt=180, validate_default=True)
+    web_mm: float = Field(default=0.0, ge=0)
+    pitch_mm: float | None = Field(default=None, gt=0, validate_default=True)
     length_mm: float = Field(default=0.0, ge=-MAX_TOOL_LENGTH_MM, le=MAX_TOOL_LENGTH_MM)
     x_offset_mm: float = Field(default=0.0, ge=-MAX_TOOL_LENGTH_MM, le=MAX_TOOL_LENGTH_MM)
     orientation: int = Field(default=0, ge=0, le=9)
@@ -94,7 +113,7 @@ class ToolConfig(Section):
         if kind is None or diameter is None:
             return value  # kind or diameter is itself invalid and reported
         half: float = diameter / 2.0
-        if kind == "flat" or kind in _CONES:
+        if kind in ("flat", "drill", "tap") or kind in _CONES:
             if value:
                 raise PydanticCustomError(
                     "corner_radius",
@@ -147,11 +166,54 @@ class ToolConfig(Section):
     @classmethod
     def _angle_fits_kind(cls, value: float | None, info: ValidationInfo) -> float | None:
         kind = info.data.get("kind")
+        if kind == "drill":
+            return DEFAULT_POINT_ANGLE_DEG if value is None else value
         if value is not None and kind is not None and kind not in _CONES:
             raise PydanticCustomError(
                 "tip_angle",
-                "is only for kind 'conical' or 'snub'; remove it for kind '{kind}'",
+                "is only for kind 'conical', 'snub' or 'drill'; remove it for kind '{kind}'",
                 {"kind": kind},
+            )
+        return value
+
+    @field_validator("web_mm")
+    @classmethod
+    def _web_fits_kind(cls, value: float, info: ValidationInfo) -> float:
+        kind = info.data.get("kind")
+        diameter = info.data.get("diameter_mm")
+        if kind is None or diameter is None:
+            return value  # kind or diameter is itself invalid and reported
+        if kind != "drill" and value:
+            raise PydanticCustomError(
+                "web", "is only for kind 'drill'; remove it for kind '{kind}'", {"kind": kind}
+            )
+        if value >= diameter:
+            raise PydanticCustomError(
+                "web",
+                "must be less than diameter_mm ({diameter}): the chisel edge lies inside the drill",
+                {"diameter": diameter},
+            )
+        return value
+
+    @field_validator("pitch_mm")
+    @classmethod
+    def _pitch_fits_kind(cls, value: float | None, info: ValidationInfo) -> float | None:
+        kind = info.data.get("kind")
+        diameter = info.data.get("diameter_mm")
+        if kind is None or diameter is None:
+            return value  # kind or diameter is itself invalid and reported
+        if kind != "tap":
+            if value is not None:
+                raise PydanticCustomError(
+                    "pitch", "is only for kind 'tap'; remove it for kind '{kind}'", {"kind": kind}
+                )
+            return None
+        if value is None or not value < 0.5 * diameter:
+            raise PydanticCustomError(
+                "pitch",
+                "must be given for kind 'tap', greater than 0 and less than diameter_mm/2 "
+                "({half}), e.g. 1.5 for an M10 tap",
+                {"half": 0.5 * diameter},
             )
         return value
 

@@ -16,7 +16,7 @@ Units: this package works in mm (every length's name ends in ``_mm``; volumes mm
 feed mm/min as in the NC layer), seconds and radians. See docs/dexel.md.
 """
 
-from cnctwin.geometry.cutter import Cutter, CutterSlices
+from cnctwin.geometry.cutter import AXIAL_KINDS, Cutter, CutterSlices
 from cnctwin.geometry.dexel import AXES, Axis, DexelGrid, DexelStock
 from cnctwin.geometry.engagement import Engagement, cut, cut_path
 from cnctwin.geometry.engagement_map import (
@@ -37,6 +37,7 @@ __all__ = [
     "AXES",
     "Axis",
     "ContactRecord",
+    "AXIAL_KINDS",
     "Cutter",
     "CutterSlices",
     "DexelGrid",

@@ -1,5 +1,6 @@
-"""The cutter: flat, ball, bull-nose, conical (V-bit) and snub-nose end mills as solids of
-revolution about +z, for the material removal, the engagement and the force model alike.
+"""The cutter: flat, ball, bull-nose, conical (V-bit) and snub-nose end mills, twist drills and
+taps as solids of revolution about +z, for the material removal, the engagement and the force
+model alike.
 
 Units: a :class:`Cutter` stores its lengths in mm (every length's name ends in ``_mm``), as the
 ``[[tools]]`` configuration and the geometry and NC layers do, and its angles in rad (the
@@ -31,7 +32,14 @@ tip angle ``theta`` widen along a cone up to ``R`` at the cone height
 
 CAMotics' ``conical`` and ``snubnose`` tools are cones over their whole ``length`` (``h_c = L``,
 CAMotics' ``ConicSweep``), which :meth:`Cutter.conical` and :meth:`Cutter.snub` give when no
-angle is named. The angle ``kappa`` between the tool axis and the surface normal enters the
+angle is named. A twist drill (:meth:`Cutter.drill`) sweeps the same envelope as a conical tool
+whose included angle is the drill's point angle (``h_c = R / tan(theta / 2)``, 0.30 D at
+118 degrees); its chisel-edge width (``web_mm``) only enters the force model. A tap
+(:meth:`Cutter.tap`) sweeps the cylinder of its nominal (major) diameter, flat at the tip (its
+chamfer is not modelled); its thread pitch (``pitch_mm``) enters the torque model. The forces of
+both are those of :mod:`cnctwin.mechanics.drilling`, not the milling model.
+
+The angle ``kappa`` between the tool axis and the surface normal enters the
 uncut chip thickness ``h = f_z sin(phi) sin(kappa)`` (Altintas, *Manufacturing Automation*, 2nd
 ed., 2012, Sec. 2.6 for ball end mills); on a cone ``sin(kappa) = cos(theta / 2)``.
 
@@ -58,9 +66,12 @@ from cnctwin.errors import ConfigError
 if TYPE_CHECKING:
     from cnctwin.config import ToolConfig
 
-__all__ = ["Cutter", "CutterSlices"]
+__all__ = ["AXIAL_KINDS", "Cutter", "CutterSlices"]
 
-_CONES = ("conical", "snub")
+#: Kinds whose tip is a cone (a drill's point is a cone of its point angle).
+_CONES = ("conical", "snub", "drill")
+#: Kinds that cut along their axis (the drilling model, :mod:`cnctwin.mechanics.drilling`).
+AXIAL_KINDS = ("drill", "tap")
 #: A cone height within this fraction above the fluted length is the fluted length (the angle
 #: of a cone over the whole length, computed from it, rounds either way).
 _CONE_REL_TOL = 1e-9
@@ -106,7 +117,7 @@ class Cutter:
     Attributes
     ----------
     kind
-        ``"flat"``, ``"ball"``, ``"bull"``, ``"conical"`` or ``"snub"``
+        ``"flat"``, ``"ball"``, ``"bull"``, ``"conical"``, ``"snub"``, ``"drill"`` or ``"tap"``
         (:data:`~cnctwin.config.tools.CutterKind`).
     diameter_mm
         Cutting diameter ``D = 2R`` in mm, > 0.
@@ -133,6 +144,10 @@ class Cutter:
     runout_angle_rad
         Direction of that offset, ``lambda`` in rad, measured from tooth 0 in the direction of
         rotation: tooth j's radius becomes ``R + rho cos(j 2 pi / N - lambda)``.
+    web_mm
+        Chisel-edge (web) width of a ``drill`` in mm, in [0, D); 0 for every other kind.
+    pitch_mm
+        Thread pitch of a ``tap`` in mm, in (0, D/2); 0 for every other kind.
 
     Raises
     ------
@@ -150,6 +165,8 @@ class Cutter:
     tip_angle_rad: float = 0.0
     runout_mm: float = 0.0
     runout_angle_rad: float = 0.0
+    web_mm: float = 0.0
+    pitch_mm: float = 0.0
 
     def __post_init__(self) -> None:
         d = self.diameter_mm
@@ -157,10 +174,12 @@ class Cutter:
             raise ConfigError(f"diameter_mm={d!r}; give a finite cutter diameter > 0 mm")
         half = 0.5 * d
         rc = self.corner_radius_mm
-        if self.kind not in ("flat", "ball", "bull", *_CONES):
+        if self.kind not in ("flat", "ball", "bull", "tap", *_CONES):
             raise ConfigError(
-                f"kind={self.kind!r}; give 'flat', 'ball', 'bull', 'conical' or 'snub'"
+                f"kind={self.kind!r}; give 'flat', 'ball', 'bull', 'conical', 'snub', 'drill' "
+                "or 'tap'"
             )
+        self._check_axial(d)
         if self.kind in _CONES:
             self._check_cone(d, rc)
         elif self.tip_diameter_mm != 0.0 or self.tip_angle_rad != 0.0:
@@ -168,7 +187,7 @@ class Cutter:
                 f"tip_diameter_mm={self.tip_diameter_mm!r}, tip_angle_rad={self.tip_angle_rad!r}"
                 f" for kind {self.kind!r}; they must be 0 (use kind 'conical' or 'snub')"
             )
-        elif self.kind == "flat":
+        elif self.kind in ("flat", "tap"):
             if rc != 0.0:
                 raise ConfigError(
                     f"corner_radius_mm={rc!r} for a flat end mill; it must be 0 (use kind 'bull')"
@@ -308,6 +327,38 @@ class Cutter:
         )
 
     @classmethod
+    def drill(
+        cls,
+        diameter_mm: float,
+        flute_length_mm: float,
+        *,
+        point_angle_rad: float = math.radians(118.0),
+        web_mm: float = 0.0,
+        lips: int = 2,
+        helix_rad: float = math.radians(30.0),
+    ) -> Cutter:
+        """A twist drill: diameter and fluted length in mm, point angle in rad (118 degrees by
+        default), chisel-edge width ``web_mm`` in mm (0: no chisel edge) and ``lips`` cutting
+        lips. Its envelope is the cone of its point angle (see the module notes)."""
+        return cls(
+            "drill", diameter_mm, flute_length_mm, 0.0, lips, helix_rad, 0.0, point_angle_rad,
+            web_mm=web_mm,
+        )  # fmt: skip
+
+    @classmethod
+    def tap(
+        cls,
+        diameter_mm: float,
+        pitch_mm: float,
+        flute_length_mm: float,
+        *,
+        flutes: int = 3,
+    ) -> Cutter:
+        """A cutting tap: nominal (major) diameter, thread pitch and fluted length in mm.
+        Its envelope is the cylinder of the nominal diameter (see the module notes)."""
+        return cls("tap", diameter_mm, flute_length_mm, 0.0, flutes, 0.0, pitch_mm=pitch_mm)
+
+    @classmethod
     def from_tool_config(cls, tool: ToolConfig, flute_length_mm: float | None = None) -> Cutter:
         """The cutter of a configured tool (``[[tools]]`` entry, mm and degrees): every kind,
         with its corner radius, tip diameter and tip angle (degrees to rad).
@@ -343,6 +394,16 @@ class Cutter:
                     tool.diameter_mm, float(tool.tip_diameter_mm or 0.0), length,
                     tip_angle_rad=angle, flutes=tool.flutes, helix_rad=helix,
                 )  # fmt: skip
+            if tool.kind == "drill":
+                point = {} if angle is None else {"point_angle_rad": angle}
+                return cls.drill(
+                    tool.diameter_mm, length, web_mm=tool.web_mm, lips=tool.flutes,
+                    helix_rad=helix, **point,
+                )  # fmt: skip
+            if tool.kind == "tap":
+                return cls.tap(
+                    tool.diameter_mm, float(tool.pitch_mm or 0.0), length, flutes=tool.flutes
+                )
             return cls(
                 tool.kind,
                 tool.diameter_mm,
@@ -354,14 +415,34 @@ class Cutter:
         except ConfigError as err:
             raise ConfigError(f"tool {tool.number}: {err}") from None
 
+    def _check_axial(self, diameter: float) -> None:
+        """Validate a drill's web and a tap's pitch (mm); both 0 for the other kinds."""
+        web, pitch = self.web_mm, self.pitch_mm
+        if self.kind == "drill":
+            if not (math.isfinite(web) and 0.0 <= web < diameter):
+                raise ConfigError(
+                    f"web_mm={web!r} for a drill; give a chisel-edge width 0 <= web < "
+                    f"diameter_mm ({diameter})"
+                )
+        elif web != 0.0:
+            raise ConfigError(f"web_mm={web!r} for kind {self.kind!r}; it is only for a drill")
+        if self.kind == "tap":
+            if not (math.isfinite(pitch) and 0.0 < pitch < 0.5 * diameter):
+                raise ConfigError(
+                    f"pitch_mm={pitch!r} for a tap; give a thread pitch 0 < pitch < "
+                    f"diameter_mm/2 ({0.5 * diameter})"
+                )
+        elif pitch != 0.0:
+            raise ConfigError(f"pitch_mm={pitch!r} for kind {self.kind!r}; it is only for a tap")
+
     def _check_cone(self, diameter: float, corner: float) -> None:
         """Validate a conical or snub-nose tool's corner radius, tip diameter and angle."""
         if corner != 0.0:
             raise ConfigError(f"corner_radius_mm={corner!r} for a {self.kind} tool; it must be 0")
         tip = self.tip_diameter_mm
-        if self.kind == "conical" and tip != 0.0:
+        if self.kind in ("conical", "drill") and tip != 0.0:
             raise ConfigError(
-                f"tip_diameter_mm={tip!r} for a conical tool; it must be 0 (use kind 'snub')"
+                f"tip_diameter_mm={tip!r} for a {self.kind} tool; it must be 0 (use kind 'snub')"
             )
         if self.kind == "snub" and not (math.isfinite(tip) and 0.0 < tip < diameter):
             raise ConfigError(

@@ -1,4 +1,5 @@
-"""Cutting mechanics: milling and turning forces, torque, power, coefficients, materials.
+"""Cutting mechanics: milling, turning and drilling forces, torque, power, coefficients,
+materials.
 
 Public API::
 
@@ -18,6 +19,14 @@ conventions are in :mod:`cnctwin.mechanics.engagement` and :mod:`cnctwin.mechani
 """
 
 from cnctwin.mechanics.coefficients import CuttingCoefficients
+from cnctwin.mechanics.drilling import (
+    DrillingLoad,
+    DrillingMaterial,
+    drilling_load,
+    drilling_material,
+    drilling_materials,
+    tapping_torque,
+)
 from cnctwin.mechanics.engagement import ImmersionIntervals, immersion_angles
 from cnctwin.mechanics.identification import identify_coefficients
 from cnctwin.mechanics.materials import kienzle_material, milling_material
@@ -38,10 +47,15 @@ from cnctwin.mechanics.turning import (
 
 __all__ = [
     "CuttingCoefficients",
+    "DrillingLoad",
+    "DrillingMaterial",
     "ForceWaveform",
     "ImmersionIntervals",
     "MeanForces",
     "TurningCoefficients",
+    "drilling_load",
+    "drilling_material",
+    "drilling_materials",
     "edge_force_turning",
     "flat_end_mill_mean_forces",
     "identify_coefficients",
@@ -52,5 +66,6 @@ __all__ = [
     "milling_forces",
     "milling_material",
     "oblique_coefficients",
+    "tapping_torque",
     "turning_chip",
 ]

@@ -26,7 +26,12 @@ import numpy as np
 from cnctwin.errors import ConfigError, NCError
 from cnctwin.geometry import Cutter, DexelStock
 from cnctwin.simulation.cut import StepTable, simulate_cut
-from cnctwin.simulation.signals import MachineSignals, simulate_signals, spindle_drive_parameters
+from cnctwin.simulation.signals import (
+    MachineSignals,
+    axial_material,
+    simulate_signals,
+    spindle_drive_parameters,
+)
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
@@ -320,8 +325,8 @@ def predict_program_signals(
     Raises
     ------
     ConfigError
-        For a material missing from the library (naming ``material.name``), an unknown
-        spindle preset.
+        For a material missing from the library (naming ``material.name``; for a drill or a
+        tap also from the drilling coefficients), an unknown spindle preset.
     NCError
         For an NC error, or a tool the program uses that has no geometry.
     """
@@ -332,6 +337,7 @@ def predict_program_signals(
     except ConfigError as err:
         raise ConfigError(f"material.name: {err}") from None
     cutters, stock, interpreter = _setup(config, density_per_mm)
+    drilling = axial_material(config.material.name, cutters)
     spindle = config.machine.spindle
     drive_name = spindle.preset + "".join(
         f"+{part}" for part in ("motor", "controller") if getattr(spindle, part) is not None
@@ -350,6 +356,7 @@ def predict_program_signals(
             rated_torque_nm=spindle.rated_torque_nm,
             drive_name=drive_name,
             on_chunk=on_chunk,
+            drilling=drilling,
         )
     runtime = time.perf_counter() - started
     return ProgramSignals(

@@ -8,6 +8,11 @@ Heide 2025. At every cycle of :func:`~cnctwin.simulation.cut.simulate_cut`:
    power of the mechanistic model (Altintas 2012, ch. 2; Royandi 2026, Eq. 8-12; Ward 2021,
    Eq. 1-2) with the workpiece material's coefficients (:func:`cnctwin.mechanics.mean_forces`),
    and the peak resultant force over the revolution (:func:`cnctwin.mechanics.milling_forces`);
+   a drill or a tap (:data:`cnctwin.geometry.AXIAL_KINDS`) takes the drilling model instead
+   (:func:`cnctwin.mechanics.drilling_load`, :func:`cnctwin.mechanics.tapping_torque`): thrust
+   along the tool axis, torque and power, with the workpiece's drilling coefficients
+   (:func:`cnctwin.mechanics.drilling_material`); :func:`step_forces` is the one place that
+   chooses the model by the tool's kind, for this prediction, the twin and the virtual machine;
 2. the forces are turned from the tool frame (x along the feed, y to its left, z up the tool
    axis) into machine X, Y, Z by the step's feed direction;
 3. the cutting torque loads the spindle drive (Christiand 2024, Eq. 10-18:
@@ -45,13 +50,17 @@ from cnctwin.drives import (
     spindle_preset,
 )
 from cnctwin.errors import ConfigError
-from cnctwin.geometry import Cutter, DexelStock
+from cnctwin.geometry import AXIAL_KINDS, Cutter, DexelStock
 from cnctwin.geometry import Engagement as DexelEngagement
 from cnctwin.mechanics import (
     CuttingCoefficients,
+    DrillingMaterial,
     ImmersionIntervals,
+    drilling_load,
+    drilling_material,
     mean_forces,
     milling_forces,
+    tapping_torque,
 )
 from cnctwin.nc import AxisLimits, Segment
 from cnctwin.simulation.cut import CutStep, StepTable, simulate_cut, step_durations
@@ -60,6 +69,9 @@ __all__ = [
     "SIGNAL_COLUMNS",
     "MachineSignals",
     "StepForces",
+    "axial_forces",
+    "axial_material",
+    "drill_band_mm",
     "headline_warnings",
     "immersion_intervals",
     "simulate_signals",
@@ -122,6 +134,9 @@ _HEADLINES = (
     ("cutting_power_w", "max_power_w", "W"),
     ("cutting_torque_nm", "max_spindle_torque_nm", "N m"),
 )
+#: A tap's feed per revolution more than this fraction off its pitch is warned (G84 needs
+#: F = pitch x S).
+TAP_FEED_TOLERANCE = 0.02
 #: Memory one cycle of :func:`simulate_signals` takes, bytes: the step table, the signal
 #: columns, the drive's arrays and the forces of a step in contact (measured: about 700 B a
 #: cycle on the demo program; rounded up).
@@ -137,7 +152,8 @@ class StepForces:
     fx_n, fy_n, fz_n
         Mean force on the tool along machine X, Y, Z, N.
     feed_n, normal_n
-        Mean force on the tool along the feed direction and its left normal (tool frame x, y), N.
+        Mean force on the tool along the feed direction and its left normal (tool frame x, y), N;
+        0 for a drill or a tap, whose thrust is ``fz_n``.
     mean_n
         Magnitude of the mean force vector, N.
     peak_n
@@ -373,8 +389,10 @@ def step_forces(
     pitch_z_mm: float,
     *,
     waveform_steps: int = _WAVEFORM_STEPS,
+    drilling: DrillingMaterial | None = None,
 ) -> StepForces:
-    """Cutting forces, torque and power of one simulated step.
+    """Cutting forces, torque and power of one simulated step: the milling model, or the
+    drilling model for a drill or a tap (the one place that chooses by the tool's kind).
 
     Parameters
     ----------
@@ -385,13 +403,23 @@ def step_forces(
     pitch_z_mm
         z pitch of the dexel grid, mm.
     waveform_steps
-        Spindle angles per revolution for the peak force (>= 1).
+        Spindle angles per revolution for the peak force (>= 1); 0: no waveform, the peak
+        force is the mean force's magnitude (the virtual machine's cheaper load).
+    drilling
+        Drilling coefficients of the workpiece material (:func:`axial_material`), needed when
+        the step's tool is a drill or a tap.
 
     Returns
     -------
     StepForces
         Per-revolution mean forces in the machine and tool frames (N), the peak force (N),
-        cutting torque (N m) and power (W); all zero without a contact interval.
+        cutting torque (N m) and power (W); all zero without a contact interval (a milling
+        tool) or without feed (a drill or a tap, :func:`axial_forces`).
+
+    Raises
+    ------
+    ConfigError
+        For a drill or a tap without ``drilling`` coefficients.
 
     Notes
     -----
@@ -400,13 +428,23 @@ def step_forces(
     the dexel engagement's angles; so ``F_X = F_x f_x + F_y n_x``, ``F_Y = F_x f_y + F_y n_y``,
     and ``F_Z = F_z`` for a tool whose axis is machine +Z.
     """
+    if step.cutter.kind in AXIAL_KINDS:
+        if drilling is None:
+            raise ConfigError(
+                f"tool T{step.tool} is a {step.cutter.kind}: its forces need the workpiece's "
+                "drilling coefficients (mechanics/data/drilling.toml)"
+            )
+        return axial_forces(step, drilling, pitch_z_mm)
     cut = immersion_intervals(step.engagement, pitch_z_mm)
     if cut is None:
         return StepForces(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     fz_m = step.feed_per_tooth_mm * 1e-3
     omega = step.spindle_rpm * RAD_S_PER_RPM
     mean = mean_forces(step.cutter, coefficients, cut, fz_m, omega)
-    wave = milling_forces(step.cutter, coefficients, cut, fz_m, omega, steps=waveform_steps)
+    peak = mean.resultant_n
+    if waveform_steps > 0:
+        wave = milling_forces(step.cutter, coefficients, cut, fz_m, omega, steps=waveform_steps)
+        peak = float(wave.resultant_n.max())
     fx, fy = step.engagement.feed_dir
     nx, ny = -fy, fx
     return StepForces(
@@ -416,10 +454,117 @@ def step_forces(
         feed_n=mean.fx_n,
         normal_n=mean.fy_n,
         mean_n=mean.resultant_n,
-        peak_n=float(wave.resultant_n.max()),
+        peak_n=peak,
         torque_nm=mean.torque_nm,
         power_w=mean.power_w,
     )
+
+
+def axial_forces(step: CutStep, drilling: DrillingMaterial, pitch_z_mm: float) -> StepForces:
+    """Thrust (N), torque (N m) and power (W) of a drill's or a tap's step, fed along its axis.
+
+    The feed per revolution is the step's feed per tooth times the tool's lips (flutes), so a
+    plunge at ``F`` mm/min and ``S`` rpm feeds ``F / S`` mm per revolution. A drill's engaged
+    radial band comes from the dexel engagement (:func:`drill_band_mm`) and loads the lip and
+    chisel-edge model of :func:`cnctwin.mechanics.drilling_load`; a tap in contact gives the
+    torque of :func:`cnctwin.mechanics.tapping_torque` (its chamfer's ramp is not modelled)
+    and no thrust (its lead feeds it). The lateral forces of symmetric lips cancel: the force
+    on the tool is the thrust along +Z (``fz_n``, pushing the tool back), and ``mean_n`` and
+    ``peak_n`` are its magnitude.
+
+    Parameters
+    ----------
+    step
+        A step of a drill or a tap (feed per tooth in mm, spindle speed in rpm).
+    drilling
+        The workpiece's drilling coefficients.
+    pitch_z_mm
+        z pitch of the dexel grid, mm.
+    """
+    cutter = step.cutter
+    feed_m = step.feed_per_tooth_mm * cutter.flutes * 1e-3
+    omega = abs(step.spindle_rpm) * RAD_S_PER_RPM
+    if feed_m <= 0.0 or not step.engagement.contact:
+        return StepForces(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    if cutter.kind == "tap":
+        thrust = 0.0
+        torque = tapping_torque(drilling, cutter.diameter_m, cutter.pitch_mm * 1e-3)
+    else:
+        inner, outer = drill_band_mm(step.engagement, cutter, pitch_z_mm)
+        load = drilling_load(
+            drilling,
+            cutter.diameter_m,
+            feed_m,
+            point_angle_rad=cutter.tip_angle_rad,
+            web_m=cutter.web_mm * 1e-3,
+            lips=cutter.flutes,
+            inner_radius_m=inner * 1e-3,
+            outer_radius_m=outer * 1e-3,
+        )
+        thrust, torque = load.thrust_n, load.torque_nm
+    return StepForces(0.0, 0.0, thrust, 0.0, 0.0, thrust, thrust, torque, torque * omega)
+
+
+def drill_band_mm(
+    engagement: DexelEngagement, cutter: Cutter, pitch_z_mm: float
+) -> tuple[float, float]:
+    """The radial band ``(inner, outer)`` of a drill's point in contact, mm.
+
+    The slices with contact span the heights ``[max(h - p/2, 0), max(h - p/2, 0) + dz]``
+    above the tip (as in :func:`immersion_intervals`); on the point's cone the radius is
+    ``z tan(sigma / 2)`` (:meth:`cnctwin.geometry.Cutter.radius_at`). Heights within one grid
+    pitch ``p`` of the tip, or of the cone's top, count as the tip (radius 0) or the full
+    radius: the grid resolves no finer, and a drill at full depth then loads its whole edge.
+
+    Parameters
+    ----------
+    engagement
+        The dexel engagement of the step, mm.
+    cutter
+        The drill.
+    pitch_z_mm
+        z pitch of the dexel grid, mm (> 0).
+
+    Returns
+    -------
+    tuple of float
+        Inner and outer radius in mm; ``(0, 0)`` without a slice in contact.
+    """
+    heights = engagement.slice_height_mm
+    if heights.size == 0:
+        return 0.0, 0.0
+    low = np.maximum(heights - 0.5 * pitch_z_mm, 0.0)
+    z_low = float(low.min())
+    z_top = float((low + engagement.slice_dz_mm).max())
+    cone = cutter.cone_height_mm
+    inner = 0.0 if z_low < pitch_z_mm else float(cutter.radius_at(min(z_low, cone)))
+    outer = cutter.radius_mm if z_top > cone - pitch_z_mm else float(cutter.radius_at(z_top))
+    return inner, outer
+
+
+def axial_material(material_name: str, cutters: Mapping[int, Cutter]) -> DrillingMaterial | None:
+    """The drilling coefficients of the workpiece when a tool is a drill or a tap, else None.
+
+    Parameters
+    ----------
+    material_name
+        The configuration's ``[material].name``.
+    cutters
+        The configured tools, by number.
+
+    Raises
+    ------
+    ConfigError
+        When a tool is a drill or a tap and the material has no drilling coefficients: one
+        line naming ``material.name``, the tool and the valid materials.
+    """
+    axial = sorted(n for n, c in cutters.items() if c.kind in AXIAL_KINDS)
+    if not axial:
+        return None
+    try:
+        return drilling_material(material_name)
+    except ConfigError as err:
+        raise ConfigError(f"material.name (for the drill or tap T{axial[0]}): {err}") from None
 
 
 def simulate_signals(
@@ -436,6 +581,7 @@ def simulate_signals(
     rated_torque_nm: float | None = None,
     drive_name: str = "",
     on_chunk: Callable[[float], None] | None = None,
+    drilling: DrillingMaterial | None = None,
 ) -> MachineSignals:
     """Cut the stock along a program and predict the machine's signals at every cycle.
 
@@ -465,6 +611,10 @@ def simulate_signals(
         Name of the drive, for the summary.
     on_chunk
         Called with the simulated time (s) after every chunk of cycles (for progress).
+    drilling
+        Drilling coefficients of the workpiece (:func:`axial_material`), needed when a tool
+        is a drill or a tap. A tap whose feed per revolution is more than 2 % off its pitch
+        (G84 needs ``F = pitch x S``) is warned, naming the line.
 
     Returns
     -------
@@ -479,10 +629,16 @@ def simulate_signals(
     pitch_z = stock.grid.pitch_mm[2]
     index: list[int] = []
     loads: list[tuple[float, ...]] = []
+    tap_feeds: dict[int, tuple[int, float, float]] = {}  # line: tool, feed/rev, pitch (mm)
 
     def observe(step: CutStep) -> None:
         index.append(step.index)
-        loads.append(step_forces(step, coefficients, pitch_z).values())
+        loads.append(step_forces(step, coefficients, pitch_z, drilling=drilling).values())
+        cutter = step.cutter
+        if cutter.kind == "tap" and step.line not in tap_feeds:
+            feed = step.feed_per_tooth_mm * cutter.flutes
+            if abs(feed - cutter.pitch_mm) > TAP_FEED_TOLERANCE * cutter.pitch_mm:
+                tap_feeds[step.line] = (step.tool, feed, cutter.pitch_mm)
 
     table = StepTable(row_bytes=_ROW_BYTES)
     for rows in simulate_cut(
@@ -522,6 +678,11 @@ def simulate_signals(
             available = np.minimum(available, rated_power_w / omega)
     columns["overload"] = (columns["cutting_torque_nm"] > available).astype(np.float64)
     warnings = headline_warnings(columns, table.column("rapid") > 0)
+    warnings.extend(
+        f"line {line}: tap T{tool} feeds {feed:.4g} mm per revolution but its pitch is "
+        f"{pitch:.4g} mm: tapping needs F = pitch x S (the thread is cut wrong or the tap breaks)"
+        for line, (tool, feed, pitch) in sorted(tap_feeds.items())
+    )
     over = np.flatnonzero(columns["overload"])
     if over.size:
         k = int(over[np.argmax(columns["cutting_torque_nm"][over])])

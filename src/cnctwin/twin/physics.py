@@ -9,7 +9,8 @@ band around the prediction (Heide 2025, use case 1).
 Forces, torque and power come from the mechanistic model of :mod:`cnctwin.mechanics` with the
 material's coefficients, exactly as the offline prediction of
 :func:`cnctwin.simulation.signals.simulate_signals` does (Altintas 2012, ch. 2; Royandi 2026,
-Eq. 8-12).
+Eq. 8-12); a drill or a tap takes the drilling model through the same
+:func:`cnctwin.simulation.step_forces` (docs/drilling.md).
 
 Units: mm, mm/min, rpm and s at the edges (names say so), N, N m, W.
 """
@@ -24,8 +25,8 @@ from numpy.typing import NDArray
 from cnctwin.config import MachiningConfig
 from cnctwin.errors import ConfigError
 from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
-from cnctwin.mechanics import CuttingCoefficients
-from cnctwin.simulation import CutStep, StepForces, step_forces
+from cnctwin.mechanics import CuttingCoefficients, DrillingMaterial
+from cnctwin.simulation import CutStep, StepForces, axial_material, step_forces
 
 __all__ = ["NO_FORCE", "TwinPhysics"]
 
@@ -52,7 +53,8 @@ class TwinPhysics:
     Raises
     ------
     ConfigError
-        If the material is not in the library or a tool has no fluted length.
+        If the material is not in the library (for a drill or a tap: not in the drilling
+        coefficients either) or a tool has no fluted length.
     """
 
     def __init__(
@@ -72,6 +74,8 @@ class TwinPhysics:
         self.coefficients: CuttingCoefficients = material.coefficients
         #: The cutter of every configured tool (geometry and force model), by tool number.
         self.cutters = {tool.number: Cutter.from_tool_config(tool) for tool in config.tools}
+        #: Drilling coefficients of the material when a tool is a drill or a tap, else None.
+        self.drilling: DrillingMaterial | None = axial_material(config.material.name, self.cutters)
         density = config.simulation.density_per_mm if density_per_mm is None else density_per_mm
         self._box = (config.stock.min_mm, config.stock.max_mm)
         self._density = density
@@ -204,4 +208,5 @@ class TwinPhysics:
             self.coefficients,
             self._pitch_z_mm,
             waveform_steps=self._waveform_steps,
+            drilling=self.drilling,
         )

@@ -9,10 +9,9 @@ Each :meth:`VirtualMachine.step` of ``dt`` seconds (the tick):
    Sec. 2.2), which may have holes the twin does not know of (:mod:`cnctwin.virtual.faults`);
 3. the engagement of the cut gives the per-revolution mean cutting forces, torque and power of
    the mechanistic model with the tool's teeth and helix and the material's coefficients
-   (:func:`cnctwin.mechanics.mean_forces` on the immersion intervals of
-   :func:`cnctwin.simulation.signals.immersion_intervals`, as
-   :func:`cnctwin.simulation.signals.step_forces` does: Altintas 2012 ch. 2, Royandi 2026
-   Eq. 8-12);
+   (:func:`cnctwin.simulation.step_forces` without its peak force, as the offline signals and
+   the twin: Altintas 2012 ch. 2, Royandi 2026 Eq. 8-12; the drilling model for a drill or a
+   tap, docs/drilling.md);
 4. the cutting torque loads the spindle drive (Christiand 2024, Eq. 10-18,
    :class:`cnctwin.drives.SpindleDrive`), which follows ``S x spindle override`` and gives the
    spindle speed, current and torque;
@@ -43,9 +42,9 @@ from cnctwin.drives import RAD_S_PER_RPM, EventState, SpindleDrive
 from cnctwin.errors import ConfigError, NCError
 from cnctwin.examples import example_file
 from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
-from cnctwin.mechanics import mean_forces, milling_material
+from cnctwin.mechanics import milling_material
 from cnctwin.nc import Interpreter, Segment
-from cnctwin.simulation import immersion_intervals, spindle_drive_parameters
+from cnctwin.simulation import CutStep, axial_material, spindle_drive_parameters, step_forces
 from cnctwin.thread import COMMANDS, SIGNALS, RunState
 from cnctwin.virtual._motion import PathFollower
 from cnctwin.virtual.config import HoleFault, VirtualMachineConfig
@@ -130,6 +129,9 @@ class VirtualMachine:
         self._drive_params = spindle_drive_parameters(p.machine.spindle)
         self._resistance = self._drive_params.motor.resistance
         self._tools = {tool.number: _Tool(tool) for tool in p.tools}
+        self._drilling = axial_material(
+            p.material.name, {n: tool.cutter for n, tool in self._tools.items()}
+        )
         self._density = (
             config.density_per_mm
             if config.density_per_mm is not None
@@ -414,7 +416,9 @@ class VirtualMachine:
                 engagement = cut(self._stock, cutter, cut_tcp, self._prev_tcp, fz, dt_s)
                 if engagement.contact:
                     contact = True
-                    fx, fy, fz_n, torque, mean_n = self._mean_load(engagement, cutter, fz, rpm)
+                    fx, fy, fz_n, torque, mean_n = self._mean_load(
+                        engagement, tool_number, cutter, fz, rpm
+                    )
                     scale = self._faults.load_scale()
                     chatter = self._faults.vibration_n(self._t, mean_n * scale)
                     forces = (
@@ -476,23 +480,18 @@ class VirtualMachine:
         v["feed_mm_min"] = speed_mm_min
 
     def _mean_load(
-        self, engagement: Engagement, cutter: Cutter, fz_mm: float, rpm: float
+        self, engagement: Engagement, tool: int, cutter: Cutter, fz_mm: float, rpm: float
     ) -> tuple[float, float, float, float, float]:
         """Per-revolution mean force on the tool (machine X, Y, Z; N), torque (N m) and force
-        magnitude (N) of a cut: :func:`cnctwin.simulation.signals.step_forces` without its peak
-        force (Altintas 2012 ch. 2; the tool frame turned by the feed direction)."""
-        immersion = immersion_intervals(engagement, self._pitch_z)
-        if immersion is None:
-            return (0.0, 0.0, 0.0, 0.0, 0.0)
-        mean = mean_forces(cutter, self._coefficients, immersion, fz_mm * 1e-3, rpm * RAD_S_PER_RPM)
-        fx, fy = engagement.feed_dir
-        return (
-            mean.fx_n * fx - mean.fy_n * fy,
-            mean.fx_n * fy + mean.fy_n * fx,
-            mean.fz_n,
-            mean.torque_nm,
-            mean.resultant_n,
+        magnitude (N) of a cut: :func:`cnctwin.simulation.step_forces` without its peak force
+        (the milling model, Altintas 2012 ch. 2, or the drilling model for a drill or a tap)."""
+        step = CutStep(
+            self._cut_steps, self._t, (0.0, 0.0, 0.0), 0, tool, cutter, rpm, fz_mm, engagement
         )
+        load = step_forces(
+            step, self._coefficients, self._pitch_z, waveform_steps=0, drilling=self._drilling
+        )
+        return (load.fx_n, load.fy_n, load.fz_n, load.torque_nm, load.mean_n)
 
     def _fault(self, message: str) -> None:
         """Alarm: stop the axes and the spindle, run_state FAULT."""
@@ -518,6 +517,8 @@ class VirtualMachine:
                     corner_radius_mm=0.0,
                     tip_diameter_mm=0.0,
                     tip_angle_rad=0.0,
+                    web_mm=0.0,
+                    pitch_mm=0.0,
                 )
                 if remaining > 1e-3
                 else None
