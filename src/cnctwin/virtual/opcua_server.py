@@ -317,7 +317,7 @@ class OpcUaMachineServer:
             return
         snap = self.source.snapshot() if snapshot is None else snapshot
         stamp = ua.DateTime.now(UTC)
-        notify: list[tuple[Any, int, ua.DataValue]] = []
+        notify: list[tuple[dict[int, Any], int, ua.DataValue]] = []
         for name, value in snap.items():
             slot = self._slots.get(name)
             if slot is None or self._published.get(name, _UNSET) == value:
@@ -326,7 +326,7 @@ class OpcUaMachineServer:
             data = _data_value(name, value, stamp)
             slot.value = data
             notify.extend(
-                (callback, handle, data) for handle, callback in slot.datachange_callbacks.items()
+                (slot.datachange_callbacks, handle, data) for handle in slot.datachange_callbacks
             )
         if notify:  # one task per publish runs every subscription's callbacks
             task = asyncio.get_running_loop().create_task(_notify(notify))
@@ -508,9 +508,17 @@ def free_port(host: str = "127.0.0.1") -> int:
         return int(probe.getsockname()[1])
 
 
-async def _notify(calls: list[tuple[Any, int, ua.DataValue]]) -> None:
-    """Run asyncua's data-change callbacks (subscriptions) for published values."""
-    for callback, handle, data in calls:
+async def _notify(calls: list[tuple[dict[int, Any], int, ua.DataValue]]) -> None:
+    """Run asyncua's data-change callbacks (subscriptions) for published values.
+
+    Each call names the node's callback table and the handle, looked up when its turn comes: a
+    client that deleted its monitored item (or disconnected) since the publish has no callback
+    left, and its handle is skipped (asyncua's callback would fail on the missing item).
+    """
+    for callbacks, handle, data in calls:
+        callback = callbacks.get(handle)
+        if callback is None:
+            continue
         try:
             await callback(handle, data)
         except Exception:
