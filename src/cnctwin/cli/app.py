@@ -69,6 +69,11 @@ COMMANDS: dict[str, _Lazy] = {
         "signals",
         "Predicted forces, spindle torque, power and current, and feed-drive loads over time.",
     ),
+    "optimize": _Lazy(
+        "optimize",
+        "optimize",
+        "Rewrite a program's feeds (and speeds) per block from force, power and chip limits.",
+    ),
     "nc": _Lazy("nc", "app", "Read NC programs: summarize, trace, plot."),
     "bench": _Lazy(
         "bench", "app", "Measurements of the digital thread.", (("latency", "bench", "latency"),)
