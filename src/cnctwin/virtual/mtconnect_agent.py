@@ -12,7 +12,7 @@ them):
   PATH_FEEDRATE in MILLIMETER/SECOND, PATH_FEEDRATE_OVERRIDE, TOOL_NUMBER);
 * ``/current``: the newest observation of every data item;
 * ``/sample?from=F&count=N``: the observations with sequence numbers ``F`` to ``F+N-1`` that
-  are in the buffer (default ``from`` the oldest, ``count`` 100);
+  are in the buffer (default ``from`` the oldest, ``count`` 100 or the buffer's size);
 * ``/assets``: an empty ``MTConnectAssets`` document (the machine has no assets);
 * anything else: an ``MTConnectError`` -- ``OutOfRange`` for ``from``/``count`` outside the
   buffer, ``InvalidParameterValue`` for a non-integer, ``Unsupported`` for ``interval``, ``at``
@@ -498,7 +498,7 @@ class MTConnectAgent:
     def _sample(self, query: dict[str, list[str]]) -> bytes:
         first, nxt = self.first_sequence, self._next
         start = self._int(query, "from", first)
-        count = self._int(query, "count", _DEFAULT_COUNT)
+        count = self._int(query, "count", min(_DEFAULT_COUNT, self.buffer_size))
         if not first <= start <= nxt:
             raise _RequestError(
                 "OutOfRange",
