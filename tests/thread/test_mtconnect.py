@@ -371,3 +371,25 @@ def test_no_agent_is_a_clear_connection_error() -> None:
             await reader.connect()
 
     asyncio.run(asyncio.wait_for(main(), BODY_S))
+
+
+# Latency ------------------------------------------------------------------------------
+def test_read_latency_through_the_jitter_proxy_includes_the_delays() -> None:
+    from cnctwin.thread.latency import measure_endpoint_latency
+
+    async def main() -> None:
+        async with MTConnectAgent(Machine()) as agent:
+            direct = await measure_endpoint_latency(
+                "mtconnect", agent.endpoint, n=5, interval_s=0.0
+            )
+            delayed = await measure_endpoint_latency(
+                "mtconnect", agent.endpoint, n=20, interval_s=0.0, jitter_ms=10.0, seed=3
+            )
+        assert direct.n == 5 and direct.write_ms is None and direct.signal == "read"
+        assert direct.round_trip_ms == direct.read_ms and direct.polls_mean == 1.0
+        assert direct.to_dict()["write_ms"] is None
+        # Each request waits U(0, 20) ms in the proxy: 20 of them average about 10 ms.
+        assert delayed.read_ms.mean >= 5.0 and delayed.jitter_ms == 10.0
+        assert delayed.read_ms.min >= 0.0 and delayed.read_ms.max <= BODY_S * 1e3
+
+    asyncio.run(asyncio.wait_for(main(), BODY_S))

@@ -1,9 +1,10 @@
 """``cnctwin bench``: measurements of the digital thread against a machine.
 
 ``cnctwin bench latency`` runs Heide 2025 section 2.5's write-to-read-back test over OPC UA
-or Modbus TCP. Without ``--endpoint`` it starts the virtual machine (packaged demo program)
-and its server in a child process, as a separate machine would be, and measures over
-loopback; ``--jitter-ms`` puts a :class:`~cnctwin.thread.latency.JitterProxy` in the path.
+or Modbus TCP, and the read round trip alone over MTConnect (read-only). Without
+``--endpoint`` it starts the virtual machine (packaged demo program) and its server in a
+child process, as a separate machine would be, and measures over loopback; ``--jitter-ms``
+puts a :class:`~cnctwin.thread.latency.JitterProxy` in the path.
 """
 
 from __future__ import annotations
@@ -73,7 +74,8 @@ async def run_latency(
 
 def latency(
     transport: Annotated[
-        str, typer.Option("--transport", help="Protocol: opcua or modbus.")
+        str,
+        typer.Option("--transport", help="Protocol: opcua, modbus or mtconnect (read only)."),
     ] = "opcua",
     n: Annotated[int, typer.Option("--n", min=1, help="Round trips.")] = 500,
     interval_ms: Annotated[
@@ -91,14 +93,16 @@ def latency(
         str | None,
         typer.Option(
             "--endpoint",
-            help="Measure this server (opc.tcp://HOST:PORT/PATH or modbus://HOST:PORT) "
+            help="Measure this server (opc.tcp://HOST:PORT/PATH, modbus://HOST:PORT or an "
+            "MTConnect agent's http://HOST:PORT) "
             "instead of starting the virtual machine.",
         ),
     ] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the jitter.")] = 0,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
 ) -> None:
-    """Write-to-read-back latency of the feed override (Heide 2025, section 2.5)."""
+    """Write-to-read-back latency of the feed override (Heide 2025, section 2.5); over
+    MTConnect (read-only) the read round trip."""
     check_count("--n", n, 1, MAX_ROUND_TRIPS)
     check_number("--interval-ms", interval_ms, 0.0, MAX_PAUSE_MS, unit="ms")
     check_number("--jitter-ms", jitter_ms, 0.0, MAX_PAUSE_MS, unit="ms")
@@ -117,19 +121,21 @@ def latency(
     if as_json:
         typer.echo(finite_json.dumps(report))
         return
+    kind = "read" if result.write_ms is None else "write-to-read-back"
     table = Table(
-        title=f"{transport} write-to-read-back latency, {result.n} round trips "
-        f"({url}, jitter {jitter_ms:g} ms)"
+        title=f"{transport} {kind} latency, {result.n} round trips ({url}, jitter {jitter_ms:g} ms)"
     )
     table.add_column("ms")
     for name in ("mean", "std", "min", "median", "p99", "max"):
         table.add_column(name, justify="right")
-    rows: tuple[tuple[str, LatencyStats], ...] = (
+    rows: tuple[tuple[str, LatencyStats | None], ...] = (
         ("round trip", result.round_trip_ms),
         ("write", result.write_ms),
         ("read", result.read_ms),
     )
     for label, stats in rows:
+        if stats is None:
+            continue
         table.add_row(
             label,
             *(f"{getattr(stats, k):.3f}" for k in ("mean", "std", "min", "median", "p99", "max")),

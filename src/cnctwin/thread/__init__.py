@@ -27,6 +27,7 @@ if TYPE_CHECKING:
         LatencyStats,
         measure_endpoint_latency,
         measure_latency,
+        measure_read_latency,
     )
     from cnctwin.thread.modbus import ModbusConnection
     from cnctwin.thread.modbus_map import READ_MAP, STATUS_MAP, WRITE_MAP, RegisterAddress
@@ -58,6 +59,7 @@ _LAZY = {
     "JitterProxy": "cnctwin.thread.latency",
     "LatencyResult": "cnctwin.thread.latency",
     "measure_latency": "cnctwin.thread.latency",
+    "measure_read_latency": "cnctwin.thread.latency",
     "DEFAULT_SUBSCRIPTION_MS": "cnctwin.thread.opcua",
     "LatencyStats": "cnctwin.thread.latency",
     "measure_endpoint_latency": "cnctwin.thread.latency",
@@ -114,6 +116,7 @@ __all__ = [
     "TrustList",
     "JitterProxy",
     "measure_latency",
+    "measure_read_latency",
     "DEFAULT_SUBSCRIPTION_MS",
     "SequenceGap",
     "AgentError",

@@ -13,6 +13,10 @@ uniformly from ``[0, 2 J]`` ms (J +- J), keeping the byte order; the server-to-c
 direction is not delayed (one-way jitter). It works for any TCP transport (OPC UA, Modbus
 TCP) without touching client or server.
 
+A read-only transport (MTConnect) takes no write: :func:`measure_read_latency` times the
+read round trip alone (one batched read: for MTConnect a ``/sample`` request and its parsed
+answer, what the twin does each cycle), with the same pauses, jitter and statistics.
+
 Everything here takes a :class:`~cnctwin.thread.connection.MachineConnection` and is
 transport-agnostic.
 """
@@ -44,6 +48,7 @@ __all__ = [
     "LatencyStats",
     "measure_endpoint_latency",
     "measure_latency",
+    "measure_read_latency",
 ]
 
 logger = logging.getLogger(__name__)
@@ -93,15 +98,17 @@ class LatencyResult:
     n
         Round trips measured.
     round_trip_ms
-        From the start of the write to the end of the read that saw the new value, ms.
+        From the start of the write to the end of the read that saw the new value, ms (a
+        read-only transport: the read alone).
     write_ms
-        Duration of the write request (until the server's answer), ms.
+        Duration of the write request (until the server's answer), ms; ``None`` for a
+        read-only transport.
     read_ms
         Duration of the read that returned the new value, ms.
     polls_mean
         Reads per round trip, mean (1 when the read-back is immediate).
     signal
-        The command written and polled.
+        The command written and polled (``"read"`` for a read-only transport).
     interval_ms
         Pause between round trips, ms.
     jitter_ms
@@ -110,7 +117,7 @@ class LatencyResult:
 
     n: int
     round_trip_ms: LatencyStats
-    write_ms: LatencyStats
+    write_ms: LatencyStats | None
     read_ms: LatencyStats
     polls_mean: float
     signal: str
@@ -126,7 +133,7 @@ class LatencyResult:
         return {
             "n": self.n,
             "round_trip_ms": stats(self.round_trip_ms),
-            "write_ms": stats(self.write_ms),
+            "write_ms": None if self.write_ms is None else stats(self.write_ms),
             "read_ms": stats(self.read_ms),
             "polls_mean": round(self.polls_mean, 3),
             "signal": self.signal,
@@ -226,6 +233,60 @@ async def measure_latency(
         read_ms=LatencyStats.of(reads),
         polls_mean=polls / n,
         signal=signal,
+        interval_ms=interval_s * 1e3,
+        jitter_ms=jitter_ms,
+    )
+
+
+async def measure_read_latency(
+    connection: MachineConnection,
+    *,
+    n: int = 500,
+    interval_s: float = 0.5,
+    jitter_ms: float = 0.0,
+    progress: Callable[[int], None] | None = None,
+) -> LatencyResult:
+    """Measure ``n`` read round trips of a read-only connection (Heide 2025's pauses and
+    statistics without the write).
+
+    Parameters
+    ----------
+    connection
+        A connected machine connection.
+    n
+        Round trips (>= 1).
+    interval_s
+        Pause between round trips, s (>= 0).
+    jitter_ms
+        Jitter injected on the path, recorded in the result, ms.
+    progress
+        Called with the number of round trips done after each one.
+
+    Returns
+    -------
+    LatencyResult
+        ``round_trip_ms`` and ``read_ms`` both the batched read's duration; ``write_ms``
+        ``None``.
+    """
+    if n < 1 or not math.isfinite(interval_s) or interval_s < 0:
+        raise ConfigError(f"latency run n={n}, interval_s={interval_s}; valid: n >= 1, >= 0 s")
+    reads: list[float] = []
+    for i in range(n):
+        t0 = time.perf_counter()
+        await connection.read()
+        reads.append(time.perf_counter() - t0)
+        if progress is not None:
+            progress(i + 1)
+        if interval_s:
+            await asyncio.sleep(interval_s)
+    stats = LatencyStats.of(reads)
+    return LatencyResult(
+        n=n,
+        round_trip_ms=stats,
+        write_ms=None,
+        read_ms=stats,
+        polls_mean=1.0,
+        signal="read",
         interval_ms=interval_s * 1e3,
         jitter_ms=jitter_ms,
     )
@@ -366,7 +427,8 @@ class JitterProxy:
 
 
 def _polling_connection(transport: str, endpoint: str, timeout_s: float) -> MachineConnection:
-    """A connection of ``transport`` (``"opcua"`` or ``"modbus"``) that reads by request."""
+    """A connection of ``transport`` (``"opcua"``, ``"modbus"`` or ``"mtconnect"``) that
+    reads by request."""
     config = ConnectionConfig(
         transport=transport,  # type: ignore[arg-type]
         endpoint=endpoint,
@@ -377,6 +439,10 @@ def _polling_connection(transport: str, endpoint: str, timeout_s: float) -> Mach
 
         # Reads by request: the round trip measures the protocol, not a subscription's cache.
         return OpcUaConnection(config, subscription_ms=None)
+    if transport == "mtconnect":
+        from cnctwin.thread.mtconnect import MTConnectConnection
+
+        return MTConnectConnection(config)
     from cnctwin.thread.modbus import ModbusConnection
 
     return ModbusConnection(config)
@@ -396,9 +462,11 @@ async def measure_endpoint_latency(
     Parameters
     ----------
     transport
-        ``"opcua"`` or ``"modbus"``; OPC UA reads by request, without a subscription.
+        ``"opcua"``, ``"modbus"`` or ``"mtconnect"``; OPC UA reads by request, without a
+        subscription; MTConnect is read-only: its read round trip
+        (:func:`measure_read_latency`).
     endpoint
-        ``opc.tcp://HOST:PORT/PATH`` or ``modbus://HOST:PORT``.
+        ``opc.tcp://HOST:PORT/PATH``, ``modbus://HOST:PORT`` or ``http://HOST:PORT``.
     n
         Round trips.
     interval_s
@@ -412,15 +480,19 @@ async def measure_endpoint_latency(
     Raises
     ------
     InputError
-        For a transport other than ``"opcua"`` and ``"modbus"``, or jitter on an endpoint
-        without ``HOST:PORT``.
+        For a transport other than ``"opcua"``, ``"modbus"`` and ``"mtconnect"``, or jitter
+        on an endpoint without ``HOST:PORT``.
     """
-    if transport not in ("opcua", "modbus"):
-        raise InputError(f"transport {transport!r}; valid: opcua, modbus")
+    if transport not in ("opcua", "modbus", "mtconnect"):
+        raise InputError(f"transport {transport!r}; valid: opcua, modbus, mtconnect")
     timeout_s = 2.0 + 4.0 * jitter_ms / 1e3
 
     async def once(url: str) -> LatencyResult:
         async with _polling_connection(transport, url, timeout_s) as connection:
+            if transport == "mtconnect":
+                return await measure_read_latency(
+                    connection, n=n, interval_s=interval_s, jitter_ms=jitter_ms
+                )
             return await measure_latency(
                 connection,
                 n=n,
