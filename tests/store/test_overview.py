@@ -113,13 +113,19 @@ def test_a_database_without_overviews_gets_one_on_first_use(recorded, tmp_path) 
     old = tmp_path / "old.sqlite"
     with sqlite3.connect(path) as src, sqlite3.connect(old) as dst:
         src.backup(dst)
-        dst.execute("DROP TABLE hist_overview")  # as written before the table existed
+        dst.execute("DROP TABLE hist_overview")  # as written before the tables existed
+        dst.execute("DROP TABLE hist_run_layouts")
     with Historian.open(old, create=False) as h:
+        counted = h.runs(), h.run(run)  # from the frames' index
         computed = h.overview(run)
+        assert (h.runs(), h.run(run)) == counted  # now from hist_run_layouts
     with sqlite3.connect(old) as conn:
         stored = conn.execute("SELECT COUNT(*) FROM hist_overview WHERE run_id = ?", (run,))
         assert stored.fetchone()[0] == 3  # header, force_x_n, spindle_power_w
+        layouts = conn.execute("SELECT COUNT(*) FROM hist_run_layouts WHERE run_id = ?", (run,))
+        assert layouts.fetchone()[0] == 3  # measured: two layouts; predicted: one
     with Historian.open(path, create=False) as h:
+        assert (h.runs(), h.run(run)) == counted
         original = h.overview(run)
     assert computed is not None and original is not None
     for name in ("force_x_n", "spindle_power_w"):

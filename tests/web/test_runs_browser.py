@@ -105,6 +105,7 @@ def test_open_a_recorded_run_and_zoom(page, server) -> None:
     assert page.locator("#plot .legend").count() == 1
     assert plotted(page, 1)[1].size == 0  # run 2 lasted 5 s: nothing of it after 100 s
     page.select_option("#overlay", "")
+    page.wait_for_function("document.getElementById('plot').dataset.traces === '1'")
     page.evaluate("Runs.zoom(0.0, 4.0)")
     page.select_option("#overlay", "2")
     page.wait_for_function("document.getElementById('plot').dataset.traces === '2'")
@@ -119,3 +120,46 @@ def test_open_a_recorded_run_and_zoom(page, server) -> None:
     assert len(rows) == N1
     exported = np.array([float(r["force_x_n"]) if r["force_x_n"] else np.nan for r in rows])
     np.testing.assert_allclose(exported, recorded, rtol=1e-9, equal_nan=True)
+
+
+def test_the_run_is_drawn_before_plotly_js_arrives(page, server) -> None:
+    """The first view of a run is the page's own canvas plot: with plotly.js held back it
+    still shows the whole run, the spike included, at the spike's time and height."""
+    page.route("**/plotly.min.js", lambda route: route.abort())
+    page.goto(f"{server}/runs#run=1&signal=measured:force_x_n")
+    page.wait_for_function("document.getElementById('plot').dataset.quick")
+    page.wait_for_function("document.getElementById('view-error').textContent !== ''")
+    assert "plotly.js did not load" in page.inner_text("#view-error")
+    assert page.locator("#plot .main-svg").count() == 0 and page.is_visible("#quick canvas")
+    width = page.evaluate("document.getElementById('plot').clientWidth")
+    assert 0 < int(page.get_attribute("#plot", "data-quick")) <= 2 * width
+    # The plot area's pixels: the line's colour in the column of the spike's time reaches
+    # the top of the plot (900 N is the run's maximum); no other column comes near it.
+    columns = page.evaluate(
+        """() => {
+          const c = document.querySelector('#quick canvas'), r = window.devicePixelRatio || 1;
+          const ctx = c.getContext('2d');
+          const img = ctx.getImageData(0, 0, c.width, c.height);
+          const tops = [];
+          for (let x = 0; x < c.width; x++) {
+            let top = -1;
+            for (let y = 0; y < c.height; y++) {
+              const i = (y * c.width + x) * 4;
+              if (img.data[i + 2] > 150 && img.data[i] < 100) { top = y; break; }
+            }
+            tops.push(top);
+          }
+          return {tops, ratio: r, width: c.width};
+        }"""
+    )
+    tops = np.array(columns["tops"], dtype=float)
+    drawn = tops >= 0
+    assert drawn.sum() > 0.8 * (columns["width"] - 80 * columns["ratio"])  # a line across
+    highest = int(np.argmin(np.where(drawn, tops, np.inf)))
+    # Margins of lineplot.js: 60 px left, 20 px right; the x axis spans the run.
+    left, right = 60 * columns["ratio"], columns["width"] - 20 * columns["ratio"]
+    t_spike = (highest - left) / (right - left) * (N1 - 1) * DT_S
+    assert abs(t_spike - SPIKE * DT_S) < 2.0 * (N1 * DT_S) / (right - left)
+    others = np.where(drawn, tops, np.inf)
+    others[max(0, highest - 3) : highest + 4] = np.inf
+    assert others.min() > tops[highest] + 0.5 * (np.nanmax(tops[drawn]) - tops[highest])

@@ -19,7 +19,11 @@ The schema (both databases; ``?`` is the placeholder, PostgreSQL gets ``%s``):
     ``""`` (instants per fine bucket and the first one's time) and one row per signal (its
     min and max per fine bucket), each with the bucket count, the first and last instant's
     time and the instants. Added after the first release: a database without it gets it on
-    the first overview written (:meth:`Backend.overview_table`).
+    the first overview written (:meth:`Backend.overview_tables`).
+``hist_run_layouts``
+    a closed run's frames per kind and layout, with the first one's ``seq`` and the last
+    one's time (what ``hist_frames_by_layout`` gives, without counting the run's frames
+    again), written with its overview.
 """
 
 from __future__ import annotations
@@ -111,17 +115,22 @@ class Backend(ABC):
             rule TEXT NOT NULL, action TEXT NOT NULL, value {real} NOT NULL,
             reason TEXT NOT NULL, accepted SMALLINT NOT NULL, readback {real},
             PRIMARY KEY (run_id, seq)){end}"""
-        yield self.overview_table()
+        yield from self.overview_tables()
 
-    def overview_table(self) -> str:
-        """The DDL of ``hist_overview`` (idempotent; also run before the first overview is
-        written into a database created before the table existed)."""
+    def overview_tables(self) -> Iterator[str]:
+        """The DDL of ``hist_overview`` and ``hist_run_layouts`` (idempotent; also run before
+        the first overview is written into a database created before these tables)."""
         _, real, blob = self.types
-        return f"""CREATE TABLE IF NOT EXISTS hist_overview (
+        end = self.table_suffix
+        yield f"""CREATE TABLE IF NOT EXISTS hist_overview (
             run_id BIGINT NOT NULL, kind SMALLINT NOT NULL, name TEXT NOT NULL,
             buckets BIGINT NOT NULL, t_first {real} NOT NULL, t_last {real} NOT NULL,
             frames BIGINT NOT NULL, data {blob} NOT NULL,
-            PRIMARY KEY (run_id, kind, name)){self.table_suffix}"""
+            PRIMARY KEY (run_id, kind, name)){end}"""
+        yield f"""CREATE TABLE IF NOT EXISTS hist_run_layouts (
+            run_id BIGINT NOT NULL, kind SMALLINT NOT NULL, layout_id BIGINT NOT NULL,
+            frames BIGINT NOT NULL, first_seq BIGINT NOT NULL, last_t_s {real} NOT NULL,
+            PRIMARY KEY (run_id, kind, layout_id)){end}"""
 
     def create_schema(self, conn: Any) -> None:
         """Create the tables that are missing."""

@@ -652,12 +652,23 @@ class Historian:
         return self._run_summary(rows[0], counts), counts
 
     def _layout_counts(self, run_id: int | None) -> dict[int, list[_LayoutCount]]:
-        """Per run: (kind, layout id, frames, first seq, last time s) of each layout it used."""
+        """Per run: (kind, layout id, frames, first seq, last time s) of each layout it used
+        (a closed run's from ``hist_run_layouts``, others counted from the index)."""
         where, args = ("", ()) if run_id is None else ("WHERE run_id = ?", (int(run_id),))
+        try:
+            rows = self._read(f"SELECT * FROM hist_run_layouts {where}", args)
+        except DataError:  # a database from before hist_run_layouts
+            rows = []
+        ids = (
+            [int(r[0]) for r in self._read("SELECT id FROM hist_runs")]
+            if run_id is None
+            else [int(run_id)]
+        )
+        cached = {int(r[0]) for r in rows}
+        for missing in (i for i in ids if i not in cached):
+            rows += self._read(_LAYOUT_COUNTS.format(where="WHERE run_id = ?"), (missing,))
         counts: dict[int, list[_LayoutCount]] = {}
-        for run, kind, layout, n, first, last in self._read(
-            _LAYOUT_COUNTS.format(where=where), args
-        ):
+        for run, kind, layout, n, first, last in rows:
             counts.setdefault(int(run), []).append(
                 (int(kind), int(layout), int(n), int(first), float(last))
             )
@@ -886,8 +897,9 @@ class Historian:
         return RunOverview.from_blobs(header[1], header[2], header[3], bytes(header[4]), blobs)
 
     def _write_overview(self, run_id: int, kind: int) -> RunOverview:
-        """Compute a run's overview of one kind from its frames and store it (a database
-        that cannot be written only logs why)."""
+        """Compute a run's overview of one kind from its frames and store it with the run's
+        layout counts (a database that cannot be written only logs why)."""
+        layouts = self._layout_counts(run_id).get(run_id, [])
         columns, _ = self._columns(run_id, None, kind)
         t = columns.pop(TIME_COLUMN)
         found = compute_overview(t, columns)
@@ -901,10 +913,20 @@ class Historian:
                 raise DataError(f"historian {self.location} is closed; open it again")
             try:
                 with backend.transaction(self._conn):
-                    self._conn.execute(backend.overview_table())
+                    for statement in backend.overview_tables():
+                        self._conn.execute(statement)
                     self._conn.execute(
                         backend.sql("DELETE FROM hist_overview WHERE run_id = ? AND kind = ?"),
                         head,
+                    )
+                    self._conn.execute(
+                        backend.sql("DELETE FROM hist_run_layouts WHERE run_id = ?"), (run_id,)
+                    )
+                    backend.executemany(
+                        self._conn,
+                        "INSERT INTO hist_run_layouts (run_id, kind, layout_id, frames, "
+                        "first_seq, last_t_s) VALUES (?, ?, ?, ?, ?, ?)",
+                        [(run_id, *c) for c in layouts],
                     )
                     backend.executemany(
                         self._conn,

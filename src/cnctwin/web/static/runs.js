@@ -6,16 +6,25 @@
 const Runs = (() => {
   const PREFERRED = ["force_x_n", "spindle_power_w", "spindle_torque_nm"];
   const state = {runs: [], run: null, signal: null, overlay: null, window: null, request: 0,
-                 loads: 0, openedMs: null};
+                 loads: 0, openedMs: null, opening: null};
   const $ = (id) => document.getElementById(id);
-  // plotly.js (4.6 MB) loads asynchronously (runs.html), so the list, the run and its first
-  // signal are fetched while it loads; drawing waits for it.
-  const plotlyReady = new Promise((resolve, reject) => {
-    if (window.Plotly) { resolve(); return; }
-    const script = $("plotly-js");
-    script.addEventListener("load", () => resolve());
-    script.addEventListener("error", () => reject(new Error("plotly.js did not load")));
-  });
+  // plotly.js (4.6 MB, about a second to compile on a slow machine) is not loaded with the
+  // page: a run's first view is drawn on a canvas (lineplot.js) as soon as its points
+  // arrive, then plotly.js is loaded and draws the same points again, zoomable.
+  let plotlyLoading = null;
+  function loadPlotly() {
+    if (!plotlyLoading) {
+      plotlyLoading = new Promise((resolve, reject) => {
+        if (window.Plotly) { resolve(); return; }
+        const script = document.createElement("script");
+        script.src = "static/plotly.min.js";
+        script.addEventListener("load", () => resolve());
+        script.addEventListener("error", () => reject(new Error("plotly.js did not load")));
+        document.head.appendChild(script);
+      });
+    }
+    return plotlyLoading;
+  }
 
   async function getJSON(url) {
     const response = await fetch(url, {credentials: "same-origin"});
@@ -57,6 +66,14 @@ const Runs = (() => {
       overlay.add(new Option(`${run.run_id}: ${baseName(run.program) || run.machine || ""}`,
                              String(run.run_id)));
     }
+    highlight();
+  }
+
+  // Mark the run being opened in the list.
+  function highlight() {
+    for (const row of $("runs").tBodies[0].rows) {
+      row.classList.toggle("open", row.dataset.run === String(state.opening));
+    }
   }
 
   function signalChoices(detail) {
@@ -83,17 +100,19 @@ const Runs = (() => {
   async function openRun(runId) {
     const started = performance.now();
     $("view-error").textContent = "";
-    for (const row of $("runs").tBodies[0].rows) {
-      row.classList.toggle("open", row.dataset.run === String(runId));
-    }
+    state.opening = runId;
+    highlight();
+    $("view").hidden = false;  // laid out now: the plot's width is the buckets asked for
     try {
       const choice = new URLSearchParams(location.hash.slice(1)).get("signal");
+      // The signal the address names is asked for with the run, not after it.
+      const early = choice ? fetchTrace(runId, choice, null, null) : null;
+      early?.catch(() => {});
       const detail = await getJSON(`api/runs/${runId}`);
       state.run = detail;
       state.overlay = null;
       state.window = null;
       $("overlay").value = "";
-      $("view").hidden = false;
       $("title").textContent = `run ${detail.run_id}: ` +
         `${baseName((detail.meta || {}).program) || "-"} on ` +
         `${detail.machine || "-"}, ${detail.status}, ${fmt(detail.duration_s, 1)} s, ` +
@@ -111,7 +130,7 @@ const Runs = (() => {
       }
       state.signal = value;
       history.replaceState(null, "", `#run=${runId}&signal=${encodeURIComponent(value)}`);
-      if (value) await plot(true);
+      if (value) await plot(true, value === choice ? early : null);
       state.openedMs = performance.now() - started;
       $("plot").dataset.openedMs = state.openedMs.toFixed(1);
     } catch (err) {
@@ -119,8 +138,8 @@ const Runs = (() => {
     }
   }
 
-  async function fetchTrace(runId, t0, t1) {
-    const [kind, name] = state.signal.split(/:(.*)/s);
+  async function fetchTrace(runId, signal, t0, t1) {
+    const [kind, name] = signal.split(/:(.*)/s);
     const width = Math.max(100, Math.round($("plot").clientWidth));
     let url = `api/runs/${runId}/signal?name=${encodeURIComponent(name)}&kind=${kind}` +
               `&buckets=${width}`;
@@ -128,13 +147,15 @@ const Runs = (() => {
     return getJSON(url);
   }
 
-  // Draw the signal (and the overlay run's) in the current window; fresh: a new plot.
-  async function plot(fresh) {
+  // Draw the signal (and the overlay run's) in the current window; fresh: a new plot;
+  // early: the main trace's answer when already asked for.
+  async function plot(fresh, early) {
     const request = ++state.request;
     const [t0, t1] = state.window || [null, null];
     const runs = [state.run.run_id];
     if (state.overlay !== null) runs.push(state.overlay);
-    const traces = await Promise.all(runs.map((id) => fetchTrace(id, t0, t1)));
+    const traces = await Promise.all(runs.map((id, k) =>
+      (k === 0 && early) ? early : fetchTrace(id, state.signal, t0, t1)));
     if (request !== state.request) return;  // a newer zoom superseded this one
     const [kind, name] = state.signal.split(/:(.*)/s);
     const data = traces.map((tr) => ({
@@ -149,9 +170,19 @@ const Runs = (() => {
     };
     if (state.window) layout.xaxis.range = state.window;
     const element = $("plot");
-    await plotlyReady;
+    if (!window.Plotly) {
+      const quick = $("quick");
+      quick.hidden = false;
+      LinePlot.draw(quick, data, {x: layout.xaxis.title.text, y: layout.yaxis.title.text});
+      element.dataset.quick = String(traces[0].t.length);
+      element.dataset.firstDrawnMs = performance.now().toFixed(1);
+      // Let the canvas reach the screen before plotly.js takes the main thread.
+      await new Promise((resolve) => requestAnimationFrame(() => setTimeout(resolve, 0)));
+    }
+    await loadPlotly();
     if (request !== state.request) return;
     await Plotly.react(element, data, layout, {displaylogo: false, responsive: true});
+    $("quick").hidden = true;
     if (fresh || !element.dataset.bound) bindZoom(element);
     const main = traces[0];
     element.dataset.points = String(main.t.length);
@@ -185,7 +216,8 @@ const Runs = (() => {
   }
 
   // Zoom to [t0, t1] s (what a drag on the plot does); for scripts and tests.
-  function zoom(t0, t1) {
+  async function zoom(t0, t1) {
+    await loadPlotly();
     return Plotly.relayout($("plot"), {"xaxis.range": [t0, t1]});
   }
 
@@ -204,10 +236,10 @@ const Runs = (() => {
       state.window = null;
       plot(true);
     });
-    loadList().then(() => {
-      const wanted = new URLSearchParams(location.hash.slice(1)).get("run");
-      if (wanted) return openRun(Number(wanted));
-    }).catch((err) => { $("list-error").textContent = String(err.message || err); });
+    // A run the address names is opened while the list loads.
+    loadList().catch((err) => { $("list-error").textContent = String(err.message || err); });
+    const wanted = new URLSearchParams(location.hash.slice(1)).get("run");
+    if (wanted) openRun(Number(wanted));
   }
 
   return {start, openRun, zoom, state};
