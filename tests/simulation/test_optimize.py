@@ -231,7 +231,10 @@ def test_bad_limits_are_refused() -> None:
 def test_a_program_that_loops_is_refused(tmp_path: Path) -> None:
     (tmp_path / "slot.toml").write_text(SLOT_CONFIG)
     config = load_config(tmp_path / "slot.toml")
-    looping = "G21 G90 T1 M6 S6000 M3\nG0 X-10 Y15 Z5\no100 repeat [2]\nG1 X70 F600\nG1 X-10\no100 endrepeat\nM30\n"
+    looping = (
+        "G21 G90 T1 M6 S6000 M3\nG0 X-10 Y15 Z5\no100 repeat [2]\nG1 X70 F600\nG1 X-10\n"
+        "o100 endrepeat\nM30\n"
+    )
     with pytest.raises(InputError, match="runs again"):
         optimize_program(
             looping, "loop.ngc", config, FeedLimits(max_force_n=300.0),
