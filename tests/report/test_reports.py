@@ -233,7 +233,7 @@ def test_dexel_study_report_maps_are_the_runs_and_eq3(tmp_path) -> None:
     np.testing.assert_allclose(array(score["z"]), expected, atol=2e-4)
     best = np.unravel_index(np.argmin(expected), expected.shape)
     assert (densities[best[0]], cycles[best[1]] * 1e3) == pytest.approx(
-        (printed["optimum"]["density_per_mm"], printed["optimum"]["cycle_ms"])
+        (printed["score_optimum"]["density_per_mm"], printed["score_optimum"]["cycle_ms"])
     )
     # Per feed, the |delta ae| map's cells are the runs of results.csv (in um).
     feed = float(runs[0]["feed_mm_min"])

@@ -16,6 +16,7 @@ from cnctwin.studies import (
     RunResult,
     RunSpec,
     SideMillingCut,
+    constrained_optimum,
     fit_t_star,
     min_max,
     optimum,
@@ -103,10 +104,10 @@ def test_settings_aggregate_over_feeds_and_optimum() -> None:
     # By hand: ae* = (1, 0, 0), vf* = (1, 0, 0), T* = (0, 1, 0.25).
     assert (a.score, b.score, c.score) == pytest.approx((0.8, 0.2, 0.05))
     assert optimum(list(scored.values())) is c
-    # Within 1 % of the volume, (10 /mm, 50 ms) is out.
-    assert optimum(list(scored.values()), max_volume_deviation_pct=1.0) is b
-    with pytest.raises(ConfigError, match="no setting"):
-        optimum([c], max_volume_deviation_pct=1.0)
+    # Within 1 % of the volume, (10 /mm, 50 ms) is out (test_constrained_optimum.py).
+    choice = constrained_optimum(list(scored.values()))
+    assert choice.optimum is b and choice.score_optimum is c
+    assert constrained_optimum([c]).optimum is None
 
 
 def test_optimum_breaks_ties_by_cost() -> None:

@@ -22,6 +22,7 @@ from cnctwin.studies import (
     DexelStudy,
     RunResult,
     settings,
+    summary_lead,
 )
 
 if TYPE_CHECKING:
@@ -85,18 +86,17 @@ def dexel_study_report(
             [[value(rho, cycle) for cycle in study.cycles_s] for rho in study.densities_per_mm]
         )
 
-    best = result["optimum"]
     report = Report(
         "Dexel study: density x cycle time (Heide 2025)",
-        f"cnctwin study dexel: {result['study']['runs']} runs; optimum "
-        f"{best['density_per_mm']:g} /mm, {best['cycle_ms']:g} ms (Heide 2025: "
-        f"{PAPER['density_per_mm']:g} /mm, {PAPER['cycle_s'] * 1e3:g} ms)",
+        f"cnctwin study dexel: {result['study']['runs']} runs. "
+        + " ".join(summary_lead(dict(result)))
+        + f" (Heide 2025: {PAPER['density_per_mm']:g} /mm, {PAPER['cycle_s'] * 1e3:g} ms.)",
         result,
     )
     report.section(
         "Score S per setting (Heide 2025, Eq. 3)",
         "S = 0.4 ae* + 0.4 vf* + 0.2 T*, each metric min-max normalised over the settings; "
-        "the optimum is the least S.",
+        "the optimum is the least S among the settings that meet the constraints.",
     )
     report.figure(
         _heatmap(study, grid(lambda r, c: by_setting[(r, c)].score), "score S", "S", None)

@@ -7,7 +7,8 @@ Public API::
     study = DexelStudy.paper()              # Table 2: 5 densities x 8 cycle times x 6 feeds
     results = run_study(study, workers=2)   # one RunResult per run
     scored = settings(results)              # per (density, cycle time), score S (Eq. 2-3)
-    best = optimum(scored)
+    best = optimum(scored)                  # least S
+    choice = constrained_optimum(scored)    # least S within volume and real-time constraints
 
 Units at this edge: mm, mm/min, s (names say so). See docs/study.md.
 """
@@ -26,13 +27,16 @@ from cnctwin.studies.dexel_study import (
     SideMillingCut,
     run_one,
 )
-from cnctwin.studies.runner import default_workers, run_study
+from cnctwin.studies.runner import default_workers, estimate_wall_s, run_study
 from cnctwin.studies.scaling import TStarFit, fit_t_star, t_star
 from cnctwin.studies.score import (
     AE_RESOLUTION_MM,
     FEED_RESOLUTION_PCT,
     WEIGHTS,
+    Choice,
+    Constraints,
     Setting,
+    constrained_optimum,
     min_max,
     optimum,
     score,
@@ -40,7 +44,7 @@ from cnctwin.studies.score import (
 )
 
 if TYPE_CHECKING:
-    from cnctwin.studies.report import write_outputs
+    from cnctwin.studies.report import summary_lead, write_outputs
 
 __all__ = [
     "AE_RESOLUTION_MM",
@@ -51,13 +55,17 @@ __all__ = [
     "PAPER_FEEDS_MM_MIN",
     "PAPER_PROCESS_S",
     "WEIGHTS",
+    "Choice",
+    "Constraints",
     "DexelStudy",
     "RunResult",
     "RunSpec",
     "SideMillingCut",
     "Setting",
     "TStarFit",
+    "constrained_optimum",
     "default_workers",
+    "estimate_wall_s",
     "fit_t_star",
     "min_max",
     "optimum",
@@ -65,6 +73,7 @@ __all__ = [
     "run_study",
     "score",
     "settings",
+    "summary_lead",
     "t_star",
     "write_outputs",
 ]
@@ -72,8 +81,8 @@ __all__ = [
 
 def __getattr__(name: str) -> Any:
     # The outputs draw their heat maps with matplotlib: imported on first use.
-    if name == "write_outputs":
-        from cnctwin.studies.report import write_outputs
+    if name in ("summary_lead", "write_outputs"):
+        from cnctwin.studies import report
 
-        return write_outputs
+        return getattr(report, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,10 +1,12 @@
 """The outputs of a dexel study: results.csv, summary.json, report.md and the heat maps.
 
-``summary.json`` holds the study's settings, the optimum of Heide 2025's score with its metrics
-(and its runs per feed), our figures at the paper's optimum (10 /mm, 12.5 ms) when the study
-has that setting, the best setting that removes the volume of a continuous cut within
-:data:`VOLUME_BOUND_PCT` at every feed, the paper's figures, and the T* fit. ``report.md`` puts
-them side by side. Units: mm, mm/min, s, percent (names say so).
+``summary.json`` holds the study's settings, the constraints, the constrained optimum (the least
+Heide 2025 score among the settings that meet them, :func:`~cnctwin.studies.constrained_optimum`)
+with its metrics and its runs per feed, the least score of all, every excluded setting with the
+constraint that excluded it, our figures at the paper's optimum (10 /mm, 12.5 ms) when the
+study has that setting, the paper's figures, and the T* fit. ``report.md`` leads with the
+constrained optimum and puts the others beside it. Units: mm, mm/min, s, percent (names say
+so).
 """
 
 from __future__ import annotations
@@ -16,16 +18,12 @@ from pathlib import Path
 from typing import Any
 
 from cnctwin import finite_json
-from cnctwin.errors import CnctwinError
 from cnctwin.studies.dexel_study import PAPER, DexelStudy, RunResult
 from cnctwin.studies.plots import write_heatmaps
 from cnctwin.studies.scaling import fit_t_star, t_star
-from cnctwin.studies.score import WEIGHTS, Setting, optimum, settings
+from cnctwin.studies.score import WEIGHTS, Constraints, Setting, constrained_optimum, settings
 
-__all__ = ["RESULT_COLUMNS", "VOLUME_BOUND_PCT", "study_summary", "write_outputs"]
-
-#: Bound on the removed-volume deviation of the second optimum reported, percent.
-VOLUME_BOUND_PCT = 1.0
+__all__ = ["RESULT_COLUMNS", "study_summary", "summary_lead", "write_outputs"]
 
 #: Columns of results.csv (units in the names; t_star in 1/(mm^2 s)).
 RESULT_COLUMNS = (
@@ -77,7 +75,7 @@ def _setting(setting: Setting, results: Sequence[RunResult]) -> dict[str, Any]:
         **asdict(setting),
         "cycle_ms": setting.cycle_s * 1e3,
         "t_star": float(t_star(setting.density_per_mm, setting.cycle_s)),
-        "realtime_factor": setting.process_s / setting.cpu_s if setting.cpu_s > 0 else None,
+        "realtime_factor": setting.realtime_factor,
         "runs": [
             {
                 "feed_mm_min": r.spec.feed_mm_min,
@@ -93,9 +91,15 @@ def _setting(setting: Setting, results: Sequence[RunResult]) -> dict[str, Any]:
 
 
 def study_summary(
-    study: DexelStudy, results: Sequence[RunResult], *, workers: int, wall_s: float
+    study: DexelStudy,
+    results: Sequence[RunResult],
+    *,
+    workers: int,
+    wall_s: float,
+    constraints: Constraints | None = None,
 ) -> tuple[dict[str, Any], list[Setting], Setting]:
-    """The summary object, the scored settings and the optimum.
+    """The summary object, the scored settings and the setting to frame on the score map (the
+    constrained optimum, else the least score).
 
     Parameters
     ----------
@@ -107,15 +111,13 @@ def study_summary(
         Processes the runs used.
     wall_s
         Wall time of the whole study, s.
+    constraints
+        What the optimum must meet (default :class:`~cnctwin.studies.Constraints`).
     """
     scored = settings(results)
-    best = optimum(scored)
+    choice = constrained_optimum(scored, constraints)
     by_key = {(s.density_per_mm, s.cycle_s): s for s in scored}
     at_paper = by_key.get((PAPER["density_per_mm"], PAPER["cycle_s"]))
-    try:
-        bounded: dict[str, Any] | None = _setting(optimum(scored, VOLUME_BOUND_PCT), results)
-    except CnctwinError:
-        bounded = None
     fit = None
     if len(study.densities_per_mm) > 1 and len(study.cycles_s) > 1 and len(scored) >= 3:
         fit = asdict(
@@ -133,20 +135,64 @@ def study_summary(
             "cycles_s": list(study.cycles_s),
             "feeds_mm_min": list(study.feeds_mm_min),
             "cut": {**asdict(cut), "pass_length_mm": cut.pass_length_mm},
-            "process_per_setting_s": best.process_s,
+            "process_per_setting_s": choice.score_optimum.process_s,
             "workers": workers,
             "wall_s": wall_s,
             "cpu_s": sum(r.cpu_s for r in results),
         },
         "weights": dict(zip(("ae", "vf", "runtime"), WEIGHTS, strict=True)),
-        "optimum": _setting(best, results),
+        "constraints": asdict(choice.constraints),
+        "optimum": _setting(choice.optimum, results) if choice.optimum is not None else None,
+        "score_optimum": _setting(choice.score_optimum, results),
+        "excluded": [
+            {
+                "density_per_mm": s.density_per_mm,
+                "cycle_ms": s.cycle_s * 1e3,
+                "score": s.score,
+                "volume_deviation_pct": s.volume_deviation_pct,
+                "realtime_factor": s.realtime_factor,
+                "reasons": list(reasons),
+            }
+            for s, reasons in choice.excluded
+        ],
         "at_paper_optimum": _setting(at_paper, results) if at_paper is not None else None,
-        "volume_bound_pct": VOLUME_BOUND_PCT,
-        "optimum_within_volume_bound": bounded,
         "paper": dict(PAPER),
         "t_star_fit": fit,
     }
-    return summary, scored, best
+    return summary, scored, choice.optimum or choice.score_optimum
+
+
+def _constraints_text(constraints: dict[str, float]) -> str:
+    """The constraints of a summary in words."""
+    return (
+        f"removed volume within {constraints['max_volume_deviation_pct']:g} % of a continuous "
+        f"cut's at every feed, real-time factor >= {constraints['min_realtime_factor']:g}"
+    )
+
+
+def summary_lead(summary: dict[str, Any]) -> list[str]:
+    """The report's opening: the constrained optimum, and why the least score was excluded."""
+    best, top = summary["optimum"], summary["score_optimum"]
+    rule = _constraints_text(summary["constraints"])
+    if best is None:
+        text = [f"No setting meets the constraints ({rule})."]
+    else:
+        text = [
+            f"Optimum: {best['density_per_mm']:g} /mm, {best['cycle_ms']:g} ms "
+            f"(S = {best['score']:.3f}): the least score among the settings that meet the "
+            f"constraints ({rule})."
+        ]
+    excluded = {(e["density_per_mm"], e["cycle_ms"]): e for e in summary["excluded"]}
+    key = (top["density_per_mm"], top["cycle_ms"])
+    if key in excluded:
+        text.append(
+            f"The least score of all, {key[0]:g} /mm, {key[1]:g} ms (S = {top['score']:.3f}), "
+            f"is excluded: {'; '.join(excluded[key]['reasons'])}."
+        )
+    study = summary["study"]
+    total = len(study["densities_per_mm"]) * len(study["cycles_s"])
+    text.append(f"{len(excluded)} of {total} settings excluded (table below).")
+    return text
 
 
 def _fmt(value: Any, spec: str) -> str:
@@ -155,9 +201,10 @@ def _fmt(value: Any, spec: str) -> str:
 
 def _report(summary: dict[str, Any]) -> str:
     """report.md: our figures next to Heide 2025's."""
-    study, paper, best = summary["study"], summary["paper"], summary["optimum"]
+    study, paper = summary["study"], summary["paper"]
+    best = summary["optimum"] or {}
+    top = summary["score_optimum"]
     ours_at = summary["at_paper_optimum"] or {}
-    bounded = summary["optimum_within_volume_bound"] or {}
     rows = (
         ("dexel density [1/mm]", "density_per_mm", ".3g"),
         ("cycle time [ms]", "cycle_ms", ".4g"),
@@ -166,6 +213,7 @@ def _report(summary: dict[str, Any]) -> str:
         ("removed volume dev., worst feed [%]", "volume_deviation_pct", ".3g"),
         ("runtime [s] (ours: CPU)", "cpu_s", ".3g"),
         ("process time [s]", "process_s", ".4g"),
+        ("real-time factor", "realtime_factor", ".3g"),
         ("score S", "score", ".3f"),
     )
     paper_row = {
@@ -173,9 +221,12 @@ def _report(summary: dict[str, Any]) -> str:
         "cycle_ms": paper["cycle_s"] * 1e3,
         "cpu_s": paper["runtime_s"],
         "volume_deviation_pct": None,
+        "realtime_factor": paper["process_s"] / paper["runtime_s"],
     }
     lines = [
         "# Dexel density x cycle time study (Heide 2025, Sec. 2.3)",
+        "",
+        *summary_lead(summary),
         "",
         f"{study['runs']} runs: densities {study['densities_per_mm']} /mm, cycle times "
         f"{[c * 1e3 for c in study['cycles_s']]} ms, feeds {study['feeds_mm_min']} mm/min; "
@@ -185,14 +236,14 @@ def _report(summary: dict[str, Any]) -> str:
         f"process per setting). {study['workers']} worker process(es), "
         f"{study['wall_s']:.1f} s wall, {study['cpu_s']:.1f} s CPU in all.",
         "",
-        f"| | Heide 2025 optimum | our optimum | ours at 10 /mm, 12.5 ms "
-        f"| ours, best within {VOLUME_BOUND_PCT:g} % volume |",
+        "| | Heide 2025 optimum | our optimum (constrained) | our least S (unconstrained) "
+        "| ours at 10 /mm, 12.5 ms |",
         "|---|---:|---:|---:|---:|",
     ]
     for label, key, spec in rows:
         lines.append(
             f"| {label} | {_fmt(paper_row.get(key), spec)} | {_fmt(best.get(key), spec)} "
-            f"| {_fmt(ours_at.get(key), spec)} | {_fmt(bounded.get(key), spec)} |"
+            f"| {_fmt(top.get(key), spec)} | {_fmt(ours_at.get(key), spec)} |"
         )
     lines += [
         "",
@@ -212,13 +263,26 @@ def _report(summary: dict[str, Any]) -> str:
             "T* holds when the exponent is 1 (rho^2 t_cycle^-1).",
             "",
         ]
+    if summary["excluded"]:
+        lines += [
+            "## Excluded settings",
+            "",
+            "| density [1/mm] | cycle time [ms] | score S | excluded because |",
+            "|---:|---:|---:|---|",
+        ]
+        lines += [
+            f"| {e['density_per_mm']:g} | {e['cycle_ms']:g} | {e['score']:.3f} "
+            f"| {'; '.join(e['reasons'])} |"
+            for e in summary["excluded"]
+        ]
+        lines.append("")
     lines += [
         "## Per feed at our optimum",
         "",
         "| feed [mm/min] | delta ae [mm] | feed deviation [%] | volume deviation [%] | CPU [s] |",
         "|---:|---:|---:|---:|---:|",
     ]
-    for run in best["runs"]:
+    for run in best.get("runs", []):
         lines.append(
             f"| {run['feed_mm_min']:g} | {run['delta_ae_mm']:.3g} | "
             f"{run['feed_deviation_pct']:.2g} | {run['volume_deviation_pct']:.3g} | "
@@ -234,9 +298,16 @@ def _report(summary: dict[str, Any]) -> str:
 
 
 def write_outputs(
-    out: Path, study: DexelStudy, results: Sequence[RunResult], *, workers: int, wall_s: float
+    out: Path,
+    study: DexelStudy,
+    results: Sequence[RunResult],
+    *,
+    workers: int,
+    wall_s: float,
+    constraints: Constraints | None = None,
 ) -> dict[str, Any]:
-    """Write results.csv, the heat maps, summary.json and report.md into ``out`` (created).
+    """Write results.csv, the heat maps, summary.json and report.md into ``out`` (created);
+    ``constraints`` as in :func:`study_summary`.
 
     Returns
     -------
@@ -244,7 +315,9 @@ def write_outputs(
         The summary (as in summary.json), with ``files``: the paths written.
     """
     out.mkdir(parents=True, exist_ok=True)
-    summary, scored, best = study_summary(study, results, workers=workers, wall_s=wall_s)
+    summary, scored, best = study_summary(
+        study, results, workers=workers, wall_s=wall_s, constraints=constraints
+    )
     csv_path = out / "results.csv"
     with csv_path.open("w", newline="") as handle:
         writer = csv.writer(handle)

@@ -20,7 +20,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from cnctwin.errors import ConfigError
 from cnctwin.studies.dexel_study import DexelStudy, RunResult, RunSpec, SideMillingCut, run_one
 
-__all__ = ["default_workers", "run_study"]
+__all__ = ["default_workers", "estimate_wall_s", "run_study"]
 
 log = logging.getLogger(__name__)
 
@@ -33,6 +33,17 @@ def default_workers() -> int:
         return max(len(os.sched_getaffinity(0)), 1)
     except AttributeError:  # not on Linux
         return os.cpu_count() or 1
+
+
+def estimate_wall_s(runs: int, first_run_s: float, workers: int) -> float:
+    """Wall time a study will take, from its first finished run, s: ``runs x first_run_s /
+    min(workers, runs)``.
+
+    :func:`run_study` starts the most expensive runs first, so the first result is among the
+    longest: the estimate is an upper bound (for Heide 2025's 240 runs the first takes several
+    times the mean run).
+    """
+    return runs * first_run_s / max(1, min(workers, runs))
 
 
 def _warm_up() -> None:
