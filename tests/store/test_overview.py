@@ -141,3 +141,26 @@ def test_a_running_run_has_none_and_names_are_checked(recorded) -> None:
             h.overview(run, ["torque"])
         with pytest.raises(DataError, match="run 99 is not in the historian"):
             h.overview(99)
+
+
+def test_a_window_of_samples_is_the_raw_frames_in_it(recorded) -> None:
+    path, run, live = recorded
+    t, values = raw_frames(path, run, 0)
+    rng = np.random.default_rng(5)
+    # Windows inside, across pauses, at the ends, past the ends, on an instant, empty.
+    windows = [tuple(np.sort(rng.uniform(t[0] - 50.0, t[-1] + 50.0, 2))) for _ in range(20)]
+    windows += [(t[0], t[0]), (t[-1], t[-1] + 1.0), (t[100], t[100]), (-10.0, -5.0)]
+    windows += [(t[17_000], t[17_000] + 0.05), (t[0], t[-1]), (None, t[50]), (t[-50], None)]
+    with Historian.open(path, create=False) as h:
+        for t0, t1 in windows:
+            got = h.samples(run, ["force_x_n", "spindle_power_w"], t0=t0, t1=t1)
+            inside = (t >= (-np.inf if t0 is None else t0)) & (t <= (np.inf if t1 is None else t1))
+            np.testing.assert_array_equal(got["time_s"], t[inside])
+            for name in ("force_x_n", "spindle_power_w"):
+                np.testing.assert_array_equal(got[name], values[name][inside])
+        # A short window's frames are found among a few fine buckets' (not the whole run's).
+        overview = h.overview(run)
+        lo, hi = overview.seq_range(t[17_000], t[17_000] + 0.05)
+        assert 0 <= hi - lo < 0.01 * (overview.seq_hi[-1] - overview.seq_lo[0])
+        # A run being recorded has no overview: its window is found by time alone.
+        assert h.samples(live, t0=-1.0, t1=1.0)["force_x_n"].tolist() == [1.0]

@@ -141,3 +141,30 @@ def test_token_is_needed_when_one_is_set(db) -> None:
         assert page.status_code == 200 and page.cookies.get("cnctwin_token") == "s3cret"
         assert c.get("/api/runs").status_code == 200  # the cookie now carries it
     browser.close()
+
+
+def test_a_run_being_recorded_is_plotted_from_its_frames(tmp_path) -> None:
+    """No overview while a run records: the whole-run plot is cut from its columns, in equal
+    buckets, and shows what was recorded up to now."""
+    from cnctwin.store import Historian
+
+    path = tmp_path / "live.sqlite"
+    y_all = expected_force()[:3000]
+    with Historian.open(path) as h:
+        run = h.start_run({"program": "live.nc"})
+        for i, value in enumerate(y_all):
+            h.record_samples(run, i * DT_S, {"force_x_n": float(value)})
+        h.flush()
+        browser = RunBrowser(path)
+        try:
+            got = browser.signal(run, "force_x_n", buckets=100)
+        finally:
+            browser.close()
+    assert got["samples"] == 3000 and not got["raw"]
+    np.testing.assert_allclose(got["edges"], np.linspace(0.0, 2999 * DT_S, 101))
+    t, y = np.array(got["t"]), np.array([np.nan if v is None else v for v in got["y"]])
+    bucket = np.minimum((np.arange(3000) / 2999 * 100).astype(int), 99)
+    shown = np.minimum(np.searchsorted(got["edges"], t, side="right") - 1, 99)
+    for b in range(100):
+        assert np.nanmax(y[shown == b]) == np.nanmax(y_all[bucket == b])
+        assert np.nanmin(y[shown == b]) == np.nanmin(y_all[bucket == b])

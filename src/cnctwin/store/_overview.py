@@ -6,7 +6,9 @@ closed before overviews existed, the first time one is asked for, and stores it 
 ``hist_overview`` (docs/historian.md). A fine bucket keeps, for each signal, its number of
 finite values, its smallest value with the time of the earliest instant holding it and its
 largest value with the time of the latest instant holding it; per run and kind it keeps each
-bucket's number of instants and its first instant's time (where a gap is drawn).
+bucket's number of instants, its first instant's time (where a gap is drawn) and the range
+of the ``seq`` of its instants, so a window of the run is read from those frames alone
+(:meth:`RunOverview.seq_range`).
 
 :meth:`RunOverview.envelope` merges whole fine buckets into ``buckets`` plot buckets (each
 ``OVERVIEW_BUCKETS / buckets`` fine buckets, give or take one): every plot bucket then gives
@@ -65,8 +67,9 @@ class RunOverview:
         Times of the run's first and last instant of this kind, s.
     frames
         Instants.
-    count, first_t
-        Per fine bucket: instants, and the time of the first one (s; NaN when empty).
+    count, first_t, seq_lo, seq_hi
+        Per fine bucket: instants, the time of the first one (s; NaN when empty) and the
+        smallest and largest ``seq`` among them (NaN when empty; float64, exact to 2**53).
     signals
         Per signal name: ``{"finite", "y_min", "t_min", "y_max", "t_max"}`` arrays per fine
         bucket (times s, values in the signal's unit; NaN where a bucket has no finite value).
@@ -77,6 +80,8 @@ class RunOverview:
     frames: int
     count: NDArray[np.float64]
     first_t: NDArray[np.float64]
+    seq_lo: NDArray[np.float64]
+    seq_hi: NDArray[np.float64]
     signals: dict[str, dict[str, NDArray[np.float64]]]
 
     @property
@@ -85,8 +90,9 @@ class RunOverview:
         return int(self.count.size)
 
     def header_blob(self) -> bytes:
-        """``count`` then ``first_t``, little-endian float64 (the stored form)."""
-        return np.concatenate([self.count, self.first_t]).astype(_F8).tobytes()
+        """``count``, ``first_t``, ``seq_lo``, ``seq_hi``, little-endian float64 (stored)."""
+        arrays = [self.count, self.first_t, self.seq_lo, self.seq_hi]
+        return np.concatenate(arrays).astype(_F8).tobytes()
 
     def signal_blob(self, name: str) -> bytes:
         """One signal's arrays in :data:`_SIGNAL_FIELDS` order, little-endian float64."""
@@ -96,6 +102,7 @@ class RunOverview:
     @classmethod
     def from_blobs(
         cls,
+        buckets: int,
         t_first: float,
         t_last: float,
         frames: int,
@@ -103,15 +110,30 @@ class RunOverview:
         signals: dict[str, bytes],
     ) -> RunOverview:
         """The overview from its stored blobs (:meth:`header_blob`, :meth:`signal_blob`)."""
-        count, first_t = np.frombuffer(header, dtype=_F8).reshape(2, -1)
-        n = count.size
+        n = int(buckets)
+        count, first_t, seq_lo, seq_hi = np.frombuffer(header, dtype=_F8).reshape(4, n)
         parsed = {
             name: dict(
                 zip(_SIGNAL_FIELDS, np.frombuffer(blob, dtype=_F8).reshape(-1, n), strict=True)
             )
             for name, blob in signals.items()
         }
-        return cls(float(t_first), float(t_last), int(frames), count, first_t, parsed)
+        return cls(
+            float(t_first), float(t_last), int(frames), count, first_t, seq_lo, seq_hi, parsed
+        )
+
+    def seq_range(self, t0: float, t1: float) -> tuple[int, int]:
+        """The smallest and largest ``seq`` of the instants with ``t0 <= time <= t1`` could
+        have (their fine buckets'); ``(0, -1)`` when none can be there."""
+        span = self.t_last - self.t_first
+        if self.frames == 0 or t1 < self.t_first or t0 > self.t_last:
+            return 0, -1
+        scale = self.buckets / span if span > 0 else 0.0
+        ends = np.clip(np.array([t0, t1]) - self.t_first, 0.0, span) * scale
+        lo, hi = np.minimum(ends.astype(np.int64), self.buckets - 1)
+        if not np.isfinite(self.seq_lo[lo : hi + 1]).any():
+            return 0, -1
+        return int(np.nanmin(self.seq_lo[lo : hi + 1])), int(np.nanmax(self.seq_hi[lo : hi + 1]))
 
     def edges_of(self, buckets: int) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
         """Fine-bucket index where each of ``buckets`` plot buckets starts (and the end), and
@@ -169,6 +191,7 @@ class RunOverview:
 def compute_overview(
     t: NDArray[np.float64],
     columns: dict[str, NDArray[np.float64]],
+    seq: NDArray[np.int64],
     buckets: int = OVERVIEW_BUCKETS,
 ) -> RunOverview:
     """The overview of one kind of a run from its columns.
@@ -179,16 +202,19 @@ def compute_overview(
         Instant times, non-decreasing, s.
     columns
         Signal name -> values at those instants (NaN where not recorded or invalid).
+    seq
+        The instants' ``seq`` (the historian's recording order).
     buckets
         Fine buckets.
     """
     n = int(t.size)
     count = np.zeros(buckets)
     first_t = np.full(buckets, np.nan)
+    seq_lo, seq_hi = np.full(buckets, np.nan), np.full(buckets, np.nan)
     empty = {f: np.full(buckets, np.nan) for f in _SIGNAL_FIELDS}
     if n == 0:
         signals = {name: {f: a.copy() for f, a in empty.items()} for name in columns}
-        return RunOverview(0.0, 0.0, 0, count, first_t, signals)
+        return RunOverview(0.0, 0.0, 0, count, first_t, seq_lo, seq_hi, signals)
     t_first, t_last = float(t[0]), float(t[-1])
     span = t_last - t_first
     scale = buckets / span if span > 0 else 0.0
@@ -198,6 +224,8 @@ def compute_overview(
     sizes = np.diff(np.r_[starts, n])
     count[used] = sizes
     first_t[used] = t[starts]
+    seq_lo[used] = np.minimum.reduceat(seq, starts)
+    seq_hi[used] = np.maximum.reduceat(seq, starts)
     positions = np.arange(n)
     signals: dict[str, dict[str, NDArray[np.float64]]] = {}
     for name, y in columns.items():
@@ -221,4 +249,4 @@ def compute_overview(
         arrays["y_max"][where] = high[has]
         arrays["t_max"][where] = t[at_high[has]]
         signals[name] = arrays
-    return RunOverview(t_first, t_last, n, count, first_t, signals)
+    return RunOverview(t_first, t_last, n, count, first_t, seq_lo, seq_hi, signals)

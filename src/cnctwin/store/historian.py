@@ -757,7 +757,13 @@ class Historian:
         )
 
     def samples(
-        self, run_id: int, names: Sequence[str] | None = None, *, predicted: bool = False
+        self,
+        run_id: int,
+        names: Sequence[str] | None = None,
+        *,
+        predicted: bool = False,
+        t0: float | None = None,
+        t1: float | None = None,
     ) -> dict[str, np.ndarray]:
         """The recorded signals of a run as columns, in recording order.
 
@@ -769,6 +775,10 @@ class Historian:
             Signals to return; None for all.
         predicted
             True for the predicted signals instead of the measured ones.
+        t0, t1
+            Only the instants with ``t0 <= time <= t1`` (s; None: no bound). A closed run's
+            overview tells which frames hold them, so a short window of a long run reads
+            few frames.
 
         Returns
         -------
@@ -776,13 +786,28 @@ class Historian:
             ``"time_s"`` (twin time, s) first, then one float64 array per signal; NaN where a
             signal was not recorded at an instant.
         """
-        columns, _ = self._columns(run_id, names, _PREDICTION if predicted else _SAMPLE)
-        return columns
+        kind = _PREDICTION if predicted else _SAMPLE
+        if t0 is None and t1 is None:
+            return self._columns(run_id, names, kind)[0]
+        lo = -math.inf if t0 is None else _finite(t0, "window start t0")
+        hi = math.inf if t1 is None else _finite(t1, "window end t1")
+        where, args = " AND t_s >= ? AND t_s <= ?", (lo, hi)
+        found = self._stored_overview(int(run_id), kind, [])
+        if found is not None:
+            where += " AND seq >= ? AND seq <= ?"
+            args += found.seq_range(lo, hi)
+        return self._columns(run_id, names, kind, where, args)[0]
 
     def _columns(
-        self, run_id: int, names: Sequence[str] | None, kind: int
-    ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
-        """Columns and, per signal, where it was recorded (a bool mask)."""
+        self,
+        run_id: int,
+        names: Sequence[str] | None,
+        kind: int,
+        where: str = "",
+        args: tuple[Any, ...] = (),
+    ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], np.ndarray]:
+        """Columns, per signal where it was recorded (a bool mask), and each instant's
+        ``seq``; ``where`` (`` AND ...`` with ``args``) narrows the frames read."""
         self._sync()
         if not self._read("SELECT 1 FROM hist_runs WHERE id = ?", (int(run_id),)):
             raise self._unknown_run(run_id)
@@ -795,9 +820,9 @@ class Historian:
                 f" (recorded: {', '.join(available) or 'none'})"
             )
         rows = self._read(
-            "SELECT t_s, layout_id, vals FROM hist_frames WHERE run_id = ? AND kind = ? "
-            "ORDER BY seq",
-            (int(run_id), kind),
+            "SELECT t_s, layout_id, vals, seq FROM hist_frames WHERE run_id = ? AND kind = ?"
+            f"{where} ORDER BY seq",
+            (int(run_id), kind, *args),
         )
         n = len(rows)
         layout_of = np.fromiter((r[1] for r in rows), dtype=np.int64, count=n)
@@ -817,7 +842,7 @@ class Historian:
                 if name in masks:
                     columns[name][index] = block[:, j]
                     masks[name][index] = True
-        return columns, masks
+        return columns, masks, np.fromiter((r[3] for r in rows), dtype=np.int64, count=n)
 
     def overview(
         self, run_id: int, names: Sequence[str] | None = None, *, predicted: bool = False
@@ -872,6 +897,8 @@ class Historian:
             found.frames,
             found.count,
             found.first_t,
+            found.seq_lo,
+            found.seq_hi,
             {name: found.signals[name] for name in names},
         )
 
@@ -879,7 +906,7 @@ class Historian:
         self, run_id: int, kind: int, names: Sequence[str] | None
     ) -> RunOverview | None:
         """The stored overview (only ``names`` and the header when given); None if absent."""
-        sql = "SELECT name, t_first, t_last, frames, data FROM hist_overview "
+        sql = "SELECT name, t_first, t_last, frames, data, buckets FROM hist_overview "
         sql += "WHERE run_id = ? AND kind = ?"
         args: tuple[Any, ...] = (run_id, kind)
         if names is not None:
@@ -894,15 +921,17 @@ class Historian:
         if header is None:
             return None
         del blobs[""]
-        return RunOverview.from_blobs(header[1], header[2], header[3], bytes(header[4]), blobs)
+        return RunOverview.from_blobs(
+            header[5], header[1], header[2], header[3], bytes(header[4]), blobs
+        )
 
     def _write_overview(self, run_id: int, kind: int) -> RunOverview:
         """Compute a run's overview of one kind from its frames and store it with the run's
         layout counts (a database that cannot be written only logs why)."""
         layouts = self._layout_counts(run_id).get(run_id, [])
-        columns, _ = self._columns(run_id, None, kind)
+        columns, _, seq = self._columns(run_id, None, kind)
         t = columns.pop(TIME_COLUMN)
-        found = compute_overview(t, columns)
+        found = compute_overview(t, columns, seq)
         head = (run_id, kind)
         tail = (found.buckets, found.t_first, found.t_last, found.frames)
         rows = [(*head, "", *tail, found.header_blob())]
@@ -977,8 +1006,8 @@ class Historian:
         detail = self.run(run_id)
         return write_run(
             detail,
-            self._columns(run_id, None, _SAMPLE),
-            self._columns(run_id, None, _PREDICTION),
+            self._columns(run_id, None, _SAMPLE)[:2],
+            self._columns(run_id, None, _PREDICTION)[:2],
             path,
             fmt,
         )

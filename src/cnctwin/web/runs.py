@@ -10,12 +10,11 @@ pixel); zooming asks again for the narrower window, down to the single samples.
 A plot of a whole closed run comes from the run's overview (:meth:`Historian.overview`: per
 signal the min and max of 4096 time buckets, stored when the run was closed), so opening even
 a 1-hour run reads a few hundred kB and decodes no frame; its plot buckets fall on the
-overview's bucket edges (``edges`` in the answer). A zoom, and any plot of a run still being
-recorded, reads the run's columns once (:meth:`Historian.samples`; the historian stores each
-instant's values as one blob, docs/historian.md) and keeps the columns of the last few
-opened runs in memory: a 1-hour run at the twin's default 12.5 ms cycle is 288,000 instants,
-~65 MB of float64 for its 28 measured signals. A run still being recorded is read again after
-:data:`LIVE_CACHE_S`.
+overview's bucket edges (``edges`` in the answer). A zoom into a closed run reads only the
+frames of its window (:meth:`Historian.samples` with ``t0``/``t1``, which the overview points
+to). A run still being recorded has no overview: its columns are read whole and kept in
+memory (the last few opened) for :data:`LIVE_CACHE_S`; a 1-hour run at the twin's default
+12.5 ms cycle is 288,000 instants, ~65 MB of float64 for its 28 measured signals.
 
 HTTP API (JSON; errors are ``{"error": one line}`` with status 404 or 422):
 
@@ -255,26 +254,34 @@ class RunBrowser:
             raise InputError(f"kind {kind!r}; give one of {', '.join(_KINDS)}")
         if not 1 <= buckets <= MAX_BUCKETS:
             raise InputError(f"buckets {buckets}; give 1 to {MAX_BUCKETS} (the plot's pixels)")
-        found = self.overview(run_id, kind == "predicted") if t0 is None and t1 is None else None
-        if found is not None:
+        predicted = kind == "predicted"
+        found = self.overview(run_id, predicted)
+        if found is None:  # still being recorded: its columns, read again now and then
+            columns = self.columns(run_id, predicted)
+            _known(run_id, kind, name, [n for n in columns if n != TIME_COLUMN])
+            t = columns[TIME_COLUMN]
+            first = float(t[0]) if t.size else 0.0
+            last = float(t[-1]) if t.size else 0.0
+        else:
             _known(run_id, kind, name, list(found.signals))
-            if 2 * buckets < found.frames and buckets <= found.buckets:
-                envelope = found.envelope(name, buckets)
-                span = (found.t_first, found.t_last)
-                return _answer(
-                    run_id, name, kind, envelope.t, envelope.y, envelope.samples, False,
-                    span, span, envelope.edges,
-                )  # fmt: skip
-        columns = self.columns(run_id, kind == "predicted")
-        _known(run_id, kind, name, [n for n in columns if n != TIME_COLUMN])
-        t = columns[TIME_COLUMN]
-        first = float(t[0]) if t.size else 0.0
-        last = float(t[-1]) if t.size else 0.0
+            first, last = found.t_first, found.t_last
         lo = first if t0 is None else t0
         hi = last if t1 is None else t1
         if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
             raise InputError(f"window t0={lo}, t1={hi} s; give finite t0 <= t1")
-        points = minmax_buckets(t, columns[name], lo, hi, buckets)
+        whole = t0 is None and t1 is None
+        if found is None:
+            y = columns[name]
+        elif whole and 2 * buckets < found.frames and buckets <= found.buckets:
+            envelope = found.envelope(name, buckets)
+            return _answer(
+                run_id, name, kind, envelope.t, envelope.y, envelope.samples, False,
+                (lo, hi), (first, last), envelope.edges,
+            )  # fmt: skip
+        else:  # a zoom: the frames of the window only
+            window = self._loader.samples(run_id, [name], predicted=predicted, t0=lo, t1=hi)
+            t, y = window[TIME_COLUMN], window[name]
+        points = minmax_buckets(t, y, lo, hi, buckets)
         edges = None if points.raw else np.linspace(lo, hi, buckets + 1)
         return _answer(
             run_id, name, kind, points.t, points.y, points.samples, points.raw, (lo, hi),
