@@ -193,7 +193,8 @@ def inspect(
         setup=_bounded(settings.nc_setup(), max_segments, max_bytes, max_repeated_lines),
     )
     if picture is not None and plot is not None:
-        picture.save(plot, title=program.name)
+        stock = (settings.stock.min_mm, settings.stock.max_mm) if config is not None else None
+        picture.save(plot, title=program.name, stock_mm=stock)
     if as_json:
         sys.stdout.write(finite_json.dumps(report) + "\n")
         return

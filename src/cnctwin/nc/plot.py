@@ -1,4 +1,10 @@
-"""A picture of an NC program: the tool tip's path in 3D, feeds solid, rapids dashed.
+"""A picture of an NC program: the tool tip's path in 3D and from above, with the stock.
+
+The picture shows a 3D view and a top view (XY) side by side. Feed moves (the cutting) are
+solid and blue; rapids are thin, light grey and dashed, so they do not dominate. The axes are
+limited to the stock (when given, e.g. a configuration's ``[stock]`` box, drawn as an outline)
+and the feed moves, plus a margin; rapids that leave this view (to a tool change or the
+machine's origin) are clipped at its edge, and a note under the views says how many.
 
 Segments are consumed one at a time. Arcs are drawn as polylines through points exactly on
 the arc. A long program is thinned as it streams (every other kept point is dropped each
@@ -12,6 +18,7 @@ import logging
 import math
 import os
 from dataclasses import dataclass, field
+from typing import Any
 
 from matplotlib.figure import Figure
 
@@ -46,6 +53,31 @@ class _Run:
 
     def points(self) -> list[Vec3]:
         return self.kept if self.kept[-1] == self.last else [*self.kept, self.last]
+
+
+#: Margin around the stock and feed moves in the view, as a fraction of the largest span.
+VIEW_MARGIN = 0.05
+_FEED_STYLE: dict[str, Any] = {
+    "linestyle": "-",
+    "linewidth": 0.9,
+    "color": "tab:blue",
+    "label": "feed",
+}
+_RAPID_STYLE: dict[str, Any] = {
+    "linestyle": "--",
+    "linewidth": 0.5,
+    "color": "0.65",
+    "alpha": 0.8,
+    "label": "rapid",
+}
+_STOCK_STYLE: dict[str, Any] = {
+    "linestyle": "-",
+    "linewidth": 1.2,
+    "color": "0.2",
+    "label": "stock",
+}
+
+Box = tuple[Vec3, Vec3]
 
 
 @dataclass
@@ -87,58 +119,83 @@ class ToolpathPlot:
         """The path so far as ``(rapid, points)`` runs of connected tool-tip points in mm."""
         return [(run.rapid, run.points()) for run in self._runs]
 
-    def save(self, path: str | os.PathLike[str], *, title: str = "") -> None:
-        """Write the picture.
+    def view_box(self, stock_mm: Box | None = None) -> Box | None:
+        """The region the picture shows: the stock box and the feed moves' points (all points
+        when there are neither), with :data:`VIEW_MARGIN`; mm. None for an empty path and no
+        stock."""
+        points = [p for rapid, run in self.polylines() if not rapid for p in run]
+        if stock_mm is not None:
+            points += [stock_mm[0], stock_mm[1]]
+        if not points:
+            points = [p for _, run in self.polylines() for p in run]
+        if not points:
+            return None
+        low = [min(p[k] for p in points) for k in range(3)]
+        high = [max(p[k] for p in points) for k in range(3)]
+        margin = VIEW_MARGIN * max(max(h - lo for lo, h in zip(low, high, strict=True)), 1.0)
+        return (
+            (low[0] - margin, low[1] - margin, low[2] - margin),
+            (high[0] + margin, high[1] + margin, high[2] + margin),
+        )
+
+    def figure(self, *, title: str = "", stock_mm: Box | None = None) -> Figure:
+        """The picture (module notes): a 3D view and a top view.
 
         Parameters
         ----------
-        path
-            Output file; the format follows its suffix (``.png``).
         title
-            Title above the plot.
+            Title above the views.
+        stock_mm
+            Opposite corners of the stock box in the path's coordinates, mm; outlined.
         """
-        figure = Figure(figsize=(8.0, 6.5), dpi=100)
-        axes = figure.add_subplot(projection="3d")
-        low = [math.inf] * 3
-        high = [-math.inf] * 3
-        for rapid in (False, True):
-            xs: list[float] = []
-            ys: list[float] = []
-            zs: list[float] = []
-            for run_rapid, points in self.polylines():
-                if run_rapid != rapid:
-                    continue
-                for x, y, z in points:
-                    xs.append(x)
-                    ys.append(y)
-                    zs.append(z)
-                xs.append(math.nan)  # a gap between runs
-                ys.append(math.nan)
-                zs.append(math.nan)
-            if not xs:
-                continue
-            for axis, values in enumerate((xs, ys, zs)):
-                low[axis] = min(low[axis], min(v for v in values if v == v))
-                high[axis] = max(high[axis], max(v for v in values if v == v))
-            axes.plot(
-                xs,
-                ys,
-                zs,
-                linestyle="--" if rapid else "-",
-                linewidth=0.6 if rapid else 0.9,
-                color="tab:red" if rapid else "tab:blue",
-                label="rapid" if rapid else "feed",
+        figure = Figure(figsize=(13.0, 6.0), dpi=100, layout="constrained")
+        view3d = figure.add_subplot(1, 2, 1, projection="3d")
+        top = figure.add_subplot(1, 2, 2)
+        box = self.view_box(stock_mm)
+        runs = self.polylines()
+        for rapid, style in ((True, _RAPID_STYLE), (False, _FEED_STYLE)):
+            xs, ys, zs = _joined([points for r, points in runs if r == rapid])
+            if xs:
+                view3d.plot(xs, ys, zs, axlim_clip=True, **style)
+                top.plot(xs, ys, **style)
+        if stock_mm is not None:
+            for xs, ys, zs in _box_edges(stock_mm):
+                view3d.plot(xs, ys, zs, **{**_STOCK_STYLE, "label": None})
+            (x0, y0, _), (x1, y1, _) = stock_mm
+            top.plot([x0, x1, x1, x0, x0], [y0, y0, y1, y1, y0], **_STOCK_STYLE)
+            view3d.plot([], [], [], **_STOCK_STYLE)  # one legend entry
+        if box is not None:
+            (x0, y0, z0), (x1, y1, z1) = box
+            view3d.set(xlim=(x0, x1), ylim=(y0, y1), zlim=(z0, z1))
+            spans = (x1 - x0, y1 - y0, z1 - z0)
+            view3d.set_box_aspect([max(v, max(spans) / 20.0) for v in spans])
+            top.set(xlim=(x0, x1), ylim=(y0, y1))
+            top.set_aspect("equal", adjustable="box")
+            outside = sum(
+                1 for rapid, points in runs if rapid and any(not _inside(p, box) for p in points)
             )
-        if self._runs:
-            spans = [max(h - lo, 1e-9) for lo, h in zip(low, high, strict=True)]
-            axes.set_box_aspect([max(s, max(spans) / 20.0) for s in spans])
-            axes.legend(loc="upper left")
-        axes.set_xlabel("X [mm]")
-        axes.set_ylabel("Y [mm]")
-        axes.set_zlabel("Z [mm]")
+            if outside:
+                figure.text(
+                    0.01,
+                    0.01,
+                    f"{outside} rapid run(s) leave the view (stock and feed moves) and are "
+                    "clipped at its edge",
+                    fontsize="small",
+                    color="0.3",
+                )
+            view3d.legend(loc="upper left")
+        view3d.set(xlabel="X [mm]", ylabel="Y [mm]", zlabel="Z [mm]", title="3D")
+        top.set(xlabel="X [mm]", ylabel="Y [mm]", title="top view (XY)")
+        top.grid(alpha=0.3)
         if title:
-            axes.set_title(title)
-        figure.savefig(os.fspath(path))
+            figure.suptitle(title)
+        return figure
+
+    def save(
+        self, path: str | os.PathLike[str], *, title: str = "", stock_mm: Box | None = None
+    ) -> None:
+        """Write the picture (:meth:`figure`); the format follows the suffix (``.png``)."""
+        self.figure(title=title, stock_mm=stock_mm).savefig(os.fspath(path))
         logger.debug("wrote %s: %d runs, %d points kept", path, len(self._runs), self._kept)
 
     def _thin(self) -> None:
@@ -147,6 +204,37 @@ class ToolpathPlot:
             run.kept = run.kept[::2]
         self._kept = sum(len(run.kept) for run in self._runs)
         logger.debug("toolpath thinned to every %d-th point", self._stride)
+
+
+def _joined(runs: list[list[Vec3]]) -> tuple[list[float], list[float], list[float]]:
+    """x, y, z of the runs, one NaN between runs (a gap in one drawn line)."""
+    xs: list[float] = []
+    ys: list[float] = []
+    zs: list[float] = []
+    for points in runs:
+        for x, y, z in points:
+            xs.append(x)
+            ys.append(y)
+            zs.append(z)
+        xs.append(math.nan)
+        ys.append(math.nan)
+        zs.append(math.nan)
+    return xs, ys, zs
+
+
+def _box_edges(box: Box) -> list[tuple[list[float], list[float], list[float]]]:
+    """The twelve edges of an axis-aligned box as (xs, ys, zs) pairs of points."""
+    (x0, y0, z0), (x1, y1, z1) = box
+    edges = []
+    for z in (z0, z1):
+        edges += [([x0, x1], [y, y], [z, z]) for y in (y0, y1)]
+        edges += [([x, x], [y0, y1], [z, z]) for x in (x0, x1)]
+    edges += [([x, x], [y, y], [z0, z1]) for x in (x0, x1) for y in (y0, y1)]
+    return edges
+
+
+def _inside(point: Vec3, box: Box) -> bool:
+    return all(box[0][k] <= point[k] <= box[1][k] for k in range(3))
 
 
 def _path_points(seg: Segment) -> list[Vec3]:
