@@ -18,8 +18,9 @@ cached, so the run's columns are read from the database), served by uvicorn on 1
   ``page.goto`` to the run's plot shown (the page's canvas plot of the whole run, drawn
   before plotly.js is loaded), and on to the plot zoomable (plotly.js loaded, compiled and
   drawn); the page's own clock gives the plot shown, the page loaded
-  (``domContentLoadedEventEnd``), plotly.js fetched and the run opened until zoomable, each
-  since the navigation started.
+  (``domContentLoadedEventEnd``), plotly.js fetched and run (its ``load`` event: parsed,
+  compiled and evaluated), each since the navigation started, and the run opened until
+  zoomable, since the page's script started opening it.
 
 Usage::
 
@@ -161,6 +162,7 @@ def browser_once(db: Path, chromium: object) -> dict[str, float]:
         loaded_ms = page.evaluate(
             "performance.getEntriesByType('navigation')[0].domContentLoadedEventEnd"
         )
+        ready_ms = float(page.get_attribute("#plot", "data-plotly-ready-ms") or "nan")
         plotly_ms = page.evaluate(
             "performance.getEntriesByType('resource').filter((r) =>"
             " r.name.endsWith('plotly.min.js')).map((r) => r.responseEnd)[0]"
@@ -174,6 +176,7 @@ def browser_once(db: Path, chromium: object) -> dict[str, float]:
         "page_loaded_s": loaded_ms / 1e3,
         "page_to_zoomable_s": drawn,
         "plotly_js_fetched_s": plotly_ms / 1e3,
+        "plotly_js_run_s": ready_ms / 1e3,
         "open_run_in_page_s": opened_ms / 1e3,
     }
 

@@ -18,7 +18,10 @@ const Runs = (() => {
         if (window.Plotly) { resolve(); return; }
         const script = document.createElement("script");
         script.src = "static/plotly.min.js";
-        script.addEventListener("load", () => resolve());
+        script.addEventListener("load", () => {
+          $("plot").dataset.plotlyReadyMs = performance.now().toFixed(1);  // compiled, run
+          resolve();
+        });
         script.addEventListener("error", () => reject(new Error("plotly.js did not load")));
         document.head.appendChild(script);
       });
@@ -159,7 +162,7 @@ const Runs = (() => {
     if (request !== state.request) return;  // a newer zoom superseded this one
     const [kind, name] = state.signal.split(/:(.*)/s);
     const data = traces.map((tr) => ({
-      type: "scattergl", mode: tr.raw ? "lines+markers" : "lines", x: tr.t, y: tr.y,
+      type: "scatter", mode: tr.raw ? "lines+markers" : "lines", x: tr.t, y: tr.y,
       name: `run ${tr.run_id}`, connectgaps: false, marker: {size: 3},
     }));
     const layout = {
