@@ -4,15 +4,16 @@ Records one run through :class:`cnctwin.store.Historian` (an SQLite file) at the
 one instant per 12.5 ms cycle for ``--minutes`` (default 60: 288,000 instants) of the 27
 canonical measured signals (:data:`cnctwin.thread.SIGNALS`, time aside) and, per instant,
 8 predicted values (force with its band, torque, power, wear: what the twin's recorder adds).
-Then, each time with a fresh run browser (:class:`cnctwin.web.runs.RunBrowser`: nothing
-cached, so the run's columns are read from the database), served by uvicorn on 127.0.0.1:
+Closing the run stores its overview (:meth:`Historian.overview`; the time to record includes
+it). Then, each time with a fresh run browser (:class:`cnctwin.web.runs.RunBrowser`: nothing
+held in memory), served by uvicorn on 127.0.0.1:
 
 * API: the three requests the page makes to open the run and draw its first plot
   (``/api/runs``, ``/api/runs/1``, ``/api/runs/1/signal`` of ``force_x_n`` over the whole run at
   1,000 buckets) over HTTP, from the first request to the last byte of the plot's points,
   each request's share, and the CPU time this process (server and client) spent on them,
   which a loaded machine inflates less than the wall time; then the same plot of a second
-  signal (columns cached) and a zoom to 10 s in the middle.
+  signal and a zoom to 10 s in the middle.
 * Browser: headless Chromium (Debian's ``/usr/bin/chromium``, driven by Playwright) loads
   ``/runs#run=1&signal=measured:force_x_n`` in a fresh context (empty cache). Timed from
   ``page.goto`` to the run's plot shown (the page's canvas plot of the whole run, drawn
@@ -21,6 +22,9 @@ cached, so the run's columns are read from the database), served by uvicorn on 1
   (``domContentLoadedEventEnd``), plotly.js fetched and run (its ``load`` event: parsed,
   compiled and evaluated), each since the navigation started, and the run opened until
   zoomable, since the page's script started opening it.
+
+* Older database: the same API requests once more after the overview tables are dropped (as
+  in a database written before they existed), so the first open computes and stores them.
 
 Usage::
 
@@ -34,6 +38,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import sqlite3
 import tempfile
 import threading
 import time
@@ -229,6 +234,14 @@ def main() -> None:
             for key, (median, low, high) in summary(rows).items():
                 print(f"Chromium {key:<22} median {median * 1e3:7.0f} ms  (min "
                       f"{low * 1e3:.0f}, max {high * 1e3:.0f})")  # fmt: skip
+        with sqlite3.connect(db) as conn:
+            conn.execute("DROP TABLE hist_overview")
+            conn.execute("DROP TABLE hist_run_layouts")
+        older = api_once(db, n)
+        first, second = older["first_plot_s"] * 1e3, older["second_signal_s"] * 1e3
+        print(f"API, database without overviews: first plot {first:.0f} ms (computes and "
+              f"stores the overview), a second signal {second:.0f} ms, "
+              f"zoom {older['zoom_s'] * 1e3:.0f} ms")  # fmt: skip
         print(f"load at the end {os.getloadavg()[0]:.2f}")
 
 
