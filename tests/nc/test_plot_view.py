@@ -84,3 +84,21 @@ def test_only_rapids_show_them_all(tmp_path: Path) -> None:
     assert ToolpathPlot().view_box() is None
     plot.save(tmp_path / "r.png", stock_mm=None)
     assert (tmp_path / "r.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_top_view_of_sampled_steps_as_the_signals_plot_draws_them() -> None:
+    from matplotlib.figure import Figure
+
+    from cnctwin.nc import draw_top_view
+
+    axes = Figure().add_subplot()
+    # In air from the origin, cutting inside the stock, in air to the tool change above.
+    runs = [
+        (True, [(0.0, 0.0, 0.0), (160.0, 110.0, -305.0)]),
+        (False, [(160.0, 110.0, -305.0), (200.0, 110.0, -305.0), (200.0, 150.0, -305.0)]),
+        (True, [(200.0, 150.0, -305.0), (200.0, 150.0, -295.0)]),
+    ]
+    assert draw_top_view(axes, runs, STOCK, labels=("cutting", "not cutting")) == 1
+    assert axes.get_xlim() == pytest.approx((146.0, 234.0))
+    styles = {line.get_label(): line.get_linestyle() for line in axes.get_lines()}
+    assert styles == {"cutting": "-", "not cutting": "--", "stock": "-"}

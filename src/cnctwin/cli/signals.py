@@ -9,6 +9,7 @@ with a plot. Units, frames and signs: docs/signals.md.
 from __future__ import annotations
 
 import csv
+import itertools
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -58,7 +59,7 @@ def signals_report(
         if plot is None:
             plot = out / "signals.png"
     if plot is not None:
-        _plot(plot, result, program.name)
+        _plot(plot, result, program.name, (config.stock.min_mm, config.stock.max_mm))
     return report
 
 
@@ -73,19 +74,39 @@ def _write_csv(path: Path, result: MachineSignals) -> None:
             writer.writerow([f"{row[0]:.12g}", *(f"{v:.6g}" for v in row[1:])])
 
 
-def _plot(path: Path, result: MachineSignals, title: str) -> None:
-    """Four panels over time: axis forces, torques, powers, spindle current and speed.
+def _plot(path: Path, result: MachineSignals, title: str, stock_mm: Any) -> None:
+    """Four panels over time: axis forces, torques, powers, spindle current and speed; beside
+    them the tool tip's path from above with the stock (``stock_mm``: its two corners, mm).
 
     The torque, power and current panels are scaled to the cutting; a higher transient (the
-    spindle's start-up) is clipped and its peak named in the legend.
+    spindle's start-up) is clipped and its peak named in the legend. The path view is limited
+    to the stock and the cutting; moves in air are faint and clipped at its edge.
     """
+    import numpy as np
     from matplotlib.figure import Figure  # matplotlib only when asked for
+
+    from cnctwin.nc import draw_top_view
 
     c = result.columns
     t = c["t_s"]
     contact = c["contact"] > 0
-    figure = Figure(figsize=(10.0, 9.0), dpi=100, layout="constrained")
-    forces, torque, power, current = figure.subplots(4, 1, sharex=True)
+    figure = Figure(figsize=(15.0, 9.0), dpi=100, layout="constrained")
+    grid = figure.add_gridspec(4, 2, width_ratios=(2.0, 1.0))
+    forces = figure.add_subplot(grid[0, 0])
+    torque, power, current = (figure.add_subplot(grid[k, 0], sharex=forces) for k in (1, 2, 3))
+    # Runs of steps in and out of contact, each ending where the next begins.
+    xyz = np.column_stack([c["x_mm"], c["y_mm"], c["z_mm"]]).tolist()
+    cuts = [0, *(np.flatnonzero(np.diff(contact)) + 1).tolist(), len(xyz)]
+    runs = [
+        (not bool(contact[a]), [tuple(p) for p in xyz[a : min(b + 1, len(xyz))]])
+        for a, b in itertools.pairwise(cuts)
+        if b > a
+    ]
+    path_view = figure.add_subplot(grid[:, 1])
+    outside = draw_top_view(path_view, runs, stock_mm, labels=("cutting", "not cutting"))
+    path_view.legend(loc="upper right", fontsize="small")
+    if outside:
+        path_view.set_title(f"top view (XY); {outside} moves in air clipped at the edge")
     figure.suptitle(f"{title}: predicted machine signals ({result.drive})")
     for name, label in (("fx_n", "Fx"), ("fy_n", "Fy"), ("fz_n", "Fz")):
         forces.plot(t, c[name], linewidth=0.8, label=f"{label} (mean)")

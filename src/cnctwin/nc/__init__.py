@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run time
     from cnctwin.nc.interpreter import Interpreter, interpret_file, interpret_text
     from cnctwin.nc.limits import MAX_PROGRAM_BYTES, MAX_REPEATED_LINES, MAX_SEGMENTS
-    from cnctwin.nc.plot import ToolpathPlot
+    from cnctwin.nc.plot import ToolpathPlot, draw_top_view
     from cnctwin.nc.sampler import (
         AxisLimits,
         FeedOverride,
@@ -67,6 +67,7 @@ _HOMES = {
     "TrajectorySampler": "sampler",
     "arc_sweep_rad": "segments",
     "canonical_moves": "trace",
+    "draw_top_view": "plot",
     "format_trace": "trace",
     "interpret_file": "interpreter",
     "interpret_text": "interpreter",
@@ -112,6 +113,7 @@ __all__ = [
     "TrajectorySampler",
     "arc_sweep_rad",
     "canonical_moves",
+    "draw_top_view",
     "format_trace",
     "interpret_file",
     "interpret_text",

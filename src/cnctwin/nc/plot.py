@@ -17,15 +17,17 @@ from __future__ import annotations
 import logging
 import math
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from cnctwin.errors import ConfigError
 from cnctwin.nc.segments import PLANE_AXES, MotionKind, Segment, Vec3, arc_sweep_rad
 
-__all__ = ["ToolpathPlot"]
+__all__ = ["VIEW_MARGIN", "ToolpathPlot", "draw_top_view", "view_box"]
 
 logger = logging.getLogger(__name__)
 
@@ -120,23 +122,8 @@ class ToolpathPlot:
         return [(run.rapid, run.points()) for run in self._runs]
 
     def view_box(self, stock_mm: Box | None = None) -> Box | None:
-        """The region the picture shows: the stock box and the feed moves' points (all points
-        when there are neither), with :data:`VIEW_MARGIN`; mm. None for an empty path and no
-        stock."""
-        points = [p for rapid, run in self.polylines() if not rapid for p in run]
-        if stock_mm is not None:
-            points += [stock_mm[0], stock_mm[1]]
-        if not points:
-            points = [p for _, run in self.polylines() for p in run]
-        if not points:
-            return None
-        low = [min(p[k] for p in points) for k in range(3)]
-        high = [max(p[k] for p in points) for k in range(3)]
-        margin = VIEW_MARGIN * max(max(h - lo for lo, h in zip(low, high, strict=True)), 1.0)
-        return (
-            (low[0] - margin, low[1] - margin, low[2] - margin),
-            (high[0] + margin, high[1] + margin, high[2] + margin),
-        )
+        """The region the picture shows (:func:`view_box` of the path), mm."""
+        return view_box(self.polylines(), stock_mm)
 
     def figure(self, *, title: str = "", stock_mm: Box | None = None) -> Figure:
         """The picture (module notes): a 3D view and a top view.
@@ -151,42 +138,34 @@ class ToolpathPlot:
         figure = Figure(figsize=(13.0, 6.0), dpi=100, layout="constrained")
         view3d = figure.add_subplot(1, 2, 1, projection="3d")
         top = figure.add_subplot(1, 2, 2)
-        box = self.view_box(stock_mm)
         runs = self.polylines()
+        box = view_box(runs, stock_mm)
         for rapid, style in ((True, _RAPID_STYLE), (False, _FEED_STYLE)):
             xs, ys, zs = _joined([points for r, points in runs if r == rapid])
             if xs:
                 view3d.plot(xs, ys, zs, axlim_clip=True, **style)
-                top.plot(xs, ys, **style)
         if stock_mm is not None:
             for xs, ys, zs in _box_edges(stock_mm):
                 view3d.plot(xs, ys, zs, **{**_STOCK_STYLE, "label": None})
-            (x0, y0, _), (x1, y1, _) = stock_mm
-            top.plot([x0, x1, x1, x0, x0], [y0, y0, y1, y1, y0], **_STOCK_STYLE)
             view3d.plot([], [], [], **_STOCK_STYLE)  # one legend entry
+        draw_top_view(top, runs, stock_mm)
+        outside = 0 if box is None else _leaving(runs, box, 3)
         if box is not None:
             (x0, y0, z0), (x1, y1, z1) = box
             view3d.set(xlim=(x0, x1), ylim=(y0, y1), zlim=(z0, z1))
             spans = (x1 - x0, y1 - y0, z1 - z0)
             view3d.set_box_aspect([max(v, max(spans) / 20.0) for v in spans])
-            top.set(xlim=(x0, x1), ylim=(y0, y1))
-            top.set_aspect("equal", adjustable="box")
-            outside = sum(
-                1 for rapid, points in runs if rapid and any(not _inside(p, box) for p in points)
-            )
-            if outside:
-                figure.text(
-                    0.01,
-                    0.01,
-                    f"{outside} rapid run(s) leave the view (stock and feed moves) and are "
-                    "clipped at its edge",
-                    fontsize="small",
-                    color="0.3",
-                )
             view3d.legend(loc="upper left")
+        if outside:
+            figure.text(
+                0.01,
+                0.01,
+                f"{outside} rapid run(s) leave the view (stock and feed moves) and are "
+                "clipped at its edge",
+                fontsize="small",
+                color="0.3",
+            )
         view3d.set(xlabel="X [mm]", ylabel="Y [mm]", zlabel="Z [mm]", title="3D")
-        top.set(xlabel="X [mm]", ylabel="Y [mm]", title="top view (XY)")
-        top.grid(alpha=0.3)
         if title:
             figure.suptitle(title)
         return figure
@@ -206,7 +185,76 @@ class ToolpathPlot:
         logger.debug("toolpath thinned to every %d-th point", self._stride)
 
 
-def _joined(runs: list[list[Vec3]]) -> tuple[list[float], list[float], list[float]]:
+def view_box(runs: Sequence[tuple[bool, Sequence[Vec3]]], stock_mm: Box | None) -> Box | None:
+    """The region a picture shows: the stock box and the points of the runs that are not
+    rapid (all points when there are neither), with :data:`VIEW_MARGIN`; mm. None for no
+    points and no stock.
+
+    Parameters
+    ----------
+    runs
+        ``(rapid, points)`` polylines of tool-tip points, mm.
+    stock_mm
+        Opposite corners of the stock box, mm, or None.
+    """
+    points = [p for rapid, run in runs if not rapid for p in run]
+    if stock_mm is not None:
+        points += [stock_mm[0], stock_mm[1]]
+    if not points:
+        points = [p for _, run in runs for p in run]
+    if not points:
+        return None
+    low = [min(p[k] for p in points) for k in range(3)]
+    high = [max(p[k] for p in points) for k in range(3)]
+    margin = VIEW_MARGIN * max(max(h - lo for lo, h in zip(low, high, strict=True)), 1.0)
+    return (
+        (low[0] - margin, low[1] - margin, low[2] - margin),
+        (high[0] + margin, high[1] + margin, high[2] + margin),
+    )
+
+
+def draw_top_view(
+    axes: Axes,
+    runs: Sequence[tuple[bool, Sequence[Vec3]]],
+    stock_mm: Box | None = None,
+    labels: tuple[str, str] = ("feed", "rapid"),
+) -> int:
+    """Draw runs of tool-tip points from above (XY) on ``axes``, limited to :func:`view_box`.
+
+    Runs flagged True (rapids, or moves in air) are thin, light and dashed; the others solid;
+    the stock box is outlined. Returns how many flagged runs leave the view in x or y
+    (clipped at its edge).
+
+    Parameters
+    ----------
+    axes
+        2D matplotlib axes.
+    runs
+        ``(faint, points)`` polylines, mm.
+    stock_mm
+        Opposite corners of the stock box, mm, or None.
+    labels
+        Legend labels of the solid and the faint runs.
+    """
+    for faint, style in ((True, _RAPID_STYLE), (False, _FEED_STYLE)):
+        xs, ys, _ = _joined([points for f, points in runs if f == faint])
+        if xs:
+            axes.plot(xs, ys, **{**style, "label": labels[faint]})
+    if stock_mm is not None:
+        (x0, y0, _), (x1, y1, _) = stock_mm
+        axes.plot([x0, x1, x1, x0, x0], [y0, y0, y1, y1, y0], **_STOCK_STYLE)
+    axes.set(xlabel="X [mm]", ylabel="Y [mm]", title="top view (XY)")
+    axes.grid(alpha=0.3)
+    box = view_box(runs, stock_mm)
+    if box is None:
+        return 0
+    (x0, y0, _), (x1, y1, _) = box
+    axes.set(xlim=(x0, x1), ylim=(y0, y1))
+    axes.set_aspect("equal", adjustable="box")
+    return _leaving(runs, box, 2)
+
+
+def _joined(runs: Sequence[Sequence[Vec3]]) -> tuple[list[float], list[float], list[float]]:
     """x, y, z of the runs, one NaN between runs (a gap in one drawn line)."""
     xs: list[float] = []
     ys: list[float] = []
@@ -233,8 +281,13 @@ def _box_edges(box: Box) -> list[tuple[list[float], list[float], list[float]]]:
     return edges
 
 
-def _inside(point: Vec3, box: Box) -> bool:
-    return all(box[0][k] <= point[k] <= box[1][k] for k in range(3))
+def _leaving(runs: Sequence[tuple[bool, Sequence[Vec3]]], box: Box, dims: int) -> int:
+    """How many flagged (faint) runs have a point outside the box in its first ``dims`` axes."""
+    return sum(
+        1
+        for faint, points in runs
+        if faint and any(not box[0][k] <= p[k] <= box[1][k] for p in points for k in range(dims))
+    )
 
 
 def _path_points(seg: Segment) -> list[Vec3]:
