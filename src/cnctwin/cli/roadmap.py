@@ -2,15 +2,17 @@
 
 The program runs through the stock of the configuration (``--config``: machine, tools, stock)
 into an engagement map (:mod:`cnctwin.geometry.engagement_map`); the stability file
-(``--stability``, docs/stability.md) gives the tool-tip modes, the cutting coefficients (its
-``[cut]`` material or ``ktc_n_mm2``/``krc_n_mm2``; else the configuration's ``[material]``)
-and the speed range (``[lobes] rpm``). :mod:`cnctwin.dynamics.roadmap` does the rest (Ward
+(``--stability FILE`` for every milling tool, or ``--stability T1=FILE`` once per tool,
+docs/stability.md) gives the tool-tip modes, the cutting coefficients (its ``[cut]`` material
+or ``ktc_n_mm2``/``krc_n_mm2``; else the configuration's ``[material]``) and the speed range
+(``[lobes] rpm``). :mod:`cnctwin.dynamics.roadmap` does the rest (Ward
 2021, sec. 3.4). The teeth come from the program's tools, the immersion from the map.
 """
 
 from __future__ import annotations
 
 import math
+import re
 import sys
 import time
 from pathlib import Path
@@ -22,7 +24,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.cli.stability import parse_rpm_range
+from cnctwin.cli.stability import ProgressLine, parse_rpm_range
 from cnctwin.errors import InputError
 from cnctwin.report import check_report_path
 
@@ -30,23 +32,63 @@ if TYPE_CHECKING:
     from cnctwin.config import MachiningConfig
     from cnctwin.dynamics import StabilityConfig, StabilityRoadmap
 
-__all__ = ["roadmap", "roadmap_report"]
+__all__ = ["parse_stability_options", "roadmap", "roadmap_report"]
 
 MAX_STEP_MM = 100.0
 """Longest map step along the path, mm: longer steps skip whole features of a part."""
 MAX_MARGIN = 100.0
 """Largest safety factor on the critical depth: beyond it no speed of any lobe qualifies."""
+MAX_SDM_POINTS = 100_000
+"""Most speeds of the semi-discretization's lobes (``--sdm-points``; as ``[lobes] points``)."""
+
+
+def parse_stability_options(values: list[str]) -> Path | dict[int, Path]:
+    """The ``--stability`` options: one ``FILE`` for every milling tool, or ``T<n>=FILE``
+    once per tool (a ``T<n>`` prefix is case-insensitive; ``n`` >= 0).
+
+    Raises
+    ------
+    InputError
+        One line naming the bad value and what is valid.
+    """
+    if not values:
+        raise InputError("--stability: give a stability file, or T<n>=FILE per tool")
+    plain = [v for v in values if not _TOOL_PREFIX.match(v)]
+    if plain and len(values) > 1:
+        raise InputError(
+            f"--stability {plain[0]}: give one FILE for every tool, or T<n>=FILE for each "
+            "tool (e.g. --stability T1=a.toml --stability T2=b.toml), not both"
+        )
+    if plain:
+        return Path(plain[0])
+    files: dict[int, Path] = {}
+    for value in values:
+        match = _TOOL_PREFIX.match(value)
+        assert match is not None
+        number, path = int(match.group(1)), match.group(2)
+        if not path:
+            raise InputError(f"--stability {value}: give T{number}=FILE")
+        if number in files:
+            raise InputError(f"--stability {value}: tool T{number} given twice")
+        files[number] = Path(path)
+    return files
+
+
+_TOOL_PREFIX = re.compile(r"^[Tt](\d{1,6})=(.*)$")
 
 
 def roadmap_report(
     program: Path,
     config: MachiningConfig,
-    stability: StabilityConfig,
+    stability: StabilityConfig | dict[int, StabilityConfig],
     *,
     margin: float,
     rpm_range: str | None = None,
     density_per_mm: float | None = None,
     step_mm: float | None = None,
+    method: str | None = None,
+    sdm_points: int | None = None,
+    progress: ProgressLine | None = None,
 ) -> tuple[dict[str, Any], StabilityRoadmap]:
     """Build the program's engagement map and its stability roadmap.
 
@@ -57,7 +99,8 @@ def roadmap_report(
     config
         Machine, tools (with geometry) and stock.
     stability
-        Modes, coefficients, method and speed range (:class:`StabilityConfig`).
+        Modes, coefficients, method and speed range (:class:`StabilityConfig`), one for
+        every milling tool or one per tool number.
     margin
         Factor on the depth of cut, >= 1.
     rpm_range
@@ -66,6 +109,13 @@ def roadmap_report(
         Dexels per mm; default the configuration's.
     step_mm
         Map step along the path, mm; default the dexel pitch.
+    method
+        ``zoa`` or ``sdm``; default the stability files'.
+    sdm_points
+        SDM: speeds at which the lobes are computed (default
+        :data:`cnctwin.dynamics.roadmap.DEFAULT_SDM_POINTS`).
+    progress
+        Where the estimated cost and the progress go (stderr).
 
     Returns
     -------
@@ -77,8 +127,10 @@ def roadmap_report(
         ``programmed_critical_depth_mm``, ``programmed_chatter_hz``, ``programmed_stable``,
         ``stable_ranges_rpm``, ``scheduled_rpm``, ``scheduled_critical_depth_mm``; null for
         a missing value), ``changed_lines``, ``lines_without_stable_speed``,
-        ``plunge_lines`` (bottom contact only: no lobes), ``engagements`` (distinct
-        engagements: teeth, angles, lowest critical depth), ``seconds``.
+        ``plunge_lines`` (bottom contact only: no lobes), ``tools_without_modes`` and
+        ``lines_without_modes`` (left at their programmed speed), ``engagements`` (distinct
+        engagements: tool (null: all), teeth, angles, lowest critical depth),
+        ``sdm_points``, ``seconds``.
     """
     from cnctwin.config import MAX_DENSITY_PER_MM, MIN_DENSITY_PER_MM
     from cnctwin.dynamics import program_roadmap
@@ -98,9 +150,17 @@ def roadmap_report(
     grid = None if rpm_range is None else parse_rpm_range(rpm_range)
     diameter = {tool.number: tool.diameter_mm for tool in config.tools}
     started = time.perf_counter()
+    from cnctwin.dynamics.roadmap import DEFAULT_SDM_POINTS
+
+    points = DEFAULT_SDM_POINTS if sdm_points is None else sdm_points
+    if not 2 <= points <= MAX_SDM_POINTS:
+        raise InputError(f"--sdm-points {points}; give 2 <= N <= {MAX_SDM_POINTS}")
+    if method is not None and method not in ("zoa", "sdm"):
+        raise InputError(f"--method {method!r}; give zoa or sdm")
     result = program_roadmap(
-        program, config, stability, grid, margin=margin, density_per_mm=rho, step_mm=step
-    )
+        program, config, stability, grid, margin=margin, density_per_mm=rho, step_mm=step,
+        method=method, sdm_points=points, progress=progress,  # type: ignore[arg-type]
+    )  # fmt: skip
     seconds = time.perf_counter() - started
     rows = []
     for seg in result.segments:
@@ -137,9 +197,12 @@ def roadmap_report(
         "segments": rows,
         "changed_lines": sorted({s.line for s in with_lobes if not s.programmed_stable}),
         "lines_without_stable_speed": sorted({s.line for s in result.unstable_segments}),
-        "plunge_lines": sorted({s.line for s in result.segments if s.lobes < 0}),
+        "plunge_lines": sorted({s.line for s in result.segments if s.lobes < 0 and s.has_modes}),
+        "tools_without_modes": sorted({s.tool for s in result.unmodelled_segments}),
+        "lines_without_modes": sorted({s.line for s in result.unmodelled_segments}),
         "engagements": [
             {
+                "tool": None if lobes.tool < 0 else lobes.tool,
                 "teeth": lobes.teeth,
                 "entry_deg": math.degrees(lobes.entry_rad),
                 "exit_deg": math.degrees(lobes.exit_rad),
@@ -147,6 +210,7 @@ def roadmap_report(
             }
             for lobes in result.lobes
         ],
+        "sdm_points": points if result.method == "sdm" else None,
         "seconds": seconds,
     }
     return report, result
@@ -158,8 +222,12 @@ def roadmap(
         Path, typer.Option("--config", "-c", help="Configuration: machine, tools, stock.")
     ],
     stability: Annotated[
-        Path,
-        typer.Option("--stability", help="Stability file: modes, coefficients, method, rpm."),
+        list[str],
+        typer.Option(
+            "--stability",
+            help="Stability file (modes, coefficients, method, rpm) for every milling tool, "
+            "or T<n>=FILE, once per tool (tools without one keep their speed).",
+        ),
     ],
     margin: Annotated[
         float, typer.Option("--margin", help="Critical depth at least this times the depth.")
@@ -177,6 +245,10 @@ def roadmap(
     step_mm: Annotated[
         float | None,
         typer.Option("--step-mm", help="Map step along the path, mm (default 1/density)."),
+    ] = None,
+    sdm_points: Annotated[
+        int | None,
+        typer.Option("--sdm-points", help="sdm: speeds at which lobes are computed (default 40)."),
     ] = None,
     plot: Annotated[
         Path | None, typer.Option("--plot", help="Write the roadmap and lobes to this PNG.")
@@ -200,16 +272,19 @@ def roadmap(
         raise InputError(f"--margin {margin!r}; give a factor >= 1 and <= {MAX_MARGIN:g}")
     if html is not None:
         check_report_path(html)
-    overrides: dict[str, dict[str, Any]] = {}
-    if method is not None:
-        if method not in ("zoa", "sdm"):
-            raise InputError(f"--method {method!r}; give zoa or sdm")
-        overrides["lobes"] = {"method": method}
+    if method is not None and method not in ("zoa", "sdm"):
+        raise InputError(f"--method {method!r}; give zoa or sdm")
+    files = parse_stability_options(stability)
     settings = load_config(config)
-    modes = load_stability_config(stability, overrides)
+    modes: StabilityConfig | dict[int, StabilityConfig]
+    if isinstance(files, Path):
+        modes = load_stability_config(files)
+    else:
+        modes = {number: load_stability_config(path) for number, path in files.items()}
     report, result = roadmap_report(
         program, settings, modes, margin=margin, rpm_range=rpm_range,
-        density_per_mm=density, step_mm=step_mm,
+        density_per_mm=density, step_mm=step_mm, method=method, sdm_points=sdm_points,
+        progress=ProgressLine("stability roadmap"),
     )  # fmt: skip
     if plot is not None:
         _plot(plot, result, program.name)
@@ -238,7 +313,9 @@ def _table(report: dict[str, Any]) -> Table:
     for row in report["segments"]:
         limit = row["programmed_critical_depth_mm"]
         scheduled = row["scheduled_rpm"]
-        if row["entry_deg"] is None:
+        if row["tool"] in report["tools_without_modes"]:
+            verdict = f"T{row['tool']} has no modes: kept"
+        elif row["entry_deg"] is None:
             verdict = "plunge (no lobes)"
         elif scheduled is None:
             verdict = "[red]no stable speed[/red]"

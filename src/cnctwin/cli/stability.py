@@ -14,8 +14,9 @@ import logging
 import math
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, TextIO
 
 import numpy as np
 import typer
@@ -27,13 +28,68 @@ from cnctwin.cli._options import check_number
 from cnctwin.errors import InputError
 from cnctwin.report import check_report_path
 
-__all__ = ["app", "lobes", "lobes_report", "parse_rpm_list", "parse_rpm_range"]
+if TYPE_CHECKING:
+    from cnctwin.dynamics import SdmCost
+
+__all__ = ["ProgressLine", "app", "lobes", "lobes_report", "parse_rpm_list", "parse_rpm_range"]
 
 logger = logging.getLogger(__name__)
 
 app = typer.Typer(help="Chatter stability of milling and turning.", no_args_is_help=True)
 
 _RPM = math.pi / 30.0  # rad/s per rpm
+
+
+class ProgressLine:
+    """The estimated cost before a long run and its progress, one line at a time on stderr.
+
+    Never on stdout, so that ``--json`` stays one JSON object. A progress line is written at
+    most every ``interval_s`` seconds of ``clock`` (and at the end, if any was written).
+    """
+
+    def __init__(
+        self,
+        label: str,
+        *,
+        interval_s: float = 2.0,
+        stream: TextIO | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.label = label
+        self.interval_s = interval_s
+        self.stream = sys.stderr if stream is None else stream
+        self.clock = clock
+        self.started = clock()
+        self.last = self.started
+        self.written = False
+
+    def estimate(self, cost: SdmCost, what: str = "speeds") -> None:
+        """Write the estimated cost: speeds x depth evaluations x the measured time of one."""
+        self.stream.write(
+            f"{self.label}: estimated cost {cost.speeds} {what} x ~{cost.evaluations_per_speed:.0f}"
+            f" depth evaluations x {cost.seconds_per_evaluation * 1e3:.2g} ms = "
+            f"~{_duration(cost.seconds)}\n"
+        )
+        self.stream.flush()
+        self.started = self.last = self.clock()
+
+    def __call__(self, done: int, total: int) -> None:
+        """Note ``done`` of ``total`` units; write a line when due."""
+        now = self.clock()
+        final = done >= total
+        if not (now - self.last >= self.interval_s or (final and self.written)):
+            return
+        elapsed = now - self.started
+        left = elapsed * (total - done) / done if done else math.nan
+        rest = "" if final or not math.isfinite(left) else f", ~{_duration(left)} left"
+        self.stream.write(f"{self.label}: {done}/{total} done, {_duration(elapsed)}{rest}\n")
+        self.stream.flush()
+        self.last = now
+        self.written = True
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.1f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
 
 
 @app.callback()
@@ -91,7 +147,9 @@ def parse_rpm_range(text: str, option: str = "--rpm-range") -> np.ndarray:
     return np.linspace(low, high, count)
 
 
-def lobes_report(config: Any, rpm: np.ndarray | None = None) -> dict[str, Any]:
+def lobes_report(
+    config: Any, rpm: np.ndarray | None = None, progress: ProgressLine | None = None
+) -> dict[str, Any]:
     """Compute the lobe diagram a stability configuration asks for.
 
     Parameters
@@ -100,6 +158,8 @@ def lobes_report(config: Any, rpm: np.ndarray | None = None) -> dict[str, Any]:
         A :class:`cnctwin.dynamics.config.StabilityConfig`.
     rpm
         Spindle speeds in rpm; default the ``[lobes]`` range and number of points.
+    progress
+        For the semi-discretization: told the estimated cost first, then the speeds done.
 
     Returns
     -------
@@ -112,7 +172,7 @@ def lobes_report(config: Any, rpm: np.ndarray | None = None) -> dict[str, Any]:
         ``absolute_depth_mm`` (the lowest limit over all speeds) and its
         ``absolute_chatter_frequency_hz``, ``max_depth_mm``, ``steps`` (sdm), ``seconds``.
     """
-    from cnctwin.dynamics import sdm_lobes, zoa_absolute_depth, zoa_lobes
+    from cnctwin.dynamics import sdm_cost, sdm_lobes, zoa_absolute_depth, zoa_lobes
 
     tool = config.tool_dynamics()
     process = config.process()
@@ -128,14 +188,13 @@ def lobes_report(config: Any, rpm: np.ndarray | None = None) -> dict[str, Any]:
         result = zoa_lobes(tool, process, rpm * _RPM)
     else:
         steps = None if spec.steps == "auto" else spec.steps
-        result = sdm_lobes(
-            tool,
-            process,
-            rpm * _RPM,
-            max_depth_m=spec.max_depth_mm * 1e-3,
-            steps=steps,
-            damping=damping,
-        )
+        kwargs: dict[str, Any] = {
+            "max_depth_m": spec.max_depth_mm * 1e-3, "steps": steps, "damping": damping
+        }  # fmt: skip
+        if progress is not None:
+            progress.estimate(sdm_cost(tool, process, rpm * _RPM, **kwargs))
+            started = time.perf_counter()
+        result = sdm_lobes(tool, process, rpm * _RPM, progress=progress, **kwargs)
     seconds = time.perf_counter() - started
     absolute_m, absolute_hz = zoa_absolute_depth(tool, process)
     depth_mm = result.critical_depth_m * 1e3
@@ -261,7 +320,7 @@ def lobes(
         krc=krc,
     )
     settings = load_stability_config(path, overrides, modes_only=modes_file is not None)
-    report = lobes_report(settings, speeds)
+    report = lobes_report(settings, speeds, ProgressLine("stability lobes"))
     if plot is not None:
         _plot(plot, report, path.stem)
     if html is not None:

@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numba import njit
 from scipy.optimize import brentq
-from scipy.sparse.linalg import ArpackNoConvergence, eigs
+from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
 
 from cnctwin.errors import ConfigError
 
@@ -209,6 +209,92 @@ def monodromy(
     return out
 
 
+@njit(cache=True)
+def step_maps(
+    a0: np.ndarray,
+    lq_h: np.ndarray,
+    phi: np.ndarray,
+    basis: np.ndarray,
+    depth: float,
+    dts: np.ndarray,
+    active: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """The maps of each step: ``y_(i+1) = P_i y_i + G1_i s_(i-m) + G2_i s_(i-m+1)``.
+
+    Arguments as :func:`monodromy`; returns ``P`` ``(m, 2n, 2n)``, ``G1`` and ``G2``
+    ``(m, 2n, d)`` (zero on steps without cutting).
+    """
+    m = lq_h.shape[0]
+    n = phi.shape[1]
+    d = basis.shape[1]
+    ny = 2 * n
+    p = np.zeros((m, ny, ny))
+    g1 = np.zeros((m, ny, d))
+    g2 = np.zeros((m, ny, d))
+    free = np.eye(ny)
+    free_dt = -1.0
+    big = ny + 2 * d
+    augmented = np.zeros((big, big))
+    for i in range(m):
+        dt = dts[i]
+        if not active[i]:
+            if dt != free_dt:
+                free = expm(a0 * dt)
+                free_dt = dt
+            p[i] = free
+            continue
+        augmented[:, :] = 0.0
+        augmented[:ny, :ny] = a0
+        augmented[n:ny, :n] += depth * _mm(lq_h[i], phi)
+        augmented[n:ny, ny : ny + d] = -depth * _mm(lq_h[i], basis)
+        for c in range(d):
+            augmented[ny + c, ny + d + c] = 1.0 / dt
+        x = expm(augmented * dt)
+        p[i] = x[:ny, :ny]
+        g2[i] = x[:ny, ny + d : ny + 2 * d]
+        g1[i] = x[:ny, ny : ny + d] - g2[i]
+    return p, g1, g2
+
+
+@njit(cache=True)
+def apply_monodromy(
+    p: np.ndarray, g1: np.ndarray, g2: np.ndarray, cs: np.ndarray, z: np.ndarray
+) -> np.ndarray:  # pragma: no cover - compiled
+    """The monodromy matrix times ``z = [y, s_(-1), ..., s_(-m)]`` without forming it.
+
+    ``p``, ``g1``, ``g2`` from :func:`step_maps`; ``cs`` ``(d, n)``: ``s = cs q``. O(m n^2)
+    per product instead of the O(m^2 n^2) of :func:`monodromy`.
+    """
+    m, ny, _ = p.shape
+    d, n = cs.shape
+    s = np.zeros((2 * m, d))
+    for k in range(1, m + 1):
+        for c in range(d):
+            s[m - k, c] = z[ny + (k - 1) * d + c]
+    y = z[:ny].copy()
+    for i in range(m):
+        for c in range(d):
+            total = 0.0
+            for j in range(n):
+                total += cs[c, j] * y[j]
+            s[i + m, c] = total
+        nxt = np.zeros(ny)
+        for r in range(ny):
+            total = 0.0
+            for j in range(ny):
+                total += p[i, r, j] * y[j]
+            for c in range(d):
+                total += g1[i, r, c] * s[i, c] + g2[i, r, c] * s[i + 1, c]
+            nxt[r] = total
+        y = nxt
+    out = np.empty(ny + m * d)
+    out[:ny] = y
+    for k in range(1, m + 1):
+        for c in range(d):
+            out[ny + (k - 1) * d + c] = s[2 * m - k, c]
+    return out
+
+
 @dataclass(frozen=True)
 class SdmModel:
     """A tool and process discretised on a grid of the period (speed and depth free).
@@ -307,10 +393,39 @@ class SdmModel:
         return full, period
 
     def radius(self, speed: float, depth: float, damping: ProcessDamping | None) -> float:
-        """Spectral radius of the monodromy matrix (its always-zero columns deflated)."""
+        """Spectral radius of the monodromy matrix (its always-zero columns deflated).
+
+        Above ``_DENSE`` live columns by ARPACK on the matrix-free product
+        (:func:`apply_monodromy`), else (or when ARPACK does not converge) from the matrix.
+        """
+        if self.live.size > _DENSE:
+            try:
+                values = self._operator_eigs(speed, depth, damping, vectors=False)
+                return float(np.abs(values).max())
+            except ArpackNoConvergence:
+                pass
         full, _ = self.matrix(speed, depth, damping)
         values = dominant_eigenvalues(full[np.ix_(self.live, self.live)])
         return float(np.abs(values).max())
+
+    def _operator_eigs(
+        self, speed: float, depth: float, damping: ProcessDamping | None, vectors: bool
+    ) -> Any:
+        """ARPACK's largest eigenvalues (and vectors) of the monodromy as an operator."""
+        extra = 0.0 if damping is None else damping.effective_damping(depth, speed)
+        dts = np.diff(self.nodes) * float(self.process.delay_s(speed))
+        maps = step_maps(
+            self.state_matrix(extra), self.lq_h, self.phi, self.basis, depth, dts, self.active
+        )
+        cs = np.ascontiguousarray(self.basis.T @ self.phi)
+        size = 2 * self.stiffness.size + self.steps * self.basis.shape[1]
+
+        def product(z: np.ndarray) -> np.ndarray:
+            return apply_monodromy(*maps, cs, np.ascontiguousarray(z, dtype=np.float64).ravel())
+
+        operator = LinearOperator((size, size), matvec=product, dtype=np.float64)
+        return eigs(operator, k=_ARNOLDI, which="LM", v0=np.ones(size), tol=1e-12,
+                    return_eigenvectors=vectors)  # fmt: skip
 
     def multipliers(self, speed: float, depth: float, damping: ProcessDamping | None) -> np.ndarray:
         """All nonzero Floquet multipliers, largest magnitude first."""
@@ -329,14 +444,24 @@ class SdmModel:
         solution is ``p(t) exp(t ln(mu) / T)``). The harmonics are the trapezoidal-rule Fourier
         coefficients on the nodes, up to the Nyquist limit of the widest step.
         """
-        full, period = self.matrix(speed, depth, damping)
-        values, vectors = dominant_eigenpairs(full[np.ix_(self.live, self.live)])
-        j = int(np.argmax(np.abs(values)))
-        mu = complex(values[j])
-        z = np.zeros(full.shape[0], dtype=np.complex128)
-        z[self.live] = vectors[:, j]
-        dead = np.setdiff1d(np.arange(full.shape[0]), self.live)
-        z[dead] = full[np.ix_(dead, self.live)] @ vectors[:, j] / mu
+        period = float(self.process.delay_s(speed))
+        z = None
+        if self.live.size > _DENSE:
+            try:
+                values, vectors = self._operator_eigs(speed, depth, damping, vectors=True)
+                j = int(np.argmax(np.abs(values)))
+                mu, z = complex(values[j]), np.asarray(vectors[:, j], dtype=np.complex128)
+            except ArpackNoConvergence:
+                pass
+        if z is None:
+            full, _ = self.matrix(speed, depth, damping)
+            values, vectors = dominant_eigenpairs(full[np.ix_(self.live, self.live)])
+            j = int(np.argmax(np.abs(values)))
+            mu = complex(values[j])
+            z = np.zeros(full.shape[0], dtype=np.complex128)
+            z[self.live] = vectors[:, j]
+            dead = np.setdiff1d(np.arange(full.shape[0]), self.live)
+            z[dead] = full[np.ix_(dead, self.live)] @ vectors[:, j] / mu
         m, d = self.steps, self.basis.shape[1]
         ny = 2 * self.stiffness.size
         samples = z[ny:].reshape(m, d)  # s_(-1), ..., s_(-m)

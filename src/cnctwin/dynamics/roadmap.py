@@ -40,11 +40,18 @@ import math
 import os
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Literal, Protocol
 
 import numpy as np
 
-from cnctwin.dynamics.stability import MillingProcess, ToolDynamics, sdm_lobes, zoa_lobes
+from cnctwin.dynamics.stability import (
+    MillingProcess,
+    SdmCost,
+    ToolDynamics,
+    sdm_cost,
+    sdm_lobes,
+    zoa_lobes,
+)
 from cnctwin.errors import ConfigError, InputError, NCError
 from cnctwin.geometry import Cutter, DexelStock, EngagementMap
 from cnctwin.mechanics import CuttingCoefficients
@@ -56,8 +63,11 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_MARGIN",
+    "DEFAULT_SDM_POINTS",
     "RPM_STEP",
+    "SDM_LOWEST_FRACTION",
     "EngagementLobes",
+    "RoadmapProgress",
     "RoadmapSegment",
     "StabilityRoadmap",
     "engagement_segments",
@@ -71,8 +81,22 @@ logger = logging.getLogger(__name__)
 DEFAULT_MARGIN = 1.2
 #: Spacing of :func:`program_roadmap`'s default speed grid, rpm (the schedule's resolution).
 RPM_STEP = 10.0
+#: Default number of speeds at which :func:`stability_roadmap` computes semi-discretization
+#: lobes (the coarse-to-fine search of the module notes).
+DEFAULT_SDM_POINTS = 20
+#: SDM: the default grid of :func:`program_roadmap` starts at this fraction of the lowest
+#: programmed speed (of the tools with modes): lower speeds halve the metal removal rate
+#: and cost the semi-discretization the most steps.
+SDM_LOWEST_FRACTION = 0.5
 _RPM = math.pi / 30.0  # rad/s per rpm
-_ANGLE_DIGITS = 3  # segments whose angles agree to 1 mrad share their lobes
+_ANGLE_DIGITS = 3  # ZOA: segments whose angles agree to 1 mrad share their lobes
+_ANGLE_STEP = 10.0**-_ANGLE_DIGITS
+_SDM_ANGLE_STEP = math.radians(3.0)  # SDM: angles widened to whole 3 degree steps
+_CHECKS = 12  # SDM: interpolated candidate speeds computed before one is scheduled
+_BATCH = 8  # SDM: speeds per call of the solver (progress granularity)
+#: Tool kinds that mill (:data:`cnctwin.config.tools.CutterKind`): one stability file for
+#: every tool gives its modes to these only; a drill or tap has none.
+_MILLING_KINDS = frozenset({"flat", "ball", "bull", "conical", "snub"})
 
 Method = Literal["zoa", "sdm"]
 #: Critical depth (mm) and chatter frequency (Hz) per speed (rpm) of one engagement.
@@ -115,6 +139,9 @@ class RoadmapSegment:
         nearest such grid speed; NaN if there is none (or no lobes).
     scheduled_critical_depth_mm
         Critical depth at the scheduled speed, mm (NaN if none).
+    has_modes
+        False for a segment of a tool without modes (a drill, say): no lobes, the programmed
+        speed unchanged (``scheduled_rpm`` is the programmed speed).
     """
 
     line: int
@@ -133,6 +160,7 @@ class RoadmapSegment:
     stable_ranges_rpm: tuple[tuple[float, float], ...]
     scheduled_rpm: float
     scheduled_critical_depth_mm: float
+    has_modes: bool = True
 
     @property
     def programmed_stable(self) -> bool:
@@ -158,7 +186,13 @@ class EngagementLobes:
     critical_depth_mm
         Critical depth per grid speed in mm (``inf`` where none was found).
     chatter_frequency_hz
-        Chatter frequency per grid speed in Hz (NaN where none).
+        Chatter frequency per grid speed in Hz (NaN where none or not computed).
+    exact
+        Per grid speed, whether the critical depth was computed there; the others are
+        interpolated (the semi-discretization's coarse-to-fine search, module notes). None:
+        all computed.
+    tool
+        The tool number whose modes the lobes are of (-1 when one set of modes serves all).
     """
 
     teeth: int
@@ -166,6 +200,8 @@ class EngagementLobes:
     exit_rad: float
     critical_depth_mm: np.ndarray
     chatter_frequency_hz: np.ndarray
+    exact: np.ndarray | None = None
+    tool: int = -1
 
 
 @dataclass(frozen=True, eq=False)
@@ -196,6 +232,11 @@ class StabilityRoadmap:
     def unstable_segments(self) -> tuple[RoadmapSegment, ...]:
         """Segments without a stable speed (with the margin) within the limits."""
         return tuple(s for s in self.segments if s.lobes >= 0 and not s.has_stable_speed)
+
+    @property
+    def unmodelled_segments(self) -> tuple[RoadmapSegment, ...]:
+        """Segments of tools without modes, left at their programmed speed."""
+        return tuple(s for s in self.segments if not s.has_modes)
 
 
 @dataclass(frozen=True)
@@ -230,11 +271,44 @@ def engagement_segments(engagement_map: EngagementMap) -> list[tuple[int, int, n
     return [(int(line[g[0]]), int(tool[g[0]]), g) for g in groups]
 
 
+class RoadmapProgress(Protocol):
+    """What :func:`stability_roadmap` tells about a long run (the CLI's ``ProgressLine``)."""
+
+    def estimate(self, cost: SdmCost, what: str = "speeds") -> None:
+        """The estimated cost before the lobes are computed."""
+
+    def __call__(self, done: int, total: int) -> None:
+        """``done`` of ``total`` speed evaluations."""
+
+
+@dataclass(frozen=True)
+class _Model:
+    """The modes and cutting coefficients of one or more tools, with their search settings."""
+
+    tool: ToolDynamics
+    coefficients: CuttingCoefficients
+    max_depth_mm: float
+    steps: int | None
+    number: int  # the tool number, -1 when shared by every tool
+
+
+@dataclass(frozen=True)
+class _Engagement:
+    """A segment before its lobes: the run, its worst engagement and its lobe-cache key."""
+
+    run: _Run
+    ap: float
+    ae: float
+    entry: float
+    exit: float
+    key: tuple[int, int, float, float] | None  # (model, teeth, entry, exit); None: no lobes
+
+
 def stability_roadmap(
     engagement_map: EngagementMap,
     programmed_rpm: Mapping[int, float],
-    tool: ToolDynamics,
-    coefficients: CuttingCoefficients,
+    tool: ToolDynamics | Mapping[int, ToolDynamics],
+    coefficients: CuttingCoefficients | Mapping[int, CuttingCoefficients],
     teeth: Mapping[int, int],
     spindle_rpm: np.ndarray,
     *,
@@ -243,6 +317,8 @@ def stability_roadmap(
     max_depth_mm: float = 10.0,
     steps: int | None = None,
     quantile: float = 0.95,
+    sdm_points: int | None = DEFAULT_SDM_POINTS,
+    progress: RoadmapProgress | None = None,
 ) -> StabilityRoadmap:
     """The stability roadmap of a program and its spindle-speed schedule (module notes).
 
@@ -253,11 +329,13 @@ def stability_roadmap(
     programmed_rpm
         Programmed spindle speed in rpm by program line (each line that cuts).
     tool
-        Tool-tip modes (SI).
+        Tool-tip modes (SI): one set for every tool, or a set per tool number; the segments
+        of a tool without modes keep their programmed speed (``has_modes`` False).
     coefficients
-        Cutting coefficients; the shear terms ``ktc`` and ``krc`` (Pa) are used.
+        Cutting coefficients, one set or one per tool number (each tool with modes); the
+        shear terms ``ktc`` and ``krc`` (Pa) are used.
     teeth
-        Number of teeth by tool number (each tool that cuts).
+        Number of teeth by tool number (each tool with modes that cuts).
     spindle_rpm
         Speed grid in rpm, > 0, increasing: the machine's limits and the schedule's
         resolution.
@@ -273,6 +351,11 @@ def stability_roadmap(
     quantile
         Quantile ``q`` of the locations' engagement taken for the segment, 0.5 <= q <= 1
         (module notes).
+    sdm_points
+        SDM: speeds of the grid at which the lobes are computed, >= 2 (the coarse-to-fine
+        search of the module notes); ``None``: at every grid speed.
+    progress
+        Told the estimated cost (SDM) and the speed evaluations done.
 
     Returns
     -------
@@ -283,8 +366,41 @@ def stability_roadmap(
     ------
     ConfigError
         On a bad grid, margin or method, a cutting line without a programmed speed, or a
-        tool without a number of teeth.
+        tool without a number of teeth or without coefficients.
     """
+    if isinstance(tool, ToolDynamics):
+        if not isinstance(coefficients, CuttingCoefficients):
+            raise ConfigError("one set of modes for every tool takes one set of coefficients")
+        models: dict[int, _Model] | _Model = _Model(tool, coefficients, max_depth_mm, steps, -1)
+    else:
+        models = {}
+        for number, dynamics in tool.items():
+            if isinstance(coefficients, CuttingCoefficients):
+                own = coefficients
+            elif number in coefficients:
+                own = coefficients[number]
+            else:
+                raise ConfigError(f"tool T{number} has modes but no cutting coefficients")
+            models[number] = _Model(dynamics, own, max_depth_mm, steps, number)
+    return _roadmap(engagement_map, programmed_rpm, models, teeth, spindle_rpm, margin=margin,
+                    method=method, quantile=quantile, sdm_points=sdm_points,
+                    progress=progress)  # fmt: skip
+
+
+def _roadmap(
+    engagement_map: EngagementMap,
+    programmed_rpm: Mapping[int, float],
+    models: Mapping[int, _Model] | _Model,
+    teeth: Mapping[int, int],
+    spindle_rpm: np.ndarray,
+    *,
+    margin: float,
+    method: Method,
+    quantile: float,
+    sdm_points: int | None,
+    progress: RoadmapProgress | None,
+) -> StabilityRoadmap:
+    """:func:`stability_roadmap` with a model per tool (or one for all)."""
     grid = np.asarray(spindle_rpm, dtype=np.float64)
     if grid.ndim != 1 or grid.size < 1 or not np.all(np.isfinite(grid) & (grid > 0.0)):
         raise InputError(f"spindle speed grid {spindle_rpm!r}; give speeds > 0 rpm")
@@ -296,29 +412,79 @@ def stability_roadmap(
         raise InputError(f"method={method!r}; give 'zoa' or 'sdm'")
     if not 0.5 <= quantile <= 1.0:
         raise InputError(f"quantile={quantile!r}; give 0.5 <= quantile <= 1")
+    if sdm_points is not None and (isinstance(sdm_points, bool) or sdm_points < 2):
+        raise InputError(f"sdm_points={sdm_points!r}; give an integer >= 2 or None")
     runs = [_Run(*group) for group in engagement_segments(engagement_map)]
     ap = engagement_map.column("ap_mm")
-    depth_limit = max(max_depth_mm, 1.5 * margin * max((float(ap[r.rows].max()) for r in runs),
-                                                       default=0.0))  # fmt: skip
-    cache: dict[tuple[int, float, float], int] = {}
-    lobes: list[EngagementLobes] = []
-    segments = []
+    deepest = 1.5 * margin * max((float(ap[r.rows].max()) for r in runs), default=0.0)
+    step = _SDM_ANGLE_STEP if method == "sdm" else _ANGLE_STEP
+    found: list[_Engagement] = []
+    owners: dict[int, _Model] = {}
     for run in runs:
         if run.line not in programmed_rpm:
             raise ConfigError(f"line {run.line} cuts but has no programmed spindle speed")
-        if run.tool not in teeth:
-            raise ConfigError(f"tool T{run.tool} cuts but its number of teeth is not given")
-        process = (teeth[run.tool], coefficients.ktc, coefficients.krc)
-        segment = _segment(
-            engagement_map, run, float(programmed_rpm[run.line]), process, grid, margin,
-            quantile, cache, lobes,
-            lambda cut, speeds: _lobes(tool, cut, speeds, method, depth_limit, steps),
-        )  # fmt: skip
-        segments.append(segment)
+        model = models if isinstance(models, _Model) else models.get(run.tool)
+        if model is not None:
+            if run.tool not in teeth:
+                raise ConfigError(f"tool T{run.tool} cuts but its number of teeth is not given")
+            owners[id(model)] = model
+        found.append(_engage(engagement_map, run, quantile, step, model, teeth))
+    solvers = {key: _solver(model, method, max(model.max_depth_mm, deepest))
+               for key, model in owners.items()}  # fmt: skip
+    keys = list(dict.fromkeys(e.key for e in found if e.key is not None))
+    coarse = _coarse(grid, sdm_points if method == "sdm" else None)
+    total = len(keys) * coarse.size + sum(1 for e in found if e.key is not None)
+    if progress is not None and method == "sdm" and keys:
+        widest = max(keys, key=lambda k: k[3] - k[2])
+        model = owners[widest[0]]
+        cost = sdm_cost(
+            model.tool,
+            _process(model, widest),
+            coarse * _RPM,
+            max_depth_m=max(model.max_depth_mm, deepest) * 1e-3,
+            steps=model.steps,
+        )
+        progress.estimate(SdmCost(total, cost.evaluations_per_speed,
+                                  cost.seconds_per_evaluation), "speed evaluations")  # fmt: skip
+    counter = _Counter(total, progress)
+    lobes: list[EngagementLobes] = []
+    index: dict[tuple[int, int, float, float], int] = {}
+    for key in keys:
+        model = owners[key[0]]
+        depth, frequency, exact = _diagram(model, solvers[key[0]], _process(model, key), grid,
+                                           coarse, counter)  # fmt: skip
+        index[key] = len(lobes)
+        lobes.append(EngagementLobes(key[1], key[2], key[3], depth, frequency,
+                                     None if exact.all() else exact, model.number))  # fmt: skip
+    segments = []
+    exact_at: dict[tuple[tuple[int, int, float, float], float], tuple[float, float]] = {}
+    for engagement in found:
+        programmed = float(programmed_rpm[engagement.run.line])
+        if engagement.key is None:
+            segments.append(_without_lobes(engagement_map, engagement, programmed,
+                                           isinstance(models, _Model) or
+                                           engagement.run.tool in models))  # fmt: skip
+            continue
+        key = engagement.key
+        model = owners[key[0]]
+        process = _process(model, key)
+
+        def at(rpm: float, key: tuple[int, int, float, float] = key,
+               process: MillingProcess = process) -> tuple[float, float]:  # fmt: skip
+            if (key, rpm) not in exact_at:
+                depth, hz = solvers[key[0]](process, np.array([rpm]))
+                exact_at[(key, rpm)] = (float(depth[0]), float(hz[0]))
+            return exact_at[(key, rpm)]
+
+        segments.append(_schedule(engagement_map, engagement, programmed, grid, margin,
+                                  index[key], lobes[index[key]], at))  # fmt: skip
+        counter.advance(1)
     logger.info(
-        "stability roadmap: %d segments, %d lobe diagrams, %d without a stable speed",
+        "stability roadmap: %d segments, %d lobe diagrams, %d without a stable speed, "
+        "%d of tools without modes",
         len(segments), len(lobes),
         sum(1 for s in segments if s.lobes >= 0 and not s.has_stable_speed),
+        sum(1 for s in segments if not s.has_modes),
     )  # fmt: skip
     return StabilityRoadmap(grid, tuple(lobes), tuple(segments), float(margin), method)
 
@@ -326,22 +492,25 @@ def stability_roadmap(
 def program_roadmap(
     program: str | os.PathLike[str],
     config: MachiningConfig,
-    stability: StabilityConfig,
+    stability: StabilityConfig | Mapping[int, StabilityConfig],
     spindle_rpm: np.ndarray | None = None,
     *,
     margin: float = DEFAULT_MARGIN,
     density_per_mm: float | None = None,
     step_mm: float | None = None,
+    method: Method | None = None,
+    sdm_points: int | None = DEFAULT_SDM_POINTS,
+    progress: RoadmapProgress | None = None,
 ) -> StabilityRoadmap:
     """The stability roadmap of an NC program file (Ward 2021, sec. 3.4; module notes).
 
     The program runs through the stock of ``config`` (machine, tools with their geometry,
     stock) into an engagement map (:class:`~cnctwin.geometry.EngagementMap`, one location
     every ``step_mm`` along the path); :func:`stability_roadmap` then takes the tool-tip modes,
-    the method, the depth limit and the steps of ``stability`` (a stability file), the cutting
-    coefficients of its ``[cut]`` or else of the configuration's ``[material]``
-    (:meth:`~cnctwin.dynamics.StabilityConfig.milling_coefficients`), the programmed spindle
-    speed of each line and the teeth of each tool.
+    the method, the depth limit and the steps of ``stability`` (a stability file, or one per
+    tool number), the cutting coefficients of its ``[cut]`` or else of the configuration's
+    ``[material]`` (:meth:`~cnctwin.dynamics.StabilityConfig.milling_coefficients`), the
+    programmed spindle speed of each line and the teeth of each tool.
 
     Parameters
     ----------
@@ -350,22 +519,29 @@ def program_roadmap(
     config
         Machine, tools and stock (mm).
     stability
-        Modes, coefficients, method and speed range.
+        Modes, coefficients, method and speed range: one file for every milling tool (a tool
+        of another kind, such as a drill, has no modes), or a file per tool number (the
+        other tools have none). Segments of tools without modes keep their speed.
     spindle_rpm
-        Speed grid in rpm, > 0, increasing; default the stability file's ``[lobes] rpm``
-        range every :data:`RPM_STEP` rpm. Speeds above the machine's ``max_spindle_rpm``
-        are left out.
+        Speed grid in rpm, > 0, increasing; default the stability files' ``[lobes] rpm``
+        range (from the lowest to the highest) every :data:`RPM_STEP` rpm. Speeds above the
+        machine's ``max_spindle_rpm`` are left out.
     margin
         Factor on the depth of cut, >= 1.
     density_per_mm
         Dexels per mm of the stock; default the configuration's ``[simulation]``.
     step_mm
         Map step along the path in mm; default the dexel pitch ``1 / density_per_mm``.
+    method
+        ``"zoa"`` or ``"sdm"``; default the files' ``[lobes] method`` (which must agree).
+    sdm_points, progress
+        As :func:`stability_roadmap`.
 
     Raises
     ------
     ConfigError
-        For a cut that is not milling, no cutting coefficients, no grid speed within the
+        For a cut that is not milling, no cutting coefficients, a tool number that is not in
+        the configuration, files that disagree on the method, no grid speed within the
         machine's limit, and the checks of the stock, the map and :func:`stability_roadmap`.
     NCError
         ``"FILE:LINE: message"`` for a program the interpreter refuses.
@@ -374,8 +550,32 @@ def program_roadmap(
 
     rho = config.simulation.density_per_mm if density_per_mm is None else density_per_mm
     step = 1.0 / rho if step_mm is None else step_mm
+    numbers = [tool.number for tool in config.tools]
+    if isinstance(stability, Mapping):
+        files = dict(stability)
+        for number in files:
+            if number not in numbers:
+                raise ConfigError(
+                    f"stability file for tool T{number}: the configuration has no such tool "
+                    f"(its tools: {', '.join(f'T{n}' for n in numbers) or 'none'})"
+                )
+    else:
+        files = {t.number: stability for t in config.tools if t.kind in _MILLING_KINDS}
+    if not files:
+        raise ConfigError("no tool of the configuration has modes: give --stability FILE")
+    chosen = {f.lobes.method for f in files.values()} if method is None else {method}
+    if len(chosen) != 1:
+        raise ConfigError("the stability files disagree on [lobes] method; give --method")
+    the_method: Method = chosen.pop()  # type: ignore[assignment]
+    interpreted = list(Interpreter(config.nc_setup()).run_file(os.fspath(program)))
     if spindle_rpm is None:
-        low, high = stability.lobes.rpm
+        low = min(f.lobes.rpm[0] for f in files.values())
+        high = max(f.lobes.rpm[1] for f in files.values())
+        if the_method == "sdm":
+            programmed = [seg.spindle_rpm for seg in interpreted
+                          if seg.state.tool in files and seg.spindle_rpm > 0.0]  # fmt: skip
+            if programmed:
+                low = min(max(low, SDM_LOWEST_FRACTION * min(programmed)), high - RPM_STEP)
         spindle_rpm = np.linspace(low, high, max(2, round((high - low) / RPM_STEP) + 1))
     grid = np.asarray(spindle_rpm, dtype=float)
     cap = config.machine.max_spindle_rpm
@@ -386,23 +586,29 @@ def program_roadmap(
                 f"machine.max_spindle_rpm={cap:g} is below the lowest speed of the grid "
                 f"({float(np.min(spindle_rpm)):g} rpm); give lower speeds (--rpm-range)"
             )
-    coefficients = stability.milling_coefficients(config.material.name)
+    shared: dict[int, _Model] = {}
+    models: dict[int, _Model] = {}
+    for number, file in files.items():
+        if id(file) not in shared:
+            steps = None if file.lobes.steps == "auto" else file.lobes.steps
+            shared[id(file)] = _Model(file.tool_dynamics(),
+                                      file.milling_coefficients(config.material.name),
+                                      file.lobes.max_depth_mm, steps,
+                                      number if isinstance(stability, Mapping) else -1)  # fmt: skip
+        models[number] = shared[id(file)]
     cutters = {tool.number: Cutter.from_tool_config(tool) for tool in config.tools}
     teeth = {tool.number: tool.flutes for tool in config.tools}
     stock = DexelStock.box(config.stock.min_mm, config.stock.max_mm, rho)
     speeds: dict[int, float] = {}
-    segments = _recording(Interpreter(config.nc_setup()).run_file(os.fspath(program)), speeds)
+    segments = _recording(iter(interpreted), speeds)
     try:
         emap = EngagementMap.build(segments, stock, cutters, step_mm=step)
     except NCError as err:
         if err.file == "<string>":
             raise NCError(err.message, os.fspath(program), err.line, err.column) from None
         raise
-    steps = None if stability.lobes.steps == "auto" else stability.lobes.steps
-    return stability_roadmap(
-        emap, speeds, stability.tool_dynamics(), coefficients, teeth, grid, margin=margin,
-        method=stability.lobes.method, max_depth_mm=stability.lobes.max_depth_mm, steps=steps,
-    )  # fmt: skip
+    return _roadmap(emap, speeds, models, teeth, grid, margin=margin, method=the_method,
+                    quantile=0.95, sdm_points=sdm_points, progress=progress)  # fmt: skip
 
 
 def _recording(segments: Iterable[Segment], speeds: dict[int, float]) -> Iterator[Segment]:
@@ -412,70 +618,181 @@ def _recording(segments: Iterable[Segment], speeds: dict[int, float]) -> Iterato
         yield segment
 
 
-def _segment(
+class _Counter:
+    """Counts speed evaluations for a :class:`RoadmapProgress`."""
+
+    def __init__(self, total: int, progress: RoadmapProgress | None) -> None:
+        self.total, self.done, self.progress = total, 0, progress
+
+    def advance(self, count: int) -> None:
+        self.done += count
+        if self.progress is not None:
+            self.progress(self.done, self.total)
+
+
+def _engage(
     emap: EngagementMap,
     run: _Run,
-    programmed: float,
-    cut: tuple[int, float, float],
-    grid: np.ndarray,
-    margin: float,
     quantile: float,
-    cache: dict[tuple[int, float, float], int],
-    lobes: list[EngagementLobes],
-    compute: _Solver,
-) -> RoadmapSegment:
-    """The segment of ``run``: its worst engagement, lobes (cached), ranges and schedule.
+    angle_step: float,
+    model: _Model | None,
+    teeth: Mapping[int, int],
+) -> _Engagement:
+    """The worst engagement of ``run`` up to the quantile (module notes) and its lobe key.
 
-    ``cut`` is (teeth, Ktc in Pa, Krc in Pa); ``cache`` maps (teeth, entry, exit) to the
-    index of the engagement's lobes in ``lobes``.
+    The angles are rounded to ``angle_step`` rad: to the nearest step for the ZOA's 1 mrad;
+    widened outward (entry down, exit up) for the semi-discretization's coarser step.
     """
-    teeth, ktc, krc = cut
     rows = run.rows
     entry = emap.column("entry_rad")[rows]
     exit_ = emap.column("exit_rad")[rows]
     ap = float(np.quantile(emap.column("ap_mm")[rows], quantile, method="higher"))
     ae = float(np.quantile(emap.column("ae_mm")[rows], quantile, method="higher"))
     sides = np.isfinite(entry) & np.isfinite(exit_)
-    s = emap.s_mm[rows]
+    if not sides.any():
+        return _Engagement(run, ap, ae, math.nan, math.nan, None)
+    low = float(np.quantile(entry[sides], 1.0 - quantile, method="lower"))
+    high = float(np.quantile(exit_[sides], quantile, method="higher"))
+    if angle_step == _ANGLE_STEP:
+        low, high = round(low, _ANGLE_DIGITS), round(high, _ANGLE_DIGITS)
+    else:
+        low = max(0.0, math.floor(low / angle_step + 1e-9) * angle_step)
+        high = min(2.0 * math.pi, math.ceil(high / angle_step - 1e-9) * angle_step)
+    if model is None:
+        return _Engagement(run, ap, ae, low, high, None)
+    return _Engagement(run, ap, ae, low, high, (id(model), teeth[run.tool], low, high))
+
+
+def _process(model: _Model, key: tuple[int, int, float, float]) -> MillingProcess:
+    coefficients = model.coefficients
+    return MillingProcess(key[1], coefficients.ktc, coefficients.krc, key[2], key[3])
+
+
+def _solver(model: _Model, method: Method, max_depth_mm: float) -> _Solver:
+    def solve(process: MillingProcess, rpm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return _lobes(model.tool, process, rpm, method, max_depth_mm, model.steps)
+
+    return solve
+
+
+def _coarse(grid: np.ndarray, points: int | None) -> np.ndarray:
+    """The grid speeds at which the lobes are computed: all, or ``points`` evenly spread."""
+    if points is None or grid.size <= points:
+        return grid
+    return grid[np.unique(np.round(np.linspace(0, grid.size - 1, points)).astype(int))]
+
+
+def _diagram(
+    model: _Model,
+    solve: _Solver,
+    process: MillingProcess,
+    grid: np.ndarray,
+    coarse: np.ndarray,
+    counter: _Counter,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Critical depth (mm) and chatter frequency (Hz) on the grid, and where computed.
+
+    At the ``coarse`` speeds the solver's values; between them (the semi-discretization's
+    coarse-to-fine search, module notes) the ZOA lobes on the whole grid times the ratio of
+    the two methods, interpolated linearly between the coarse speeds (a speed the SDM finds
+    stable to its depth limit counts at that limit); the chatter frequency is NaN there.
+    """
+    if coarse.size == grid.size:
+        depth, frequency = solve(process, grid)
+        counter.advance(grid.size)
+        return depth, frequency, np.ones(grid.size, dtype=bool)
+    frequency = np.full(grid.size, math.nan)
+    exact = np.isin(grid, coarse)
+    found = np.empty(coarse.size)
+    for start in range(0, coarse.size, _BATCH):
+        part = coarse[start : start + _BATCH]
+        found[start : start + part.size], hz = solve(process, part)
+        frequency[np.searchsorted(grid, part)] = hz
+        counter.advance(part.size)
+    zoa = zoa_lobes(model.tool, process, grid * _RPM).critical_depth_m * 1e3
+    limit = float(np.max(found[np.isfinite(found)], initial=0.0))
+    capped = np.where(np.isfinite(found), found, max(limit, model.max_depth_mm))
+    usable = np.isfinite(zoa[exact]) & (zoa[exact] > 0.0)
+    if usable.sum() >= 2:
+        ratio = np.interp(grid, coarse[usable], capped[usable] / zoa[exact][usable])
+        depth = np.where(np.isfinite(zoa), zoa * ratio, np.interp(grid, coarse, capped))
+    else:
+        depth = np.interp(grid, coarse, capped)
+    depth[exact] = found
+    return depth, frequency, exact
+
+
+def _without_lobes(
+    emap: EngagementMap, engagement: _Engagement, programmed: float, has_modes: bool
+) -> RoadmapSegment:
+    """A plunge (bottom contact only: no lobes) or a segment of a tool without modes."""
+    run = engagement.run
+    s = emap.s_mm[run.rows]
     nan = math.nan
-    entry_rad = exit_rad = programmed_depth = programmed_hz = nan
-    scheduled = scheduled_depth = nan
-    index = -1
-    ranges: tuple[tuple[float, float], ...] = ()
-    if sides.any():
-        low = float(np.quantile(entry[sides], 1.0 - quantile, method="lower"))
-        high = float(np.quantile(exit_[sides], quantile, method="higher"))
-        key = (teeth, round(low, _ANGLE_DIGITS), round(high, _ANGLE_DIGITS))
-        entry_rad, exit_rad = key[1], key[2]
-        process = MillingProcess(teeth, ktc, krc, entry_rad, exit_rad)
-        if key not in cache:
-            depth, frequency = compute(process, grid)
-            cache[key] = len(lobes)
-            lobes.append(EngagementLobes(teeth, entry_rad, exit_rad, depth, frequency))
-        index = cache[key]
-        critical = lobes[index].critical_depth_mm
-        stable = critical >= margin * ap
-        ranges = _ranges(grid, stable)
-        if programmed > 0.0:  # a cut with the spindle off has no lobes at its speed
-            at_programmed, chatter = compute(process, np.array([programmed]))
-            programmed_depth, programmed_hz = float(at_programmed[0]), float(chatter[0])
-        if programmed_depth >= margin * ap and grid[0] <= programmed <= grid[-1]:
-            scheduled, scheduled_depth = programmed, programmed_depth
-        elif stable.any():
-            candidates = np.flatnonzero(stable)
-            distance = np.abs(grid[candidates] - programmed)
-            best = candidates[np.lexsort((-grid[candidates], distance))[0]]
-            scheduled, scheduled_depth = float(grid[best]), float(critical[best])
+    return RoadmapSegment(
+        line=run.line, tool=run.tool, start_s_mm=float(s[0]), end_s_mm=float(s[-1]),
+        locations=int(run.rows.size), ap_mm=engagement.ap, ae_mm=engagement.ae,
+        entry_rad=engagement.entry, exit_rad=engagement.exit, programmed_rpm=programmed,
+        lobes=-1, programmed_critical_depth_mm=nan, programmed_chatter_hz=nan,
+        stable_ranges_rpm=(), scheduled_rpm=nan if has_modes else programmed,
+        scheduled_critical_depth_mm=nan, has_modes=has_modes,
+    )  # fmt: skip
+
+
+def _schedule(
+    emap: EngagementMap,
+    engagement: _Engagement,
+    programmed: float,
+    grid: np.ndarray,
+    margin: float,
+    index: int,
+    lobes: EngagementLobes,
+    at: Callable[[float], tuple[float, float]],
+) -> RoadmapSegment:
+    """The segment's stable ranges and schedule from its lobes (module notes).
+
+    ``at(rpm)`` computes the critical depth (mm) and chatter frequency (Hz) at one speed: at
+    the programmed speed, and at each candidate speed whose depth was interpolated, before it
+    is scheduled (up to :data:`_CHECKS` of them; then the nearest computed stable speed).
+    """
+    run = engagement.run
+    ap = engagement.ap
+    critical = lobes.critical_depth_mm
+    stable = critical >= margin * ap
+    ranges = _ranges(grid, stable)
+    programmed_depth = programmed_hz = scheduled = scheduled_depth = math.nan
+    if programmed > 0.0:  # a cut with the spindle off has no lobes at its speed
+        programmed_depth, programmed_hz = at(programmed)
+    if programmed_depth >= margin * ap and grid[0] <= programmed <= grid[-1]:
+        scheduled, scheduled_depth = programmed, programmed_depth
+    elif stable.any():
+        candidates = np.flatnonzero(stable)
+        distance = np.abs(grid[candidates] - programmed)
+        ordered = candidates[np.lexsort((-grid[candidates], distance))]
+        exact = lobes.exact
+        checks = 0
+        for best in ordered:
+            if exact is None or exact[best]:
+                scheduled, scheduled_depth = float(grid[best]), float(critical[best])
+                break
+            if checks == _CHECKS:
+                continue  # only computed speeds from here on
+            checks += 1
+            depth, _ = at(float(grid[best]))
+            if depth >= margin * ap:
+                scheduled, scheduled_depth = float(grid[best]), depth
+                break
+    s = emap.s_mm[run.rows]
     return RoadmapSegment(
         line=run.line,
         tool=run.tool,
         start_s_mm=float(s[0]),
         end_s_mm=float(s[-1]),
-        locations=int(rows.size),
+        locations=int(run.rows.size),
         ap_mm=ap,
-        ae_mm=ae,
-        entry_rad=entry_rad,
-        exit_rad=exit_rad,
+        ae_mm=engagement.ae,
+        entry_rad=engagement.entry,
+        exit_rad=engagement.exit,
         programmed_rpm=programmed,
         lobes=index,
         programmed_critical_depth_mm=programmed_depth,

@@ -41,7 +41,8 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,10 +56,12 @@ __all__ = [
     "MillingProcess",
     "OrthogonalProcess",
     "ProcessDamping",
+    "SdmCost",
     "StabilityLobes",
     "ToolDynamics",
     "ToolMode",
     "floquet_multipliers",
+    "sdm_cost",
     "sdm_lobes",
     "zoa_absolute_depth",
     "zoa_lobes",
@@ -716,6 +719,7 @@ def sdm_lobes(
     depth_step_m: float | None = None,
     tolerance_m: float | None = None,
     damping: ProcessDamping | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> StabilityLobes:
     """Stability lobes by first-order semi-discretization (Insperger & Stépán 2002, 2004).
 
@@ -750,6 +754,8 @@ def sdm_lobes(
         ``max_depth_m * 1e-6``.
     damping
         Optional process damping (depth- and speed-dependent, Royandi 2026, Eq. 3).
+    progress
+        Called as ``progress(done, total)`` in speeds after each speed.
 
     Returns
     -------
@@ -789,11 +795,83 @@ def sdm_lobes(
             return model.radius(s, a, damping) - 1.0
 
         depth = _sdm.first_crossing(excess, top, step, tol)
-        if depth is None:
-            continue
-        critical[i] = depth
-        frequency[i], kinds[i] = model.chatter(speed, depth, damping)
+        if depth is not None:
+            critical[i] = depth
+            frequency[i], kinds[i] = model.chatter(speed, depth, damping)
+        if progress is not None:
+            progress(i + 1, speeds.size)
     return StabilityLobes(speeds, critical, frequency, tuple(kinds), "sdm")
+
+
+@dataclass(frozen=True)
+class SdmCost:
+    """The estimated cost of a semi-discretization lobe diagram (:func:`sdm_cost`).
+
+    Attributes
+    ----------
+    speeds
+        Number of spindle speeds.
+    evaluations_per_speed
+        Expected spectral-radius evaluations of the depth search per speed.
+    seconds_per_evaluation
+        Time of one evaluation in s, mean over the speeds (measured at the lowest and the
+        highest).
+    """
+
+    speeds: int
+    evaluations_per_speed: float
+    seconds_per_evaluation: float
+
+    @property
+    def seconds(self) -> float:
+        """Estimated time of the whole diagram in s: speeds x evaluations x time of one."""
+        return self.speeds * self.evaluations_per_speed * self.seconds_per_evaluation
+
+
+def sdm_cost(
+    tool: ToolDynamics,
+    process: Process,
+    spindle_rad_s: Sequence[float] | np.ndarray,
+    *,
+    max_depth_m: float,
+    steps: int | None = None,
+    depth_step_m: float | None = None,
+    damping: ProcessDamping | None = None,
+) -> SdmCost:
+    """Estimate the cost of :func:`sdm_lobes` with the same arguments before running it.
+
+    One spectral-radius evaluation is timed at the lowest and at the highest speed, and the
+    time of the others interpolated as a power of their number of steps (the lowest speed has
+    the most); the depth search's evaluations per speed are estimated from the zero-order
+    lobes: the upward steps to the ZOA's critical depth (all 40 where it lies above
+    ``max_depth_m``) plus about 10 for Brent's method.
+
+    Returns
+    -------
+    SdmCost
+        Speeds, evaluations per speed and seconds per evaluation (s, the mean over speeds).
+    """
+    speeds = _speeds(spindle_rad_s)
+    top = _finite("max_depth_m", max_depth_m)
+    step = top / 40.0 if depth_step_m is None else _finite("depth_step_m", depth_step_m)
+    sample = speeds if speeds.size <= 200 else np.linspace(speeds.min(), speeds.max(), 200)
+    counts = np.array(
+        [_auto_steps(tool, process, v) if steps is None else steps for v in sample], dtype=float
+    )
+    timings = []
+    for speed in (float(sample.min()), float(sample.max())):
+        grid = _auto_grid(tool, process, speed) if steps is None else steps
+        model = _sdm.SdmModel.build(tool, process, grid)
+        model.radius(speed, 0.5 * top, damping)  # compiled kernels loaded outside the timing
+        started = time.perf_counter()
+        model.radius(speed, 0.5 * top, damping)
+        timings.append(max(time.perf_counter() - started, 1e-6))
+    most, fewest = counts[int(np.argmin(sample))], counts[int(np.argmax(sample))]
+    power = math.log(timings[0] / timings[1]) / math.log(most / fewest) if most > fewest else 0.0
+    seconds = timings[1] * (counts / fewest) ** power
+    zoa = zoa_lobes(tool, process, sample).critical_depth_m
+    upward = np.where(np.isfinite(zoa) & (zoa < top), np.ceil(zoa / step), top / step)
+    return SdmCost(int(speeds.size), float(np.mean(upward)) + 10.0, float(np.mean(seconds)))
 
 
 def _auto_grid(tool: ToolDynamics, process: Process, spindle_rad_s: float) -> np.ndarray:
