@@ -150,6 +150,13 @@ BASES: dict[tuple[str, ...], Base] = {
             ).split(),
         ),
     ),
+    ("materials", "list"): Base(lambda t: ["--json"]),
+    ("materials", "identify"): Base(
+        lambda t: [
+            str(EXAMPLES / "materials" / "kistler_slot_means.csv"),
+            *"--teeth 2 --ap-mm 3 --name x --diameter-mm 25 --ae-mm 25".split(),
+        ]
+    ),
     ("simulate",): Base(
         lambda t: (
             f"{PACKAGED / 'demo.ngc'} -c {PACKAGED / 'demo.toml'} --density 2 "

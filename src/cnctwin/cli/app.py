@@ -59,6 +59,11 @@ COMMANDS: dict[str, _Lazy] = {
         "forces",
         "Mean forces, torque and power of a flat end mill in a straight cut.",
     ),
+    "materials": _Lazy(
+        "forces",
+        "materials_app",
+        "The materials library: list its entries, identify your own from measured forces.",
+    ),
     "simulate": _Lazy(
         "simulate",
         "simulate",
