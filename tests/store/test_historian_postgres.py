@@ -105,3 +105,27 @@ def test_reconnects_after_the_server_drops_the_connections(url: str) -> None:
 def test_unreachable_server_is_one_line() -> None:
     with pytest.raises(DataError, match=r"cannot connect to PostgreSQL at postgresql://u:\*\*\*@"):
         Historian.open("postgresql://u:secret@127.0.0.1:1/none")
+
+
+def test_a_closed_runs_overview_and_windows(url: str) -> None:
+    """The overview is stored in PostgreSQL as in SQLite: its envelope against a brute-force
+    min/max of the recorded values, and a window of samples against the values in it."""
+    t = np.arange(5000) * 0.0125
+    y = np.sin(t * 3.0) * 100.0
+    y[1234] = 900.0
+    with Historian.open(url) as h:
+        run = h.start_run({})
+        for ti, yi in zip(t, y, strict=True):
+            h.record_samples(run, float(ti), {"force_x_n": float(yi)})
+        h.end_run(run, "finished")
+    with Historian.open(url, create=False) as h:
+        assert {r[0] for r in h._read("SELECT name FROM hist_overview")} == {"", "force_x_n"}
+        envelope = h.overview(run).envelope("force_x_n", 100)
+        window = h.samples(run, t0=10.0, t1=11.0)
+    group = np.minimum(np.searchsorted(envelope.edges, t, side="right") - 1, 99)
+    shown = np.minimum(np.searchsorted(envelope.edges, envelope.t, side="right") - 1, 99)
+    for b in range(100):
+        assert envelope.y[shown == b].max() == y[group == b].max()
+        assert envelope.y[shown == b].min() == y[group == b].min()
+    assert 900.0 in envelope.y
+    np.testing.assert_array_equal(window["force_x_n"], y[800:881])
