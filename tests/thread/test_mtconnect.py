@@ -160,7 +160,15 @@ STREAMS = """<?xml version="1.0"?>
  bufferSize="100" firstSequence="{first}" lastSequence="{last}" nextSequence="{next}"/>
 <Streams><DeviceStream name="mill" uuid="mill-1">
 <ComponentStream component="Linear" name="X" componentId="lx"><Samples>{body}</Samples>
-</ComponentStream></DeviceStream></Streams></MTConnectStreams>"""
+</ComponentStream>{device}</DeviceStream></Streams></MTConnectStreams>"""
+
+
+def availability(sequence: int, value: str) -> str:
+    """The device's ComponentStream with its AVAILABILITY."""
+    return (
+        '<ComponentStream component="Device" name="mill" componentId="d1"><Events>'
+        f"{obs('av', sequence, value, 'Availability')}</Events></ComponentStream>"
+    )
 
 
 def obs(item: str, sequence: int, value: str, element: str = "Position") -> str:
@@ -244,11 +252,11 @@ def test_garbage_values_are_rejected_counted_and_never_fed(
         if request == "probe":
             return PROBE.format(instance=5)
         if request == "current":
-            return STREAMS.format(instance=5, first=1, last=6, next=7, body=GOOD)
+            return STREAMS.format(instance=5, first=1, last=6, next=7, body=GOOD, device="")
         body = answers["sample"].pop(0)
         start = int(query["from"][0])
         last = start + body.count("dataItemId") - 1
-        return STREAMS.format(instance=5, first=1, last=last, next=last + 1, body=body)
+        return STREAMS.format(instance=5, first=1, last=last, next=last + 1, body=body, device="")
 
     async def main() -> None:
         async with CannedAgent(route) as agent:
@@ -288,9 +296,13 @@ def test_changed_instance_id_in_a_sample_means_a_restart_and_a_new_probe() -> No
         if request == "current":
             body = GOOD if instance == 5 else obs("Xact", 3, "8.0")
             nxt = 7 if instance == 5 else 4
-            return STREAMS.format(instance=instance, first=1, last=nxt - 1, next=nxt, body=body)
+            return STREAMS.format(
+                instance=instance, first=1, last=nxt - 1, next=nxt, body=body, device=""
+            )
         state["instance"] = 6  # the agent restarted before answering this sample
-        return STREAMS.format(instance=6, first=1, last=3, next=4, body=obs("Xact", 3, "8.0"))
+        return STREAMS.format(
+            instance=6, first=1, last=3, next=4, body=obs("Xact", 3, "8.0"), device=""
+        )
 
     async def main() -> None:
         async with CannedAgent(route) as agent:
@@ -316,13 +328,15 @@ def test_a_buffer_that_starts_past_the_reader_is_a_gap() -> None:
         if request == "probe":
             return PROBE.format(instance=5)
         if request == "current" and len(agent.seen) < 3:
-            return STREAMS.format(instance=5, first=1, last=6, next=7, body=GOOD)
+            return STREAMS.format(instance=5, first=1, last=6, next=7, body=GOOD, device="")
         if request == "current":
             return STREAMS.format(
-                instance=5, first=50, last=99, next=100, body=obs("Xact", 99, "2")
+                instance=5, first=50, last=99, next=100, body=obs("Xact", 99, "2"), device=""
             )
         # A lenient agent answers from its oldest observation instead of OUT_OF_RANGE.
-        return STREAMS.format(instance=5, first=50, last=99, next=52, body=obs("Xact", 50, "1"))
+        return STREAMS.format(
+            instance=5, first=50, last=99, next=52, body=obs("Xact", 50, "1"), device=""
+        )
 
     async def main() -> None:
         async with MTConnectConnection(config(agent.endpoint)) as reader:
@@ -339,6 +353,34 @@ def test_a_buffer_that_starts_past_the_reader_is_a_gap() -> None:
             await main()
 
     asyncio.run(asyncio.wait_for(outer(), BODY_S))
+
+
+def test_heartbeat_counts_answers_while_the_device_is_available() -> None:
+    answers = [availability(8, "UNAVAILABLE"), "", availability(9, "AVAILABLE"), "", ""]
+
+    def route(request: str, query: dict[str, list[str]]) -> str:
+        if request == "probe":
+            return PROBE.format(instance=5)
+        if request == "current":
+            return STREAMS.format(
+                instance=5, first=1, last=7, next=8, body=GOOD, device=availability(7, "AVAILABLE")
+            )
+        device = answers.pop(0)
+        start = int(query["from"][0])
+        last = start + device.count("dataItemId") - 1
+        return STREAMS.format(instance=5, first=1, last=last, next=last + 1, body="", device=device)
+
+    async def main() -> None:
+        async with CannedAgent(route) as agent:
+            async with MTConnectConnection(config(agent.endpoint)) as reader:
+                lost = await reader.read()  # the agent lost the machine's adapter
+                assert "heartbeat" not in lost.values
+                assert lost.rejected["heartbeat"] == "device UNAVAILABLE at the agent (mill)"
+                assert "heartbeat" not in (await reader.read()).values
+                beats = [(await reader.read()).values["heartbeat"] for _ in range(3)]
+                assert beats == [3.0, 4.0, 5.0]  # one per answered read
+
+    asyncio.run(asyncio.wait_for(main(), BODY_S))
 
 
 # Configuration ----------------------------------------------------------------------

@@ -2,8 +2,8 @@
 
 Serves the ``[virtual]`` machine of a twin configuration (default: the packaged demo's) until
 its program ends or Ctrl-C, so that ``cnctwin run`` (or any OPC UA / Modbus client) can be
-tried without a real machine. ``--once`` ends with the program; otherwise the machine idles
-after it, still answering. Security (docs/security.md): ``--security-mode``, ``--certificate``,
+tried without a real machine. ``--once`` ends with the program (:data:`END_GRACE_S` later, for
+a watching client to read the end); otherwise the machine idles after it, still answering. Security (docs/security.md): ``--security-mode``, ``--certificate``,
 ``--private-key``, ``--trust``, ``--users``, ``--anonymous``; a non-loopback ``--host`` without
 security needs ``--insecure``. ``cnctwin virtual hash-password`` makes a users file's entry.
 """
@@ -35,6 +35,10 @@ app = typer.Typer(
     help="The virtual machine: serve it over OPC UA, Modbus TCP or MTConnect.",
     no_args_is_help=True,
 )
+
+#: With ``--once``: seconds the server still answers after the program ends, so that a client
+#: polling it (a twin over MTConnect or Modbus) reads the finished state before it goes.
+END_GRACE_S = 2.0
 
 #: The packaged twin configuration whose [virtual] table is served by default.
 DEFAULT_CONFIG = "demo_twin.toml"
@@ -244,6 +248,8 @@ async def _serve(
         while not stop.is_set():
             if once and machine.vm.finished:
                 note(f"program finished at t = {machine.vm.time_s:.2f} s")
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(stop.wait(), END_GRACE_S)
                 break
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(stop.wait(), 0.1)

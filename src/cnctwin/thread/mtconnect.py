@@ -29,7 +29,10 @@ logged; ``UNAVAILABLE`` is rejected with that reason, not counted as garbage.
 MTConnect reports a value when it changes, and the agent's answer means every value is
 current as of that answer: a reading carries neither a source time nor a sample counter, so
 the twin takes every answered read as a new sample at its receive time
-(:mod:`cnctwin.twin.freshness`, case 3).
+(:mod:`cnctwin.twin.freshness`, case 3). MTConnect has no machine heartbeat either; the
+``heartbeat`` signal is the count of the agent's answers while the device's AVAILABILITY is
+``AVAILABLE`` (the agent reports ``UNAVAILABLE`` when it loses the machine's adapter): it
+stops moving, and the twin's watchdog trips, when the agent or the machine goes away.
 
 HTTP/1.1 over one kept-alive TCP connection, with the standard library's asyncio (no HTTP
 client dependency); responses are bounded to
@@ -283,6 +286,8 @@ class MTConnectConnection(MachineConnection):
         self._http = _HttpClient(self.host, self.port)
         self._latest: dict[str, Observation] = {}
         self._bad: dict[str, str] = {}
+        self._availability: str | None = None
+        self._beats = 0
 
     # Transport hooks ------------------------------------------------------------------
     async def _open(self) -> None:
@@ -299,6 +304,7 @@ class MTConnectConnection(MachineConnection):
             for _ in range(MAX_CATCH_UP):
                 if await self._sample():
                     break
+            self._beats += 1
         except (DataError, AgentError) as err:  # a garbled answer: reconnect and probe again
             raise ConnectionLost(f"agent at {self.host}:{self.port}: {err}") from err
         return self._reading()
@@ -322,6 +328,9 @@ class MTConnectConnection(MachineConnection):
         current = parse_streams(await self._get("current"))
         old_instance, expected = self.instance_id, self.next_sequence
         self.devices, self.mapped = devices, mapped
+        self._availability = next(
+            (i.id for i in devices.data_items if i.type == "AVAILABILITY"), None
+        )
         self._latest.clear()
         self._bad.clear()
         self._take(current)
@@ -403,6 +412,8 @@ class MTConnectConnection(MachineConnection):
         """Keep the newest observation of each mapped data item; count the garbage."""
         wanted = {m.item.id: m for m in self.mapped.values()}
         for obs in streams.observations:
+            if obs.data_item_id == self._availability:
+                self._latest[obs.data_item_id] = obs
             mapped = wanted.get(obs.data_item_id)
             if mapped is None:
                 continue
@@ -436,4 +447,11 @@ class MTConnectConnection(MachineConnection):
                 rejected[signal] = self._bad[ident]
             else:
                 values[signal] = convert(mapped, obs.value)
+        available = self._latest.get(self._availability or "")
+        if "heartbeat" in self.mapped:  # the user mapped a counter of the machine's
+            pass
+        elif available is None or available.value == "AVAILABLE":
+            values["heartbeat"] = float(self._beats)
+        else:
+            rejected["heartbeat"] = f"device {available.value} at the agent ({available.device})"
         return Reading(values=values, received_s=now_s(), rejected=rejected)
