@@ -80,6 +80,9 @@ def test_json_view_carries_tool_and_heights(slotted) -> None:
     z = np.array(view["z_mm"], dtype=float)
     assert z.shape == (60, 80)
     assert z.min() == pytest.approx(-DEPTH_MM, abs=1e-3) and z.max() == pytest.approx(0.0)
+    # The colour scale's span: the slot's floor to the uncut top, not the 10 mm block.
+    lo, hi = view["z_range_mm"]
+    assert lo == pytest.approx(-DEPTH_MM, abs=1e-3) and hi == pytest.approx(0.0)
 
 
 def test_empty_rays_are_holes_and_bad_sizes_refused() -> None:
@@ -89,5 +92,8 @@ def test_empty_rays_are_holes_and_bad_sizes_refused() -> None:
     stock.load("z", counts, np.tile([0.0, 1.0], (15, 1)))
     view = stock_view(stock, max_cells=4)
     assert view["z_mm"][1][1] is None and view["z_mm"][0][0] == 1.0 and view["tool"] is None
+    assert view["z_range_mm"] == [1.0, 1.0]
+    stock.load("z", np.zeros(16, dtype=np.int32), np.zeros((0, 2)))
+    assert stock_view(stock, max_cells=4)["z_range_mm"] is None  # no material left
     with pytest.raises(InputError, match="max_cells=1"):
         height_map(stock, max_cells=1)

@@ -39,3 +39,8 @@ def test_stock_view_renders(page) -> None:
     assert blank == 1
     # A shaded surface and a tool: many colours (a blank or flat area has a handful).
     assert distinct_colours(shot) > 200
+    # The colours span the stock's tops, the 3 mm slot's floor to the top (not the 10 mm
+    # block), so the cut shows in the scale's full range.
+    cmin, cmax = page.evaluate("[document.getElementById('s').data[0].cmin,"
+                               " document.getElementById('s').data[0].cmax]")  # fmt: skip
+    assert abs(cmin - -3.0) < 1e-3 and cmax == 0.0

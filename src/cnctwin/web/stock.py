@@ -53,7 +53,9 @@ def stock_view(
     dict
         ``x_mm``, ``y_mm`` (cell centres), ``z_mm`` (rows along y of heights, ``null`` for
         no material, rounded to 1 um), ``floor_mm``, ``box_mm`` (the grid's
-        ``[[xmin, ymin, zmin], [xmax, ymax, zmax]]``), ``step`` and ``tool``:
+        ``[[xmin, ymin, zmin], [xmax, ymax, zmax]]``), ``z_range_mm`` (the lowest and the
+        highest top, ``[lo, hi]``, or None without material: the colour scale spans it, so a
+        cut shows however shallow it is against the block), ``step`` and ``tool``:
         ``{"x_mm", "y_mm", "z_mm", "radius_mm", "length_mm"}`` or None.
     """
     hmap = height_map(stock, max_cells)
@@ -61,6 +63,8 @@ def stock_view(
     low = [float(v) for v in grid.origin_mm]
     high = [o + s for o, s in zip(low, grid.size_mm, strict=True)]
     z = np.round(hmap.z_mm, _DECIMALS)
+    material = z[np.isfinite(z)]
+    z_range = [float(material.min()), float(material.max())] if material.size else None
     tool = None
     if tool_position_mm is not None:
         x, y, zt = (float(v) for v in tool_position_mm)
@@ -78,6 +82,7 @@ def stock_view(
         "z_mm": [[None if math.isnan(v) else v for v in row] for row in z.tolist()],
         "floor_mm": hmap.floor_mm,
         "box_mm": [low, high],
+        "z_range_mm": z_range,
         "step": hmap.step,
         "tool": tool,
     }

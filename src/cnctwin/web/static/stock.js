@@ -31,12 +31,23 @@ const CnctwinStock = (() => {
             flatshading: true, name: "tool", hoverinfo: "skip"};
   }
 
+  // The colour scale's [min, max], mm: the stock's tops from the lowest to the highest, so a
+  // cut shows in full colour however shallow it is against the block; an uncut top (one
+  // height) is the top colour of a 1 mm scale.
+  function colourRange(view) {
+    const [low, high] = view.box_mm;
+    const [lo, hi] = view.z_range_mm || [low[2], high[2]];
+    return hi - lo > 1e-3 ? [lo, hi] : [hi - 1, hi];
+  }
+
   // Draw (or update) the view in `element` from one stock_view object.
   function draw(element, view) {
     const [low, high] = view.box_mm;
+    const [cmin, cmax] = colourRange(view);
     const traces = [{
       type: "surface", x: view.x_mm, y: view.y_mm, z: view.z_mm, colorscale: "Viridis",
-      cmin: low[2], cmax: high[2], showscale: false, name: "stock",
+      cmin, cmax, showscale: true, name: "stock",
+      colorbar: {title: {text: "top [mm]"}, thickness: 12, len: 0.6},
       hovertemplate: "x %{x:.2f} y %{y:.2f} top %{z:.3f} mm<extra></extra>",
     }];
     if (view.tool) traces.push(toolTrace(view.tool));
@@ -53,5 +64,5 @@ const CnctwinStock = (() => {
     return Plotly.react(element, traces, layout, {displaylogo: false, responsive: true});
   }
 
-  return {draw};
+  return {draw, colourRange};
 })();
