@@ -141,7 +141,8 @@ class RunOverview:
         fine = self.buckets
         starts = (np.arange(buckets + 1, dtype=np.int64) * fine + buckets - 1) // buckets
         span = self.t_last - self.t_first
-        return starts, self.t_first + starts * (span / fine)
+        edges = np.asarray(self.t_first + starts * (span / fine), dtype=np.float64)
+        return starts, edges
 
     def envelope(self, name: str, buckets: int) -> Envelope:
         """Signal ``name`` as min/max points per plot bucket, ``1 <= buckets <= self.buckets``.
@@ -212,6 +213,7 @@ def compute_overview(
     first_t = np.full(buckets, np.nan)
     seq_lo, seq_hi = np.full(buckets, np.nan), np.full(buckets, np.nan)
     empty = {f: np.full(buckets, np.nan) for f in _SIGNAL_FIELDS}
+    signals: dict[str, dict[str, NDArray[np.float64]]] = {}
     if n == 0:
         signals = {name: {f: a.copy() for f, a in empty.items()} for name in columns}
         return RunOverview(0.0, 0.0, 0, count, first_t, seq_lo, seq_hi, signals)
@@ -227,7 +229,6 @@ def compute_overview(
     seq_lo[used] = np.minimum.reduceat(seq, starts)
     seq_hi[used] = np.maximum.reduceat(seq, starts)
     positions = np.arange(n)
-    signals: dict[str, dict[str, NDArray[np.float64]]] = {}
     for name, y in columns.items():
         finite = np.isfinite(y)
         n_finite = np.add.reduceat(finite.astype(np.int64), starts)

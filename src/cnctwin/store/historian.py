@@ -791,7 +791,8 @@ class Historian:
             return self._columns(run_id, names, kind)[0]
         lo = -math.inf if t0 is None else _finite(t0, "window start t0")
         hi = math.inf if t1 is None else _finite(t1, "window end t1")
-        where, args = " AND t_s >= ? AND t_s <= ?", (lo, hi)
+        where = " AND t_s >= ? AND t_s <= ?"
+        args: tuple[Any, ...] = (lo, hi)
         found = self._stored_overview(int(run_id), kind, [])
         if found is not None:
             where += " AND seq >= ? AND seq <= ?"
