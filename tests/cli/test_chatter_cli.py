@@ -59,7 +59,8 @@ CUTS = """ap_mm,spindle_rpm,fz_mm,vibration_g
 SIMULATE_KEYS = [
     "spindle_rpm", "depth_mm", "feed_per_tooth_mm", "simulated_s", "transient_s",
     "steps_per_tooth", "slices", "tooth_passing_hz", "cpd_n_m2", "process_damping_n_s_m",
-    "rms", "mean_force_n", "peak_to_peak_um", "chatter", "nonsynchronous_ratio", "growth",
+    "rms", "mean_force_n", "peak_to_peak_um", "chatter", "decision", "growth_rate_per_s",
+    "growth_rate_sigma_per_s", "nonsynchronous_ratio", "growth",
     "chatter_frequency_hz", "sdm_spectral_radius", "sdm_stable", "wall_s",
 ]  # fmt: skip
 
@@ -87,7 +88,8 @@ def royandi(tmp_path: Path) -> Path:
 
 def test_simulate_stable_cut_is_the_library_result(royandi: Path) -> None:
     args = ["simulate", "--config", str(royandi), "--rpm", "7500", "--depth-mm", "1.5",
-            "--helix-deg", "30", "--helical-edge", "--seconds", "0.2"]  # fmt: skip
+            "--helix-deg", "30", "--helical-edge", "--seconds", "0.2",
+            "--max-seconds", "0.2"]  # fmt: skip
     report = run_json(args)
     assert list(report) == SIMULATE_KEYS
     assert report["feed_per_tooth_mm"] == pytest.approx(0.1)  # from [process_damping]

@@ -118,6 +118,7 @@ def test_calibration_recovers_a_known_gamma_model(royandi: StabilityConfig) -> N
             depth_m=ap * 1e-3,
             feed_per_tooth_m=feed_mm * 1e-3,
             duration_s=0.1,
+            max_duration_s=0.1,  # the calibration's own runs: 0.1 s
             damping_model=model,
         ).rms.acceleration_m_s2[0]
         for ap in depths_mm

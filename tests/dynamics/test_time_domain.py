@@ -391,3 +391,60 @@ def test_analysis_options_are_checked() -> None:
         result.spectrum("jerk")  # type: ignore[arg-type]
     with pytest.raises(InputError, match="axis"):
         result.spectrum("force", "z")  # type: ignore[arg-type]
+
+
+# ----------------------------------------------------------------------------------------
+# Near the boundary: 0.9x and 1.1x (issue 16, item 7)
+
+
+@pytest.mark.parametrize("rpm", [10000.0, 16000.0])
+@pytest.mark.parametrize("factor", [0.9, 1.1])
+def test_run_milling_decides_like_the_sdm_at_ten_percent_from_the_boundary(
+    rpm: float, factor: float
+) -> None:
+    # The shipped Insperger slot example (1-DOF, 2 teeth; NOTES.md section 1). At 0.9x the
+    # largest Floquet multiplier is about 0.985-0.99 per tooth period: a 0.3 s run has not
+    # died out (the old rule, late/early change RMS > 0.5, called it chatter), but its growth
+    # rate is clearly negative. The time-domain integration (its own steps, no SDM) must
+    # decide as the semi-discretization does, and its growth rate must be the SDM's
+    # ln|mu| / T within 25 %.
+    from pathlib import Path
+
+    from cnctwin.dynamics import load_stability_config, run_milling
+
+    example = Path(__file__).resolve().parents[2] / "examples/stability/insperger_slot.toml"
+    config = load_stability_config(example)
+    speed = rpm * RPM
+    critical = float(sdm_lobes(ONE_DOF, SLOT, [speed], max_depth_m=0.01).critical_depth_m[0])
+    run = run_milling(config, spindle_rad_s=speed, depth_m=factor * critical,
+                      feed_per_tooth_m=5e-5, duration_s=0.3)  # fmt: skip
+    verdict = run.verdict
+    assert verdict.decision == ("chatter" if factor > 1.0 else "stable"), verdict
+    assert verdict.chatter == (factor > 1.0)
+    assert run.sdm_stable == (factor < 1.0)
+    period = 2 * math.pi / (2 * speed)
+    expected = math.log(run.sdm_spectral_radius) / period
+    assert verdict.growth_rate_per_s == pytest.approx(expected, rel=0.25)
+    assert abs(verdict.growth_rate_per_s) > 2 * verdict.growth_rate_sigma_per_s
+    if factor < 1.0:
+        assert verdict.growth > 0.5  # what the old rule would have called chatter
+
+
+def test_an_undecided_short_run_is_run_longer_until_decided() -> None:
+    # 0.97x the boundary at 10000 rpm: 0.03 s (10 tooth periods, a steady window of 5) cannot
+    # tell the decay from 0; run_milling doubles the time until it can.
+    from pathlib import Path
+
+    from cnctwin.dynamics import load_stability_config, run_milling
+
+    example = Path(__file__).resolve().parents[2] / "examples/stability/insperger_slot.toml"
+    config = load_stability_config(example)
+    speed = 10000.0 * RPM
+    critical = float(sdm_lobes(ONE_DOF, SLOT, [speed], max_depth_m=0.01).critical_depth_m[0])
+    short = simulate_milling(ONE_DOF, SLOT, spindle_rad_s=speed, depth_m=0.97 * critical,
+                             feed_per_tooth_m=5e-5, duration_s=0.03)  # fmt: skip
+    assert short.chatter(final=False).decision == "undecided"
+    run = run_milling(config, spindle_rad_s=speed, depth_m=0.97 * critical,
+                      feed_per_tooth_m=5e-5, duration_s=0.03)  # fmt: skip
+    assert run.simulated_s > 0.05
+    assert run.verdict.decision == "stable"

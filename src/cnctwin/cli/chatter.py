@@ -148,6 +148,7 @@ def simulation_report(
     cpd_n_m2: float | None = None,
     damping_model: ProcessDampingModel | None = None,
     steps: int | None = None,
+    max_seconds: float | None = None,
 ) -> tuple[dict[str, Any], MillingVibration]:
     """Check the options of one cut, run it (:func:`cnctwin.dynamics.run_milling`) and
     summarise it.
@@ -170,6 +171,8 @@ def simulation_report(
         off) or a fitted Gamma model; exclusive.
     steps
         Steps per tooth period.
+    max_seconds
+        Longest simulated time while the verdict is undecided, s (default 4 x ``seconds``).
 
     Returns
     -------
@@ -179,8 +182,10 @@ def simulation_report(
         ``slices``, ``tooth_passing_hz``, ``cpd_n_m2`` (null without process damping),
         ``process_damping_n_s_m``, ``rms`` (``displacement_um``, ``velocity_mm_s``,
         ``acceleration_m_s2``, ``acceleration_g``, ``force_n``: [x, y] each),
-        ``mean_force_n`` and ``peak_to_peak_um`` ([x, y]), ``chatter``,
-        ``nonsynchronous_ratio``, ``growth``, ``chatter_frequency_hz``,
+        ``mean_force_n`` and ``peak_to_peak_um`` ([x, y]), ``chatter``, ``decision``
+        (``stable``, ``chatter`` or ``undecided``), ``growth_rate_per_s`` and its standard
+        error ``growth_rate_sigma_per_s``, ``nonsynchronous_ratio``, ``growth``,
+        ``chatter_frequency_hz``,
         ``sdm_spectral_radius``, ``sdm_stable`` and ``wall_s``.
     """
     from cnctwin.dynamics import run_milling
@@ -219,6 +224,7 @@ def simulation_report(
             cpd_pa=cpd_n_m2,
             damping_model=damping_model,
             steps_per_tooth=steps,
+            max_duration_s=max_seconds,
         )
     except InputError as err:
         # Without a diameter, process damping (C_pd > 0) is the refusal the checks above leave.
@@ -247,6 +253,9 @@ def simulation_report(
         "mean_force_n": _pair(run.mean_force_n),
         "peak_to_peak_um": _pair(run.peak_to_peak_m * 1e6),
         "chatter": verdict.chatter,
+        "decision": verdict.decision,
+        "growth_rate_per_s": finite_json.finite(float(verdict.growth_rate_per_s)),
+        "growth_rate_sigma_per_s": finite_json.finite(float(verdict.growth_rate_sigma_per_s)),
         "nonsynchronous_ratio": verdict.nonsynchronous_ratio,
         "growth": finite_json.finite(float(verdict.growth)),
         "chatter_frequency_hz": (
@@ -271,6 +280,13 @@ def simulate(
     seconds: Annotated[
         float, typer.Option("--seconds", help="Time to simulate, s (default 0.3).")
     ] = 0.3,
+    max_seconds: Annotated[
+        float | None,
+        typer.Option(
+            "--max-seconds",
+            help="While undecided, simulate twice as long up to this, s (default 4x --seconds).",
+        ),
+    ] = None,
     transient_s: Annotated[
         float | None,
         typer.Option("--transient-s", help="Time left out of RMS and spectrum (default half)."),
@@ -305,6 +321,8 @@ def simulate(
     from cnctwin.dynamics import load_stability_config, read_damping_model
 
     check_time_options(seconds, transient_s, kte_n_mm, kre_n_mm, steps, diameter_mm, helix_deg)
+    if max_seconds is not None:
+        check_number("--max-seconds", max_seconds, MIN_SIMULATED_S, MAX_SIMULATED_S, unit="s")
     settings = load_stability_config(config)
     model = read_damping_model(damping_model) if damping_model is not None else None
     report, result = simulation_report(
@@ -322,6 +340,7 @@ def simulate(
         cpd_n_m2=cpd_n_m2,
         damping_model=model,
         steps=steps,
+        max_seconds=max_seconds,
     )
     if plot is not None:
         _plot_simulation(plot, result, report, config.stem)
@@ -545,9 +564,13 @@ def _simulation_table(report: dict[str, Any]) -> Table:
     if report["chatter"]:
         verdict = f"CHATTER at {report['chatter_frequency_hz']:.1f} Hz"
     else:
-        verdict = "stable"
+        verdict = report["decision"]
+    rate, sigma = report["growth_rate_per_s"], report["growth_rate_sigma_per_s"]
+    growth = "" if rate is None or sigma is None else f"; grows {rate:.3g} +- {2 * sigma:.2g} 1/s"
     table.add_row(
-        "time domain", verdict, f"{100 * report['nonsynchronous_ratio']:.3g} % off harmonics"
+        "time domain",
+        verdict,
+        f"{100 * report['nonsynchronous_ratio']:.3g} % off harmonics{growth}",
     )
     sdm = "stable" if report["sdm_stable"] else "unstable"
     table.add_row("semi-discretization", sdm, f"|mu| = {report['sdm_spectral_radius']:.4f}")

@@ -178,8 +178,15 @@ def run_milling(
     cpd_pa: float | None = None,
     damping_model: ProcessDampingModel | None = None,
     steps_per_tooth: int | None = None,
+    max_duration_s: float | None = None,
 ) -> MillingRun:
     """Simulate one cut of a stability configuration and summarise it.
+
+    While the chatter verdict is ``"undecided"`` (the growth rate of the vibration off the
+    tooth period is not distinguishable from 0: a cut near the boundary, or saturated
+    chatter; :meth:`~cnctwin.dynamics.time_domain.MillingVibration.chatter`), the cut is
+    simulated again for twice the time, up to ``max_duration_s``, where the energy off the
+    harmonics decides.
 
     Parameters
     ----------
@@ -203,6 +210,10 @@ def run_milling(
         or a fitted Gamma model (Eq. 20); they exclude each other.
     steps_per_tooth
         Steps per tooth period (None: the simulation's default).
+    max_duration_s
+        Longest simulated time of an undecided verdict, s (default 4 x ``duration_s``;
+        ``duration_s`` or less: no second run). A given ``transient_s`` stays as given;
+        the default stays half the time simulated.
 
     Raises
     ------
@@ -232,23 +243,29 @@ def run_milling(
         model=damping_model,
         default_cpd_pa=None if section is None else section.cpd_n_m2,
     )
+    cap = 4.0 * duration_s if max_duration_s is None else max_duration_s
     started = time.perf_counter()
-    result = simulate_milling(
-        config.tool_dynamics(),
-        process,
-        spindle_rad_s=spindle_rad_s,
-        depth_m=depth_m,
-        feed_per_tooth_m=feed_per_tooth_m,
-        duration_s=duration_s,
-        cutter=cutter,
-        edge_tangential_n_m=kte,
-        edge_radial_n_m=kre,
-        helical_edge=helical_edge,
-        damping=damping,
-        steps_per_tooth=steps_per_tooth,
-    )
+    while True:
+        result = simulate_milling(
+            config.tool_dynamics(),
+            process,
+            spindle_rad_s=spindle_rad_s,
+            depth_m=depth_m,
+            feed_per_tooth_m=feed_per_tooth_m,
+            duration_s=duration_s,
+            cutter=cutter,
+            edge_tangential_n_m=kte,
+            edge_radial_n_m=kre,
+            helical_edge=helical_edge,
+            damping=damping,
+            steps_per_tooth=steps_per_tooth,
+        )
+        longer = 2.0 * duration_s <= cap * (1.0 + 1e-9)
+        verdict = result.chatter(transient_s=transient_s, final=not longer)
+        if verdict.decision != "undecided":
+            break
+        duration_s *= 2.0
     rms = result.rms(transient_s)
-    verdict = result.chatter(transient_s=transient_s)
     wall = time.perf_counter() - started
     window = result.steady_window(transient_s)
     multipliers = floquet_multipliers(

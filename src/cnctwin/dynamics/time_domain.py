@@ -73,6 +73,8 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 Quantity = Literal["displacement", "velocity", "acceleration", "force"]
+#: The time-domain chatter decision (:meth:`MillingVibration.chatter`).
+Decision = Literal["stable", "chatter", "undecided"]
 
 _TWO_PI = 2.0 * math.pi
 _GRAVITY = 9.80665  # m/s^2 per g (standard gravity)
@@ -176,6 +178,15 @@ class ChatterVerdict:
         Frequency in Hz of the strongest non-synchronous component (NaN if none).
     threshold
         The threshold of ``nonsynchronous_ratio`` used.
+    decision
+        ``"stable"``, ``"chatter"`` or ``"undecided"`` (:meth:`MillingVibration.chatter`).
+    growth_rate_per_s
+        Exponential growth rate of the vibration's change over one tooth period, 1/s: the
+        slope of its log per-period RMS over the steady window (``ln|mu| / T`` near the
+        boundary, mu the largest Floquet multiplier); NaN for a window under 5 periods,
+        ``-inf`` where it has settled to rounding.
+    growth_rate_sigma_per_s
+        Standard error of that slope, 1/s.
     """
 
     chatter: bool
@@ -183,6 +194,9 @@ class ChatterVerdict:
     growth: float
     frequency_hz: float
     threshold: float
+    decision: Decision = "undecided"
+    growth_rate_per_s: float = math.nan
+    growth_rate_sigma_per_s: float = math.nan
 
 
 @dataclass(frozen=True, eq=False)
@@ -290,17 +304,23 @@ class MillingVibration:
         quantity: Quantity = "displacement",
         transient_s: float | None = None,
         threshold: float = _CHATTER_RATIO,
+        final: bool = True,
     ) -> ChatterVerdict:
         """Chatter from the energy off the tooth-passing harmonics, x and y together.
 
         A stable cut settles to a motion periodic at the tooth period, whose spectrum holds
         only the tooth-passing harmonics; regenerative chatter adds a component near a natural
         frequency (Hopf) or at odd multiples of half the tooth-passing frequency (period
-        doubling). A cut chatters if that non-synchronous energy is above ``threshold`` of
-        the total and is not dying out (:attr:`ChatterVerdict.growth` > 0.5): a slowly
-        decaying transient of a stable cut near the boundary is not chatter, and saturated
-        chatter can hold a small share of the energy when the forced vibration is large
-        (docs/chatter.md).
+        doubling). The decision rests on the growth rate of ``s(t) - s(t - T)`` (which the
+        periodic forced motion does not have), fitted over the steady window with its
+        standard error sigma (:meth:`growth_rate`): ``"stable"`` when ``rate + 2 sigma < 0``
+        (it dies out, however much energy it still holds) or it has settled to rounding;
+        ``"chatter"`` when ``rate - 2 sigma > 0`` (it grows); when the interval straddles 0,
+        ``"undecided"`` unless ``final``, in which case the non-synchronous energy decides:
+        ``"chatter"`` above ``threshold`` (chatter saturated by the tool leaving the cut neither
+        grows nor decays), else ``"stable"``. :func:`cnctwin.dynamics.run_milling` asks with
+        ``final=False`` and doubles the simulated time while undecided, up to a cap.
+        ``chatter`` is the decision ``"chatter"`` (docs/chatter.md).
 
         Parameters
         ----------
@@ -312,6 +332,8 @@ class MillingVibration:
         threshold
             Fraction of the energy off the harmonics above which a cut that does not settle
             chatters, 0 < threshold < 1 (default 1e-3).
+        final
+            False: ``"undecided"`` where the growth rate's interval straddles 0.
         """
         if not (0.0 < threshold < 1.0):
             raise InputError(f"threshold={threshold!r}; give 0 < threshold < 1")
@@ -325,9 +347,60 @@ class MillingVibration:
             frequency = float(spectra[0].frequency_hz[1:][int(np.argmax(np.where(off, power, 0)))])
         else:
             frequency = math.nan
-        growth = self._growth(self._signals()[first // 2], self.steady_window(transient_s))
-        chatter = ratio > threshold and not growth <= 0.5
-        return ChatterVerdict(chatter, ratio, growth, frequency, threshold)
+        window = self.steady_window(transient_s)
+        signal = self._signals()[first // 2]
+        growth = self._growth(signal, window)
+        rate, sigma = self._growth_rate(signal, window)
+        decision: Decision
+        if rate + 2.0 * sigma < 0.0:
+            decision = "stable"
+        elif rate - 2.0 * sigma > 0.0:
+            decision = "chatter"
+        elif not final:
+            decision = "undecided"
+        else:
+            decision = "chatter" if ratio > threshold else "stable"
+        return ChatterVerdict(decision == "chatter", ratio, growth, frequency, threshold,
+                              decision, rate, sigma)  # fmt: skip
+
+    def growth_rate(
+        self, quantity: Quantity = "displacement", transient_s: float | None = None
+    ) -> tuple[float, float]:
+        """Growth rate of the vibration off the tooth period and its standard error, 1/s.
+
+        The per-period RMS ``r_k`` of ``s(t) - s(t - T)`` (x and y together) over the tooth
+        periods of the steady window; the least-squares slope of ``ln r_k`` over time and its
+        standard error. Periods whose ``r_k`` has fallen below 1e-9 of the signal's RMS (a
+        transient decayed to rounding) are left out; with fewer than 5 periods left the rate
+        is ``-inf`` (settled), NaN for a window under 5 periods.
+
+        Parameters
+        ----------
+        quantity
+            The signal (as :meth:`chatter`).
+        transient_s
+            Time in s left out at the start; default half the simulated time.
+        """
+        signal = self._signals()[_column(quantity) // 2]
+        return self._growth_rate(signal, self.steady_window(transient_s))
+
+    def _growth_rate(self, signal: np.ndarray, window: slice) -> tuple[float, float]:
+        m = self.steps_per_tooth
+        periods = (window.stop - window.start) // m
+        if periods < 6:
+            return math.nan, math.nan
+        start = window.stop - periods * m
+        change = signal[start + m : window.stop] - signal[start : window.stop - m]
+        per_period = np.sqrt(np.mean(change.reshape(periods - 1, m, -1) ** 2, axis=(1, 2)))
+        scale = float(np.sqrt(np.mean(signal[window] ** 2)))
+        keep = per_period > 1e-9 * scale
+        if keep.sum() < 5:
+            return -math.inf, 0.0
+        t = (np.arange(periods - 1) + 0.5) * self.tooth_period_s
+        x, y = t[keep], np.log(per_period[keep])
+        fit = np.polyfit(x, y, 1, full=False, cov=True)
+        slope, variance = float(fit[0][0]), float(fit[1][0, 0])
+        return slope, math.sqrt(max(variance, 0.0))
 
     def _growth(self, signal: np.ndarray, window: slice) -> float:
         """RMS of ``s(t) - s(t - T)`` over the window's last quarter over its first quarter."""
