@@ -93,10 +93,10 @@ def forces_report(
         CuttingCoefficients,
         ImmersionIntervals,
         immersion_angles,
+        load_materials,
         mean_forces,
         milling_forces,
     )
-    from cnctwin.mechanics.materials import load_materials
 
     if not (MIN_TOOL_DIAMETER_MM <= diameter_mm <= MAX_TOOL_DIAMETER_MM):
         raise InputError(
@@ -251,7 +251,8 @@ def materials_list(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
 ) -> None:
     """List the milling and Kienzle entries with their source, conditions and checked flag."""
-    from cnctwin.mechanics.materials import load_materials
+
+    from cnctwin.mechanics import load_materials
 
     library = load_materials(materials_file)
     milling = [
@@ -360,8 +361,7 @@ def materials_identify(
     import numpy as np
 
     from cnctwin.config import MAX_TOOL_DIAMETER_MM, MAX_TOOL_LENGTH_MM
-    from cnctwin.mechanics import identify_coefficients, immersion_angles
-    from cnctwin.mechanics.materials import milling_entry_toml
+    from cnctwin.mechanics import identify_coefficients, immersion_angles, milling_entry_toml
 
     check_count("--teeth", teeth, 1, 100)
     # 1 um: a thinner cut cannot be measured, and its coefficients overflow.

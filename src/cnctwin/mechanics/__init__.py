@@ -29,7 +29,14 @@ from cnctwin.mechanics.drilling import (
 )
 from cnctwin.mechanics.engagement import ImmersionIntervals, immersion_angles
 from cnctwin.mechanics.identification import identify_coefficients
-from cnctwin.mechanics.materials import kienzle_material, milling_material
+from cnctwin.mechanics.materials import (
+    MaterialsLibrary,
+    kienzle_material,
+    kienzle_milling_coefficients,
+    load_materials,
+    milling_entry_toml,
+    milling_material,
+)
 from cnctwin.mechanics.milling import (
     ForceWaveform,
     MeanForces,
@@ -51,6 +58,7 @@ __all__ = [
     "DrillingMaterial",
     "ForceWaveform",
     "ImmersionIntervals",
+    "MaterialsLibrary",
     "MeanForces",
     "TurningCoefficients",
     "drilling_load",
@@ -62,8 +70,11 @@ __all__ = [
     "immersion_angles",
     "kienzle_cutting_force",
     "kienzle_material",
+    "kienzle_milling_coefficients",
+    "load_materials",
     "mean_forces",
     "milling_forces",
+    "milling_entry_toml",
     "milling_material",
     "oblique_coefficients",
     "tapping_torque",
