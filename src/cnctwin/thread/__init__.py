@@ -44,6 +44,7 @@ if TYPE_CHECKING:
         parse_shdr,
         parse_streams,
     )
+    from cnctwin.thread.mtconnect_map import RUN_STATE_EXECUTION, UNIT_FACTORS
     from cnctwin.thread.opcua import (
         DEFAULT_SUBSCRIPTION_MS,
         NAMESPACE_URI,
@@ -76,6 +77,8 @@ _LAZY = {
     "parse_devices": "cnctwin.thread.mtconnect_documents",
     "parse_shdr": "cnctwin.thread.mtconnect_documents",
     "parse_streams": "cnctwin.thread.mtconnect_documents",
+    "RUN_STATE_EXECUTION": "cnctwin.thread.mtconnect_map",
+    "UNIT_FACTORS": "cnctwin.thread.mtconnect_map",
     "READ_MAP": "cnctwin.thread.modbus_map",
     "STATUS_MAP": "cnctwin.thread.modbus_map",
     "WRITE_MAP": "cnctwin.thread.modbus_map",
@@ -129,6 +132,8 @@ __all__ = [
     "parse_devices",
     "parse_shdr",
     "parse_streams",
+    "RUN_STATE_EXECUTION",
+    "UNIT_FACTORS",
 ]
 
 

@@ -43,8 +43,7 @@ from datetime import UTC, datetime
 from typing import Protocol
 from urllib.parse import parse_qs, urlsplit
 
-from cnctwin.thread.mtconnect_map import RUN_STATE_EXECUTION, UNIT_FACTORS
-from cnctwin.thread.signals import RunState
+from cnctwin.thread import RUN_STATE_EXECUTION, UNIT_FACTORS, RunState
 from cnctwin.virtual.exposure import check_exposure
 
 __all__ = ["DATA_ITEMS", "DEVICE_NAME", "AgentItem", "MTConnectAgent"]
