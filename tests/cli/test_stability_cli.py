@@ -348,3 +348,136 @@ def test_roadmap_of_a_real_program(shared_data: Path, tmp_path: Path, capsys) ->
     assert report["lines_without_stable_speed"] == sorted({s["line"] for s in segments})
     lobes = zoa_lobes(settings.tool_dynamics(), slot, np.linspace(1000, 16000, 1501) * math.pi / 30)
     assert np.max(lobes.critical_depth_m) * 1e3 < 1.2 * 6.0
+
+
+# Per-tool modes, cost and progress (issue 16, item 4)
+
+TWO_TOOLS = CELL.replace(
+    """[stock]""",
+    """[[tools]]
+number = 2
+kind = "flat"
+diameter_mm = 6.0
+flutes = 2
+helix_deg = 0.0
+flute_length_mm = 20.0
+
+[stock]""",
+)
+TWO_TOOL_PASSES = """G21 G90 G17 G94
+T1 M6
+S10000 M3
+G0 X-10 Y10 Z5
+G0 Z-1.0
+G1 X70 F1000
+G0 Z5
+T2 M6
+S3000 M3
+G0 X-10 Y30 Z5
+G0 Z-1.0
+G1 X70 F300
+G0 Z5
+M30
+"""
+
+
+def test_roadmap_per_tool_leaves_a_tool_without_modes_at_its_speed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from cnctwin.dynamics.stability import MillingProcess, sdm_lobes
+
+    (tmp_path / "cell.toml").write_text(TWO_TOOLS)
+    (tmp_path / "p.ngc").write_text(TWO_TOOL_PASSES)
+    # The benchmark's file asks for 40 equal steps; the roadmap's default is the auto grid.
+    text = (EXAMPLES / "insperger_slot.toml").read_text()
+    (tmp_path / "slot.toml").write_text(text.replace("steps = 40", 'steps = "auto"'))
+    slot = str(tmp_path / "slot.toml")
+    base = [str(tmp_path / "p.ngc"), "--config", str(tmp_path / "cell.toml")]
+    report = roadmap_json([*base, "--stability", f"T1={slot}", "--method", "sdm"], capsys)
+    t1 = [s for s in report["segments"] if s["tool"] == 1]
+    t2 = [s for s in report["segments"] if s["tool"] == 2]
+    assert [s["line"] for s in t1] == [6] and [s["line"] for s in t2] == [12]
+    assert report["tools_without_modes"] == [2] and report["lines_without_modes"] == [12]
+    # T2 (no modes) keeps S3000: not rescheduled to the floor of the speed range.
+    assert t2[0]["scheduled_rpm"] == 3000.0 and t2[0]["programmed_critical_depth_mm"] is None
+    assert 12 not in report["changed_lines"] and report["plunge_lines"] == []
+    # T1's schedule, checked by a finer semi-discretization (200 equal steps) at that speed.
+    seg = t1[0]
+    process = MillingProcess(2, 6e8, 2e8, math.radians(seg["entry_deg"]),
+                             math.radians(seg["exit_deg"]))  # fmt: skip
+    tool = load_stability_config(EXAMPLES / "insperger_slot.toml").tool_dynamics()
+    speed = [seg["scheduled_rpm"] * math.pi / 30.0]
+    depth = sdm_lobes(tool, process, speed, max_depth_m=0.01, steps=200).critical_depth_m[0]
+    assert depth * 1e3 >= 1.2 * seg["ap_mm"] * 0.99
+    assert report["sdm_points"] == 20
+    # Both tools with modes: T2's line gets lobes of its own.
+    both = roadmap_json([*base, "--stability", f"T1={slot}", "--stability", f"t2={slot}",
+                         "--method", "zoa"], capsys)  # fmt: skip
+    assert both["tools_without_modes"] == []
+    assert {e["tool"] for e in both["engagements"]} == {1, 2}
+
+
+@pytest.mark.parametrize(
+    ("stability", "message"),
+    [
+        (["T9=x.toml"], "tool T9"),
+        (["T1="], "T1=FILE"),
+        (["a.toml", "T1=b.toml"], "not both"),
+        (["T1=a.toml", "T1=b.toml"], "given twice"),
+    ],
+)
+def test_roadmap_stability_option_errors_are_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], stability: list[str], message: str
+) -> None:
+    (tmp_path / "cell.toml").write_text(TWO_TOOLS)
+    (tmp_path / "p.ngc").write_text(TWO_TOOL_PASSES)
+    slot = str(EXAMPLES / "insperger_slot.toml")
+    options = []
+    for value in stability:
+        options += ["--stability", value.replace("x.toml", slot)]
+    code, out, err = invoke_roadmap([str(tmp_path / "p.ngc"), "--config",
+                                     str(tmp_path / "cell.toml"), *options], capsys)  # fmt: skip
+    assert code == 2 and message in err and err.count("\n") == 1, err
+
+
+def test_sdm_lobes_print_the_cost_on_stderr_and_keep_json_valid(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from cnctwin.cli.app import run
+
+    code = run(["stability", "lobes", "--config", str(EXAMPLES / "insperger_slot.toml"),
+                "--rpm-range", "9000:11000:6", "--json"])  # fmt: skip
+    out, err = capsys.readouterr()
+    assert code == 0
+    report = json.loads(out)
+    assert out.count("\n") == 1 and len(report["spindle_rpm"]) == 6
+    line = next(x for x in err.splitlines() if "estimated cost" in x)
+    # "6 speeds x ~E depth evaluations x T ms = ~S s": S is the product.
+    words = line.split()
+    speeds = int(words[words.index("speeds") - 1])
+    evaluations = float(words[words.index("depth") - 1].lstrip("~"))
+    milliseconds = float(words[words.index("ms") - 1])
+    total = float(words[words.index("=") + 1].lstrip("~"))
+    assert speeds == 6
+    assert total == pytest.approx(speeds * evaluations * milliseconds / 1e3, rel=0.1, abs=0.05)
+
+
+def test_progress_lines_are_throttled_by_the_clock() -> None:
+    import io
+
+    from cnctwin.cli.stability import ProgressLine
+    from cnctwin.dynamics import SdmCost
+
+    now = [0.0]
+    stream = io.StringIO()
+    progress = ProgressLine("lobes", interval_s=2.0, stream=stream, clock=lambda: now[0])
+    progress.estimate(SdmCost(100, 20.0, 0.005))
+    assert stream.getvalue() == (
+        "lobes: estimated cost 100 speeds x ~20 depth evaluations x 5 ms = ~10.0 s\n"
+    )
+    for done in range(1, 101):
+        now[0] = done * 0.1  # 0.1 s per speed
+        progress(done, 100)
+    lines = stream.getvalue().splitlines()[1:]
+    assert lines[0] == "lobes: 20/100 done, 2.0 s, ~8.0 s left"
+    assert len(lines) == 5 and lines[-1] == "lobes: 100/100 done, 10.0 s"

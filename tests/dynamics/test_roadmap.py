@@ -170,3 +170,49 @@ def test_bad_arguments_are_input_errors(engagement) -> None:
         stability_roadmap(emap, speeds, TOOL, COEFFICIENTS, {2: 2}, GRID)
     with pytest.raises(ConfigError, match="line 6 cuts"):
         stability_roadmap(emap, {}, TOOL, COEFFICIENTS, {1: 2}, GRID)
+
+
+def test_coarse_to_fine_sdm_schedules_a_computed_stable_speed_near_the_exact_one(
+    engagement,
+) -> None:
+    # The SDM at 20 of the 501 grid speeds, the ZOA's shape between them, and each
+    # interpolated candidate computed before it is scheduled: the scheduled speed must be
+    # stable by the semi-discretization at that speed, and no farther from the programmed
+    # one than the exact schedule (every grid speed computed) plus the coarse spacing.
+    from cnctwin.dynamics.stability import sdm_lobes
+
+    emap, speeds = engagement
+    grid = np.arange(9000.0, 14000.0 + 1.0, 10.0)
+    kwargs = {"method": "sdm", "max_depth_mm": 5.0}
+    coarse = stability_roadmap(emap, speeds, TOOL, COEFFICIENTS, {1: 2}, grid, **kwargs)
+    exact = stability_roadmap(emap, speeds, TOOL, COEFFICIENTS, {1: 2}, grid[::5],
+                              sdm_points=None, **kwargs)  # fmt: skip
+    assert coarse.lobes[0].exact is not None and coarse.lobes[0].exact.sum() == 20
+    spacing = (grid[-1] - grid[0]) / 19
+    for fast, full in zip(coarse.segments, exact.segments, strict=True):
+        assert fast.has_stable_speed == full.has_stable_speed
+        if not fast.has_stable_speed:
+            continue
+        process = MillingProcess(2, COEFFICIENTS.ktc, COEFFICIENTS.krc, fast.entry_rad,
+                                 fast.exit_rad)  # fmt: skip
+        at = sdm_lobes(TOOL, process, [fast.scheduled_rpm * RPM], max_depth_m=5e-3)
+        assert at.critical_depth_m[0] * 1e3 >= 1.2 * fast.ap_mm
+        assert fast.scheduled_critical_depth_mm == pytest.approx(at.critical_depth_m[0] * 1e3)
+        near = abs(full.scheduled_rpm - full.programmed_rpm)
+        assert abs(fast.scheduled_rpm - fast.programmed_rpm) <= near + spacing
+
+
+def test_tools_without_modes_keep_their_programmed_speed(engagement) -> None:
+    emap, speeds = engagement
+    none = stability_roadmap(emap, speeds, {}, {}, {1: 2}, GRID)
+    assert len(none.unmodelled_segments) == 4 and none.lobes == ()
+    for seg in none.segments:
+        assert seg.scheduled_rpm == seg.programmed_rpm and seg.lobes == -1
+        assert not seg.has_modes and math.isnan(seg.programmed_critical_depth_mm)
+    per_tool = stability_roadmap(emap, speeds, {1: TOOL}, {1: COEFFICIENTS}, {1: 2}, GRID)
+    shared = stability_roadmap(emap, speeds, TOOL, COEFFICIENTS, {1: 2}, GRID)
+    assert [s.scheduled_rpm for s in per_tool.segments] == [
+        s.scheduled_rpm for s in shared.segments
+    ]
+    with pytest.raises(ConfigError, match="T1 has modes but no cutting coefficients"):
+        stability_roadmap(emap, speeds, {1: TOOL}, {}, {1: 2}, GRID)
