@@ -28,10 +28,11 @@ def test_list_json_has_every_entry_with_its_source(capsys: pytest.CaptureFixture
 
 
 def test_every_milling_entry_works_in_the_calculator(capsys: pytest.CaptureFixture[str]) -> None:
-    for name in packaged_materials().milling:
+    for name, entry in packaged_materials().milling.items():
         assert run(["forces", *SLOT.split(), "--material", name, "--json"]) == 0, name
         report = json.loads(capsys.readouterr().out)
         assert report["mean_power_w"] > 0 and report["material"] == name
+        assert report["derived"] == entry.derived
 
 
 def test_identify_then_forces_with_the_users_file(

@@ -75,7 +75,8 @@ def forces_report(
     dict
         ``mean_fx_n``, ``mean_fy_n``, ``mean_fz_n``, ``mean_resultant_n`` (magnitude of the
         mean force), ``max_resultant_n`` (over a revolution), ``mean_torque_nm``,
-        ``mean_power_w``, then ``entry_deg``, ``exit_deg``, ``milling``, ``material``.
+        ``mean_power_w``, then ``entry_deg``, ``exit_deg``, ``milling``, ``material`` and
+        ``derived`` (how a derived library entry was computed, else "").
 
     Raises
     ------
@@ -112,8 +113,10 @@ def forces_report(
         raise InputError(f"--teeth {teeth!r}; give an integer from 1 to 100")
     if not (math.isfinite(helix_deg) and 0.0 <= helix_deg < 90.0):
         raise InputError(f"--helix-deg {helix_deg!r}; give 0 <= helix < 90 degrees")
+    derived = ""
     if material is not None and coefficients_n_mm is None:
-        coefficients = load_materials(materials_file).milling_material(material).coefficients
+        entry = load_materials(materials_file).milling_material(material)
+        coefficients, derived = entry.coefficients, entry.derived
     elif material is None and coefficients_n_mm is not None:
         coefficients = CuttingCoefficients.from_n_mm(**coefficients_n_mm)
     else:
@@ -139,6 +142,7 @@ def forces_report(
         "exit_deg": math.degrees(exit_),
         "milling": "down" if down_milling else "up",
         "material": material,
+        "derived": derived,
     }
 
 
@@ -224,6 +228,8 @@ def _table(report: dict[str, Any]) -> Table:
     table.add_column("quantity", style="bold")
     table.add_column("value", justify="right")
     table.add_row("coefficients", report["material"] or "given")
+    if report["derived"]:
+        table.add_row("derived", "from Kienzle: no radial/axial terms")
     table.add_row("milling", report["milling"])
     table.add_row("entry / exit", f"{report['entry_deg']:.1f} / {report['exit_deg']:.1f} deg")
     table.add_row("mean Fx", f"{report['mean_fx_n']:.1f} N")
