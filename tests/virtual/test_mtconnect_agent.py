@@ -255,3 +255,38 @@ def test_reader_follows_the_program_on_the_virtual_machine(make_vm, tmp_path: Pa
     assert (last["x_mm"], last["y_mm"], last["z_mm"]) == pytest.approx((70.0, 10.0, 20.0))
     assert last["run_state"] == RunState.FINISHED
     assert last["tool_number"] == 1.0
+
+
+# The twin over MTConnect ---------------------------------------------------------------
+def test_the_twin_watches_the_demo_over_mtconnect_and_never_touches_the_machine() -> None:
+    """``cnctwin run`` with ``transport = "mtconnect"``: the demo twin (control enabled, a hole
+    in the machine's blank) follows the program to its end; no command reaches the machine."""
+    from importlib.resources import as_file, files
+
+    from cnctwin.twin import MachineServer, RunSummary, load_run_config, run_session
+
+    with as_file(files("cnctwin.examples")) as folder:
+        config = load_run_config(Path(folder) / "demo_twin.toml")
+    assert config.control.enabled  # the twin would act; MTConnect cannot carry it
+
+    async def main() -> tuple[RunSummary, dict[str, float], list[str]]:
+        kinds: list[str] = []
+        async with MachineServer(config, "mtconnect", speed=10.0) as machine:
+            assert machine.endpoint.startswith("http://127.0.0.1:")
+            connection = config.connection.model_copy(
+                update={"transport": "mtconnect", "endpoint": machine.endpoint}
+            )
+            summary = await run_session(
+                config.model_copy(update={"connection": connection}),
+                duration_s=BODY_S,
+                on_start=lambda _twin: machine.go(),
+                on_cycle=lambda state: kinds.extend(e.kind for e in state.events),
+            )
+            return summary, machine.vm.snapshot(), kinds
+
+    summary, machine, kinds = asyncio.run(asyncio.wait_for(main(), 2 * BODY_S))
+    assert summary.ended == "finished"  # EXECUTION PROGRAM_COMPLETED, read over MTConnect
+    assert machine["run_state"] == RunState.FINISHED
+    assert machine["feed_override_pct"] == 100.0 and machine["stop"] == 0.0
+    assert machine["feed_hold"] == 0.0 and machine["emergency_stop"] == 0.0
+    assert summary.cycles > 0 and "connected" in kinds
