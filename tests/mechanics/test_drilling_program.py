@@ -82,6 +82,7 @@ def test_peck_example_signals_match_the_closed_form(config: MachiningConfig) -> 
     assert np.all(columns["fz_n"][tap] == 0.0)
     assert not any("tap" in w for w in result.warnings)
     assert result.summary()["max_force_n"] == pytest.approx(thrust, rel=1e-9)
+    assert "Yamawa" in result.summary()["drilling_coefficients_source"]
 
 
 def test_tap_feed_off_its_pitch_is_warned(tmp_path: Path, config: MachiningConfig) -> None:

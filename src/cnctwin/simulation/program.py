@@ -137,6 +137,8 @@ class ProgramSignals:
         Dexels per mm and cycle time (s) it ran at.
     warnings
         The interpreter's warnings, then the prediction's, each naming the file.
+    drilling_source
+        Where the drilling coefficients come from when a tool is a drill or a tap, else None.
     """
 
     file: Path
@@ -149,6 +151,7 @@ class ProgramSignals:
     density_per_mm: float
     cycle_s: float
     warnings: list[str] = field(default_factory=list)
+    drilling_source: str | None = None
 
     def summary(self) -> dict[str, Any]:
         """The signals in figures (the JSON of ``cnctwin signals``).
@@ -157,14 +160,16 @@ class ProgramSignals:
         -------
         dict
             :meth:`MachineSignals.summary` plus ``file``, ``material``,
-            ``coefficients_source``, ``rated_power_kw``, ``rated_torque_nm``, ``runtime_s``,
-            ``density_per_mm``, ``cycle_ms`` and ``warnings``.
+            ``coefficients_source``, ``drilling_coefficients_source`` (None without a drill or
+            a tap), ``rated_power_kw``, ``rated_torque_nm``, ``runtime_s``, ``density_per_mm``,
+            ``cycle_ms`` and ``warnings``.
         """
         return {
             "file": str(self.file),
             **self.signals.summary(),
             "material": self.material,
             "coefficients_source": self.coefficients_source,
+            "drilling_coefficients_source": self.drilling_source,
             "rated_power_kw": self.rated_power_kw,
             "rated_torque_nm": self.rated_torque_nm,
             "runtime_s": self.runtime_s,
@@ -370,4 +375,5 @@ def predict_program_signals(
         density_per_mm,
         cycle_s,
         [*interpreter.warnings, *(f"{program}: {w}" for w in signals.warnings)],
+        None if drilling is None else drilling.source,
     )
