@@ -383,6 +383,36 @@ def test_heartbeat_counts_answers_while_the_device_is_available() -> None:
     asyncio.run(asyncio.wait_for(main(), BODY_S))
 
 
+def test_a_restarted_agent_whose_probe_no_longer_fits_the_mapping_is_retried() -> None:
+    state = {"instance": 5, "fits": True}
+
+    def route(request: str, query: dict[str, list[str]]) -> str:
+        instance = state["instance"]
+        if request == "probe":
+            probe = PROBE.format(instance=instance)
+            return probe if state["fits"] else probe.replace('id="Zact"', 'id="Zw"')
+        if request == "current":
+            return STREAMS.format(instance=instance, first=1, last=6, next=7, body=GOOD, device="")
+        return STREAMS.format(instance=instance, first=1, last=6, next=7, body="", device="")
+
+    async def main() -> None:
+        async with CannedAgent(route) as agent:
+            reader = MTConnectConnection(config(agent.endpoint, mapping={"z_mm": "id=Zact"}))
+            async with reader:
+                assert (await reader.read()).values["z_mm"] == 3.5
+                state.update(instance=6, fits=False)  # restarted with another device model
+                with pytest.raises(ConnectionLost, match="matches no data item"):
+                    await reader.read()
+                await asyncio.sleep(0.3)  # reconnection attempts fail on the probe
+                assert reader.state is ConnectionState.RECONNECTING
+                state["fits"] = True
+                await wait_connected(reader)
+                assert (await reader.read()).values["z_mm"] == 3.5
+                assert reader.instance_id == 6 and reader.agent_restarts == 1
+
+    asyncio.run(asyncio.wait_for(main(), BODY_S))
+
+
 # Configuration ----------------------------------------------------------------------
 def test_endpoints_and_configuration_errors() -> None:
     assert parse_endpoint("http://10.0.0.5:5000") == ("10.0.0.5", 5000, "")

@@ -296,6 +296,16 @@ class MTConnectConnection(MachineConnection):
         except (DataError, AgentError) as err:
             raise ConnectionLost(f"agent at {self.host}:{self.port}: {err}") from err
 
+    async def _reopen(self) -> str:
+        """Close and open anew; a probe the mapping no longer fits (an agent restarted with
+        another device model) fails the attempt, and the reconnection tries again."""
+        await self._close()
+        try:
+            await asyncio.wait_for(self._open(), self.timeout_s)
+        except ConfigError as err:
+            raise ConnectionLost(f"the agent's probe no longer fits the mapping: {err}") from err
+        return "closed, probed and read /current anew"
+
     async def _close(self) -> None:
         self._http.close()
 
@@ -305,7 +315,9 @@ class MTConnectConnection(MachineConnection):
                 if await self._sample():
                     break
             self._beats += 1
-        except (DataError, AgentError) as err:  # a garbled answer: reconnect and probe again
+        except (DataError, AgentError, ConfigError) as err:
+            # a garbled answer, or a restarted agent whose probe the mapping does not fit:
+            # reconnect, probe again
             raise ConnectionLost(f"agent at {self.host}:{self.port}: {err}") from err
         return self._reading()
 
