@@ -18,7 +18,7 @@ import pytest
 from cnctwin.config import MachiningConfig, load_config
 from cnctwin.errors import ConfigError
 from cnctwin.mechanics import drilling_load, drilling_material, tapping_torque
-from cnctwin.simulation import predict_program_signals
+from cnctwin.simulation import predict_program_signals, step_durations
 from cnctwin.twin import TwinPhysics
 from cnctwin.virtual import NoiseConfig, VirtualMachine, VirtualMachineConfig
 
@@ -83,6 +83,14 @@ def test_peck_example_signals_match_the_closed_form(config: MachiningConfig) -> 
     assert not any("tap" in w for w in result.warnings)
     assert result.summary()["max_force_n"] == pytest.approx(thrust, rel=1e-9)
     assert "Yamawa" in result.summary()["drilling_coefficients_source"]
+    # The material removed is the holes' closed-form volume: two 8.5 mm holes with a 118 deg
+    # point at 14 mm depth (cylinder to the point's top plus the cone) and the taps' annulus
+    # from 8.5 to 10 mm over 10 mm (the tap's envelope is its nominal cylinder).
+    cone_h = 4.25 / math.tan(math.radians(59.0))
+    hole = math.pi * 4.25**2 * (14.0 - cone_h) + math.pi * 4.25**2 * cone_h / 3.0
+    thread = math.pi * (5.0**2 - 4.25**2) * 10.0
+    removed = float(np.sum(columns["mrr_mm3_s"] * step_durations(columns["t_s"])))
+    assert removed == pytest.approx(2.0 * (hole + thread), rel=0.02)
 
 
 def test_tap_feed_off_its_pitch_is_warned(tmp_path: Path, config: MachiningConfig) -> None:
