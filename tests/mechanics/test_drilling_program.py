@@ -125,17 +125,27 @@ def test_virtual_machine_drills_with_the_same_model(tmp_path: Path) -> None:
         current_a=0.0, power_w=0.0, load_pct=0.0,
     )  # fmt: skip
     vm = VirtualMachine(VirtualMachineConfig(program=program, physics_config=CONFIG, noise=quiet))
-    forces = []
+    forces, torques, feeds = [], [], []
     while not vm.finished:
         vm.step(vm.tick_s)
-        forces.append(vm.snapshot()["force_z_n"])
+        snapshot = vm.snapshot()
+        forces.append(snapshot["force_z_n"])
+        torques.append(snapshot["spindle_torque_nm"])
+        feeds.append(snapshot["feed_mm_min"])
         assert vm.time_s < 60.0
-    thrust, _ = _steady_drill()
+    thrust, torque = _steady_drill()
     forces_n = -np.asarray(forces)
     # At 2000 rpm (the spindle is at speed after the dwell) the steady plunge is the closed form.
     steady = np.isclose(forces_n, thrust, rtol=0.01)
     assert steady.sum() > 50
     assert forces_n.max() <= thrust * 1.01
+    # The spindle motor carries the drilling torque on top of its idle (friction) torque: the
+    # idle torque is read while the spindle turns at speed before the plunge reaches the stock.
+    torques_nm = np.asarray(torques)
+    first_cut = int(np.argmax(forces_n > 0.0))
+    idle = (np.arange(len(torques_nm)) < first_cut) & (np.asarray(feeds) > 0.0)
+    extra = np.median(torques_nm[steady]) - np.median(torques_nm[idle])
+    assert extra == pytest.approx(torque, rel=0.05)
 
 
 def test_twin_physics_drills_with_the_same_model(config: MachiningConfig) -> None:
