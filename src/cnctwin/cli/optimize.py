@@ -54,8 +54,9 @@ def optimize(
         typer.Option("--stability", help="Stability file: spindle speeds from its roadmap."),
     ] = None,
     min_feed: Annotated[
-        float, typer.Option("--min-feed", help="Least feed written, mm/min.")
-    ] = 1.0,
+        float | None,
+        typer.Option("--min-feed", help="Least feed written, mm/min (default: F / 10)."),
+    ] = None,
     max_feed: Annotated[
         float | None,
         typer.Option("--max-feed", help="Most feed written, mm/min (default: the axes' speed)."),
@@ -83,9 +84,8 @@ def optimize(
     from cnctwin.mechanics import milling_material
     from cnctwin.optimize import FeedLimits, optimize_program, scheduled_speeds
 
-    for option, value in (("--min-feed", min_feed), ("--max-factor", max_factor)):
-        if not math.isfinite(value):
-            raise InputError(f"{option} {value!r}: give a finite number")
+    if not math.isfinite(max_factor):
+        raise InputError(f"--max-factor {max_factor!r}: give a finite number")
     if force_metric not in ("peak", "mean"):
         raise InputError(f"--force-metric {force_metric!r}: give peak or mean")
     if out.resolve() == program.resolve():

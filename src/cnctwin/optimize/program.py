@@ -77,6 +77,8 @@ MIN_PIECE_MM = 2.0
 FEED_STEP = 0.1
 #: Length around a cut, mm, where the cut's feed holds (besides two steps at the fastest feed).
 MARGIN_MM = 0.5
+#: The least feed of a block, as a fraction of its programmed feed, without ``--min-feed``.
+MIN_FEED_FRACTION = 0.1
 #: Most pieces a block is split into.
 MAX_PIECES = 12
 _MM_PER_INCH = 25.4
@@ -259,7 +261,7 @@ def optimize_program(
     density_per_mm: float,
     cycle_s: float,
     speeds_rpm: Mapping[int, float] | None = None,
-    min_feed_mm_min: float = 1.0,
+    min_feed_mm_min: float | None = None,
     max_feed_mm_min: float | None = None,
     max_factor: float = 2.0,
     air_feed_mm_min: float | None = None,
@@ -308,12 +310,14 @@ def optimize_program(
     NCError
         For a program the interpreter refuses.
     """
-    if not (math.isfinite(min_feed_mm_min) and min_feed_mm_min > 0.0):
+    if min_feed_mm_min is not None and not (
+        math.isfinite(min_feed_mm_min) and min_feed_mm_min > 0.0
+    ):
         raise InputError(f"--min-feed {min_feed_mm_min!r}: give a feed > 0 mm/min")
-    if max_feed_mm_min is not None and not (max_feed_mm_min >= min_feed_mm_min):
+    least = 0.0 if min_feed_mm_min is None else min_feed_mm_min
+    if max_feed_mm_min is not None and not (max_feed_mm_min > 0.0 and max_feed_mm_min >= least):
         raise InputError(
-            f"--max-feed {max_feed_mm_min!r}: give a feed >= --min-feed ({min_feed_mm_min:g} "
-            "mm/min)"
+            f"--max-feed {max_feed_mm_min!r}: give a feed > 0 and >= --min-feed, mm/min"
         )
     if not (math.isfinite(max_factor) and max_factor >= 1.0):
         raise InputError(f"--max-factor {max_factor!r}: give a factor >= 1")
@@ -366,8 +370,8 @@ def optimize_program(
     if stuck:
         result.warnings.append(
             f"{name}: at lines {', '.join(map(str, stuck[:20]))} a limit is not met even at "
-            f"the least feed ({min_feed_mm_min:g} mm/min): the edge force or the engagement "
-            "alone exceeds it"
+            "the least feed (--min-feed, default a tenth of the programmed feed): the edge "
+            "force or the engagement alone exceeds it"
         )
     return result
 
@@ -376,7 +380,14 @@ def optimize_program(
 class _Settings:
     cap_mm_min: float
     max_factor: float
-    min_feed_mm_min: float
+    min_feed_mm_min: float | None
+
+    def floor(self, programmed_mm_min: float) -> float:
+        """The least feed of a block programmed at ``programmed_mm_min``, mm/min."""
+        if self.min_feed_mm_min is not None:
+            return self.min_feed_mm_min
+        return MIN_FEED_FRACTION * programmed_mm_min
+
     air_feed_mm_min: float | None
     limits: FeedLimits
     margin_mm: float
@@ -511,6 +522,7 @@ def _pieces(
         air = programmed
     else:
         air = min(s.air_feed_mm_min, s.cap_mm_min)
+    floor = s.floor(programmed)
     cutting = loads.contact[rows] & ~loads.rapid[rows]
     allowed, names = _allowed(rows, loads, plan.new_rpm, s.limits)
     length = seg.length_mm
@@ -518,24 +530,27 @@ def _pieces(
         if not cutting.any():
             return [(1.0, air, "air")]
         k = int(np.argmin(np.where(cutting, allowed, np.inf)))
-        return [(1.0, *_bounded(float(allowed[k]), names[k], top, top_limit, s))]
-    frac = _fractions(seg, loads.tcp_mm[rows])
+        return [(1.0, *_bounded(float(allowed[k]), names[k], top, top_limit, floor))]
+    frac = np.maximum.accumulate(_fractions(seg, loads.tcp_mm[rows]))
     lo = np.concatenate(([0.0], frac[:-1]))
     pad = s.margin_mm / length
-    cuts = [
-        (max(lo[k] - pad, 0.0), min(frac[k] + pad, 1.0), *_bounded(allowed[k], names[k], top,
-                                                                    top_limit, s))
-        for k in np.flatnonzero(cutting)
-    ]  # fmt: skip
-    bounds = sorted({0.0, 1.0, *(c[0] for c in cuts), *(c[1] for c in cuts)})
+    hit = np.flatnonzero(cutting)
+    bounded = [_bounded(float(allowed[k]), names[k], top, top_limit, floor) for k in hit]
+    cut_lo = np.maximum(lo[hit] - pad, 0.0)
+    cut_hi = np.minimum(frac[hit] + pad, 1.0)
+    cut_feed = np.array([b[0] for b in bounded])
+    bounds = np.unique(np.concatenate(([0.0, 1.0], cut_lo, cut_hi)))
     elements = []
-    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+    # The cuts are sorted along the path (both ends), so the cuts over a point are a run.
+    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
         if b - a <= 1e-12:
             continue
-        over = [c for c in cuts if c[0] < b - 1e-12 and c[1] > a + 1e-12]
-        if over:
-            worst = min(over, key=lambda c: c[2])
-            elements.append([a, b, worst[2], worst[3]])
+        middle = 0.5 * (a + b)
+        first = int(np.searchsorted(cut_hi, middle, side="right"))
+        last = int(np.searchsorted(cut_lo, middle, side="left"))
+        if last > first:
+            k = first + int(np.argmin(cut_feed[first:last]))
+            elements.append([a, b, float(cut_feed[k]), bounded[k][1]])
         else:
             elements.append([a, b, air, "air"])
     step = MIN_PIECE_MM / length
@@ -551,10 +566,10 @@ def _pieces(
                 continue
         merged.append([a, b, feed, name])
     while len(merged) > 1 and merged[-1][1] - merged[-1][0] < step:
-        last = merged.pop()
-        if last[2] < merged[-1][2]:
-            merged[-1][2:] = last[2:]
-        merged[-1][1] = last[1]
+        tail = merged.pop()
+        if tail[2] < merged[-1][2]:
+            merged[-1][2:] = tail[2:]
+        merged[-1][1] = tail[1]
     while len(merged) > MAX_PIECES:
         ratios = [max(x[2], y[2]) / min(x[2], y[2]) for x, y in zip(merged, merged[1:],
                                                                    strict=False)]  # fmt: skip
@@ -567,13 +582,13 @@ def _pieces(
 
 
 def _bounded(
-    allowed: float, name: str, top: float, top_limit: str, s: _Settings
+    allowed: float, name: str, top: float, top_limit: str, floor: float
 ) -> tuple[float, str]:
     """A row's feed between the least feed and the caps, and the limit that sets it."""
     if allowed > top:
         return top, top_limit
-    if allowed < s.min_feed_mm_min:
-        return s.min_feed_mm_min, "min-feed"
+    if allowed < floor:
+        return floor, "min-feed"
     return allowed, name
 
 
@@ -600,8 +615,8 @@ def _lower(
         index = source[1]
         end, feed, _ = plan.pieces[index]
         new = min(float(allowed[0]) * 0.97, feed * 0.95)
-        if new < s.min_feed_mm_min:
-            new, name = s.min_feed_mm_min, "min-feed"
+        if new < s.floor(plan.feed_mm_min):
+            new, name = s.floor(plan.feed_mm_min), "min-feed"
         else:
             name = names[0]
         if new < feed:
