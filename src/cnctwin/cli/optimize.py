@@ -97,6 +97,12 @@ def optimize(
         text = program.read_text(encoding="utf-8", errors="replace")
     except OSError as err:
         raise InputError(f"{program}: cannot read the program ({err.strerror})") from None
+    # The forces are the configuration's material's, with or without a stability file (whose
+    # own [cut] coefficients, if any, serve its lobes).
+    try:
+        coefficients = milling_material(settings.material.name).coefficients
+    except InputError as err:
+        raise InputError(f"{config}: material.name: {err}") from None
     started = time.perf_counter()
     speeds = None
     if stability is not None:
@@ -104,9 +110,6 @@ def optimize(
 
         modes = load_stability_config(stability)
         speeds = scheduled_speeds(program_roadmap(program, settings, modes, density_per_mm=rho))
-        coefficients = modes.milling_coefficients(settings.material.name)
-    else:
-        coefficients = milling_material(settings.material.name).coefficients
     result = optimize_program(
         text, str(program), settings, limits, coefficients=coefficients,
         density_per_mm=rho, cycle_s=cycle_s, speeds_rpm=speeds, min_feed_mm_min=min_feed,
