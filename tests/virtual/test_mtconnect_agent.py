@@ -290,3 +290,33 @@ def test_the_twin_watches_the_demo_over_mtconnect_and_never_touches_the_machine(
     assert machine["feed_override_pct"] == 100.0 and machine["stop"] == 0.0
     assert machine["feed_hold"] == 0.0 and machine["emergency_stop"] == 0.0
     assert summary.cycles > 0 and "connected" in kinds
+
+
+def test_other_clients_read_it_urllib_and_http_1_0() -> None:
+    """The standard library's urllib (HTTP/1.1, ``Connection: close``) and a bare HTTP/1.0
+    request: each gets its whole document and the connection closed after it."""
+    import urllib.request
+
+    from cnctwin.thread.mtconnect_documents import parse_devices, parse_streams
+
+    async def main() -> None:
+        async with MTConnectAgent(Machine()) as agent:
+            loop = asyncio.get_running_loop()
+
+            def fetch() -> bytes:
+                with urllib.request.urlopen(agent.endpoint + "/current", timeout=BODY_S) as r:
+                    data: bytes = r.read()
+                    return data
+
+            current = parse_streams(await loop.run_in_executor(None, fetch))
+            assert {o.data_item_id for o in current.observations} >= {"x_pos", "execution"}
+            reader, writer = await asyncio.open_connection(agent.host, agent.port)
+            writer.write(b"GET /probe HTTP/1.0\r\n\r\n")
+            await writer.drain()
+            answer = await reader.read()  # to the end: the agent closes
+            writer.close()
+            head, _, body = answer.partition(b"\r\n\r\n")
+            assert head.startswith(b"HTTP/1.1 200") and b"Connection: close" in head
+            assert parse_devices(body).devices == ("cnctwin-vm",)
+
+    asyncio.run(asyncio.wait_for(main(), BODY_S))

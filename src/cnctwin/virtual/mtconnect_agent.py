@@ -420,9 +420,10 @@ class MTConnectAgent:
                     for k, sep, v in (line.partition(":") for line in lines[1:])
                     if sep
                 }
-                close = (
-                    headers.get("connection", "").lower() == "close" or "content-length" in headers
-                )
+                connection = headers.get("connection", "").lower()
+                http10 = len(parts) > 2 and parts[2] == "HTTP/1.0" and connection != "keep-alive"
+                # a request with a body is not one of ours: answer it, then close
+                close = connection == "close" or http10 or "content-length" in headers
                 status, body = self.answer(parts[0], parts[1] if len(parts) > 1 else "/")
                 self.requests += 1
                 writer.write(
