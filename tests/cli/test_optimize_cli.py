@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from cnctwin.config import load_config
+from cnctwin.nc import Interpreter, MotionKind
 from cnctwin.simulation import predict_program_signals
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "src" / "cnctwin" / "examples"
@@ -60,3 +61,30 @@ def test_bad_options_are_one_line_and_exit_2(tmp_path: Path) -> None:
         assert needle in done.stderr
         assert len(done.stderr.strip().splitlines()) == 1, done.stderr
         assert "Traceback" not in done.stderr
+
+
+def test_stability_file_schedules_speeds_and_the_limits_still_hold(tmp_path: Path) -> None:
+    out = tmp_path / "demo_stab.ngc"
+    stability = Path(__file__).resolve().parents[2] / "examples" / "stability"
+    done = _cnctwin(
+        "optimize", str(DEMO), "--config", str(DEMO_CONFIG), "--max-force-n", "150",
+        "--stability", str(stability / "ubc_two_mode.toml"), "--out", str(out), "--json",
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    printed = json.loads(done.stdout)
+    assert printed["limits_hold"] is True
+    moved = {
+        row["line"]: row["new_rpm"] for row in printed["blocks"] if row["new_rpm"] != row["rpm"]
+    }
+    assert moved  # the roadmap moves some blocks off the programmed 8000 rpm
+    # The interpreter reads the scheduled speed on every such block, the programmed one
+    # (8000 rpm) back on the blocks after them.
+    config = load_config(DEMO_CONFIG)
+    segments = list(Interpreter(config.nc_setup()).run_file(out))
+    source = {seg.line: seg for seg in segments}
+    lines = out.read_text().splitlines()
+    for number, seg in source.items():
+        if seg.kind != MotionKind.LINEAR or seg.spindle_rpm == 3000.0:
+            continue
+        assert seg.spindle_rpm in {8000.0, *moved.values()}, lines[number - 1]
+    assert {seg.spindle_rpm for seg in segments} >= set(moved.values())
