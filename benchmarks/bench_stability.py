@@ -30,8 +30,18 @@ Targets (issue 5, item 9), measured as stated:
 
   Both give the critical depth to the Brent tolerance (1e-8 m), far finer than 0.05 mm.
 
-The UBC tool's SDM lobes (m chosen per speed, 20 steps per cycle of the 1449 Hz mode) are
-timed too, for reference; no target applies to them. ``--quick`` (CI) runs 20 speeds once.
+The UBC tool's SDM lobes (the automatic grid per speed: 30 steps per cycle of the 1449 Hz
+mode in the cut) are timed too, for reference; no target applies to them.
+
+The SDM roadmap (issue 16, item 4: "SDM defaults that finish a typical program's roadmap in
+seconds"; it ran 25 minutes with 2,001 speeds before): ``program_roadmap(method="sdm")`` with
+the defaults (the grid from half the lowest programmed speed, the SDM at 20 of its speeds,
+the ZOA's shape between them, interpolated candidates computed before they are scheduled)
+on the packaged demo (T1 with the UBC tool's modes, T2 without) and on the KIT notch program
+(../shared/data/gcode, skipped without it), one run each.
+
+``--quick`` (CI) runs 20 speeds once and the demo's roadmap over 7000-9000 rpm with the SDM
+at 4 speeds only.
 """
 
 from __future__ import annotations
@@ -52,6 +62,8 @@ from cnctwin.dynamics import (
     StabilityLobes,
     ToolDynamics,
     ToolMode,
+    load_stability_config,
+    program_roadmap,
     sdm_lobes,
     zoa_lobes,
 )
@@ -164,7 +176,41 @@ def main() -> None:
             flush=True,
         )
     print()
+    roadmaps(args.quick)
+    print()
     print(f"load average after: {load_average()}")
+
+
+def roadmaps(quick: bool) -> None:
+    """The SDM roadmap of the demo and of the KIT notch program with the default settings."""
+    from cnctwin.config import load_config
+
+    root = Path(__file__).resolve().parents[1]
+    examples = root / "src" / "cnctwin" / "examples"
+    ubc = load_stability_config(root / "examples" / "stability" / "ubc_two_mode.toml")
+    notch = root.parent / "shared/data/gcode/siemens_kit_dmc60h/AL_2007_T4_Notch_Normal.mpf"
+    runs = [("demo.ngc (T1 modes: UBC; T2 none)", examples / "demo.ngc",
+             examples / "demo.toml", {1: ubc}, 5.0)]  # fmt: skip
+    if notch.exists() and not quick:
+        runs.append(("KIT notch (UBC modes)", notch, root / "examples/kit_dmc60h_al2007.toml",
+                     ubc, 5.0))  # fmt: skip
+    print("| SDM roadmap | segments | lobe diagrams | grid speeds | SDM speeds | wall (s) "
+          "| CPU (s) |")  # fmt: skip
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for name, program, config_path, stability, density in runs:
+        config = load_config(config_path)
+        grid = np.linspace(7000.0, 9000.0, 201) if quick else None
+        wall, cpu = time.perf_counter(), time.process_time()
+        points = {"sdm_points": 4} if quick else {}
+        road = program_roadmap(program, config, stability, grid, density_per_mm=density,
+                               method="sdm", **points)  # type: ignore[arg-type]  # fmt: skip
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        computed = sum(
+            road.spindle_rpm.size if lobe.exact is None else int(lobe.exact.sum())
+            for lobe in road.lobes
+        )
+        print(f"| {name} | {len(road.segments)} | {len(road.lobes)} | {road.spindle_rpm.size} "
+              f"| {computed} | {wall:.1f} | {cpu:.1f} |", flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -29,6 +29,19 @@ computation). With a margin factor ``m`` (default 1.2):
   speed); none when no grid speed does. The grid spans the machine's speed limits, so the
   schedule stays inside them; its resolution is the grid step.
 
+Modes per tool: one set of modes (and coefficients) for every tool, or a set per tool
+number; the segments of a tool without modes (a drill, say) get no lobes and keep their
+programmed speed (``has_modes`` False), never rescheduled.
+
+With the semi-discretization the lobes are computed coarse to fine: the SDM at
+``sdm_points`` speeds spread over the grid (default :data:`DEFAULT_SDM_POINTS`), and between
+them the ZOA's lobes (cheap at every grid speed) scaled by the SDM/ZOA ratio interpolated
+linearly; the angles are widened outward to whole 3 degree steps so that nearly equal
+immersions share one computation. The decisions are computed: the critical depth at each
+programmed speed, and at each candidate speed whose depth was interpolated before it is
+scheduled (up to 12, then the nearest computed stable speed). :func:`program_roadmap`'s
+default SDM grid starts at :data:`SDM_LOWEST_FRACTION` of the lowest programmed speed.
+
 Units: mm, rpm, Hz and rad in the names at this level (the map's units); SI inside the lobe
 computations.
 """
@@ -566,7 +579,7 @@ def program_roadmap(
     chosen = {f.lobes.method for f in files.values()} if method is None else {method}
     if len(chosen) != 1:
         raise ConfigError("the stability files disagree on [lobes] method; give --method")
-    the_method: Method = chosen.pop()  # type: ignore[assignment]
+    the_method: Method = chosen.pop()
     interpreted = list(Interpreter(config.nc_setup()).run_file(os.fspath(program)))
     if spindle_rpm is None:
         low = min(f.lobes.rpm[0] for f in files.values())
@@ -679,7 +692,10 @@ def _coarse(grid: np.ndarray, points: int | None) -> np.ndarray:
     """The grid speeds at which the lobes are computed: all, or ``points`` evenly spread."""
     if points is None or grid.size <= points:
         return grid
-    return grid[np.unique(np.round(np.linspace(0, grid.size - 1, points)).astype(int))]
+    chosen: np.ndarray = grid[
+        np.unique(np.round(np.linspace(0, grid.size - 1, points)).astype(int))
+    ]
+    return chosen
 
 
 def _diagram(
