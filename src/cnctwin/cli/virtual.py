@@ -1,11 +1,13 @@
 """``cnctwin virtual serve``: a virtual machine behind OPC UA, Modbus TCP or MTConnect, for a twin.
 
 Serves the ``[virtual]`` machine of a twin configuration (default: the packaged demo's) until
-its program ends or Ctrl-C, so that ``cnctwin run`` (or any OPC UA / Modbus client) can be
-tried without a real machine. ``--once`` ends with the program (:data:`END_GRACE_S` later, for
-a watching client to read the end); otherwise the machine idles after it, still answering. Security (docs/security.md): ``--security-mode``, ``--certificate``,
-``--private-key``, ``--trust``, ``--users``, ``--anonymous``; a non-loopback ``--host`` without
-security needs ``--insecure``. ``cnctwin virtual hash-password`` makes a users file's entry.
+its program ends or Ctrl-C, so that ``cnctwin run`` (or any OPC UA, Modbus or MTConnect
+client) can be tried without a real machine. ``--once`` ends with the program
+(:data:`END_GRACE_S` later, for a watching client to read the end); otherwise the machine idles
+after it, still answering. Security (docs/security.md): ``--security-mode``,
+``--certificate``, ``--private-key``, ``--trust``, ``--users``, ``--anonymous``; a non-loopback
+``--host`` without security needs ``--insecure``. ``cnctwin virtual hash-password`` makes a
+users file's entry.
 """
 
 from __future__ import annotations
