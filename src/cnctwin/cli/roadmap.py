@@ -113,7 +113,7 @@ def roadmap_report(
         ``zoa`` or ``sdm``; default the stability files'.
     sdm_points
         SDM: speeds at which the lobes are computed (default
-        :data:`cnctwin.dynamics.roadmap.DEFAULT_SDM_POINTS`).
+        :data:`cnctwin.dynamics.DEFAULT_SDM_POINTS`).
     progress
         Where the estimated cost and the progress go (stderr).
 
@@ -150,7 +150,7 @@ def roadmap_report(
     grid = None if rpm_range is None else parse_rpm_range(rpm_range)
     diameter = {tool.number: tool.diameter_mm for tool in config.tools}
     started = time.perf_counter()
-    from cnctwin.dynamics.roadmap import DEFAULT_SDM_POINTS
+    from cnctwin.dynamics import DEFAULT_SDM_POINTS
 
     points = DEFAULT_SDM_POINTS if sdm_points is None else sdm_points
     if not 2 <= points <= MAX_SDM_POINTS:

@@ -51,7 +51,12 @@ from cnctwin.dynamics.process_damping import (
     fit_process_damping_model,
     read_damping_model,
 )
-from cnctwin.dynamics.roadmap import StabilityRoadmap, program_roadmap, stability_roadmap
+from cnctwin.dynamics.roadmap import (
+    DEFAULT_SDM_POINTS,
+    StabilityRoadmap,
+    program_roadmap,
+    stability_roadmap,
+)
 from cnctwin.dynamics.stability import (
     MillingProcess,
     OrthogonalProcess,
@@ -72,6 +77,7 @@ __all__ = [
     "CalibratedCut",
     "CalibrationSetup",
     "ChatterDetection",
+    "DEFAULT_SDM_POINTS",
     "DEFAULT_THRESHOLD",
     "DampingCalibration",
     "DetectorSettings",
