@@ -368,7 +368,7 @@ def stability_roadmap(
         SDM: speeds of the grid at which the lobes are computed, >= 2 (the coarse-to-fine
         search of the module notes); ``None``: at every grid speed.
     progress
-        Told the estimated cost (SDM) and the speed evaluations done.
+        Told the estimated cost and the speed evaluations done (SDM only).
 
     Returns
     -------
@@ -459,7 +459,7 @@ def _roadmap(
         )
         progress.estimate(SdmCost(total, cost.evaluations_per_speed,
                                   cost.seconds_per_evaluation), "speed evaluations")  # fmt: skip
-    counter = _Counter(total, progress)
+    counter = _Counter(total, progress if method == "sdm" else None)  # the ZOA takes ms
     lobes: list[EngagementLobes] = []
     index: dict[tuple[int, int, float, float], int] = {}
     for key in keys:

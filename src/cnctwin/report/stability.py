@@ -123,7 +123,11 @@ def roadmap_report(
     report = Report(
         f"Stability roadmap: {program}",
         f"cnctwin stability roadmap ({result['method']}, margin {result['margin']:g}): "
-        f"{len(result['segments'])} segments, {len(result['changed_lines'])} lines change speed",
+        f"{len(result['segments'])} segments, {len(result['changed_lines'])} lines change speed"
+        + "".join(
+            f"; T{tool} has no modes: its lines keep their speed"
+            for tool in result.get("tools_without_modes", [])
+        ),
         result,
     )
     report.section(
