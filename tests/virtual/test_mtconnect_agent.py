@@ -320,3 +320,68 @@ def test_other_clients_read_it_urllib_and_http_1_0() -> None:
             assert parse_devices(body).devices == ("cnctwin-vm",)
 
     asyncio.run(asyncio.wait_for(main(), BODY_S))
+
+
+# Real observations: the reference agent's Okuma, fed its adapter's SHDR log -------------------
+def _last_raw(text: str, key: str) -> str:
+    """The last value of ``key`` in the raw SHDR text, by a regular expression."""
+    import re
+
+    return re.findall(rf"\|{re.escape(key)}\|([^|\n]*)", text)[-1]
+
+
+def test_real_okuma_observations_fed_by_shdr_validate_and_read_back(
+    schemas: dict[str, object], shared_data: Path
+) -> None:
+    """The README's test: the agent loaded with the reference agent's device model and fed
+    the Okuma adapter's SHDR log serves real observations of 100+ real data items; every
+    answer validates, and the reader reads the raw file's last values back over HTTP."""
+    from cnctwin.thread.mtconnect_documents import parse_streams
+
+    folder = shared_data / "mtconnect" / "samples"
+    probe = (folder / "demo_Devices_2.7.xml").read_bytes()
+    text = (folder / "okuma_shdr_first298lines.txt").read_text()
+    agent = MTConnectAgent(Machine(), buffer_size=4096)
+    agent.load_devices(probe)
+    feed = agent.feed_shdr(text.splitlines())
+    assert feed.rejected == ["line 1: no data item 'ApplicationInstallDate'"]
+    first = agent.first_sequence
+    for target, kind in [
+        ("/probe", "Devices"),
+        ("/current", "Streams"),
+        ("/OKUMA/current", "Streams"),
+        ("/Mazak/current", "Streams"),  # every value UNAVAILABLE: the log is the Okuma's
+        (f"/sample?from={first}&count=4096", "Streams"),
+        (f"/OKUMA/sample?from={first + 500}&count=50", "Streams"),
+        ("/NoSuchMachine/current", "Error"),
+    ]:
+        _, document = agent.answer("GET", target)
+        assert errors(schemas, kind, document) == [], target
+    assert agent.answer("GET", "/probe")[1] == probe
+    okuma = parse_streams(agent.answer("GET", "/OKUMA/current")[1])
+    by_id = {o.data_item_id: o for o in okuma.observations}
+    assert {o.device for o in okuma.observations} == {"OKUMA"}
+    assert by_id["LX1actw"].value == _last_raw(text, "X1actw") == "-119.9999"
+    assert by_id["Lp1LPathPos"].value == _last_raw(text, "p1LPathPos")
+    assert by_id["Lpexecution"].value == _last_raw(text, "pexecution")
+    assert by_id["Lsystem"].value == "NORMAL" and by_id["Lsystem"].element == "Normal"
+    # p1Fact is sent in its nativeUnits, MILLIMETER/MINUTE; served in MILLIMETER/SECOND
+    assert float(by_id["Lp1Fact"].value) == pytest.approx(float(_last_raw(text, "p1Fact")) / 60)
+
+    async def read() -> dict[str, float]:
+        async with agent:
+            config = ConnectionConfig(
+                transport="mtconnect",
+                endpoint=agent.endpoint + "/OKUMA",
+                timeout_s=BODY_S,
+                mapping={"z_mm": "POSITION:ACTUAL@Z1"},
+            )
+            async with MTConnectConnection(config) as reader:
+                return dict((await reader.read()).values)
+
+    values = asyncio.run(asyncio.wait_for(read(), BODY_S))
+    assert values["x_mm"] == float(_last_raw(text, "X1actm"))
+    assert values["z_mm"] == float(_last_raw(text, "Z1actm"))
+    assert values["feed_mm_min"] == pytest.approx(float(_last_raw(text, "p1Fact")), abs=1e-4)
+    assert values["load_x_pct"] == float(_last_raw(text, "X1load"))
+    assert values["spindle_override_pct"] == float(_last_raw(text, "S1ovr"))

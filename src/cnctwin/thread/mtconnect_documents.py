@@ -188,11 +188,11 @@ class DataItem:
     units, native_units
         The units the agent reports in (``MILLIMETER/SECOND``) and those of the adapter's
         feed, ``None`` when not given.
-    device
-        Name of its device.
-    component, component_name
-        The element and the name (else id) of the component that holds it (``Linear``,
-        ``X``).
+    device, device_uuid
+        Name and uuid of its device.
+    component, component_name, component_id
+        The element, the name (else id) and the id of the component that holds it
+        (``Linear``, ``X``, ``x``).
     """
 
     id: str
@@ -205,6 +205,8 @@ class DataItem:
     device: str
     component: str
     component_name: str
+    component_id: str = ""
+    device_uuid: str = ""
 
 
 @dataclass(frozen=True)
@@ -389,7 +391,7 @@ def parse_devices(data: bytes | ET.Element) -> Devices:
     devices: list[str] = []
     items: list[DataItem] = []
 
-    def walk(component: ET.Element, device: str) -> None:
+    def walk(component: ET.Element, device: str, uuid: str) -> None:
         label = component.get("name") or component.get("id") or component.tag
         for item in component.findall("DataItems/DataItem"):
             ident, kind, category = item.get("id"), item.get("type"), item.get("category")
@@ -409,15 +411,17 @@ def parse_devices(data: bytes | ET.Element) -> Devices:
                     device=device,
                     component=component.tag,
                     component_name=label,
+                    component_id=component.get("id") or label,
+                    device_uuid=uuid,
                 )
             )
         for child in component.findall("Components/*"):
-            walk(child, device)
+            walk(child, device, uuid)
 
     for device in root.findall("Devices/*"):
         name = device.get("name") or device.get("uuid") or device.get("id") or device.tag
         devices.append(name)
-        walk(device, name)
+        walk(device, name, device.get("uuid") or name)
     return Devices(_header(root), tuple(devices), tuple(items))
 
 

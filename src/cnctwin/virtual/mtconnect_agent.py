@@ -26,6 +26,11 @@ wall-clock time (UTC). Values convert from the canonical signals by the factors 
 ``UNAVAILABLE``. The buffer keeps the newest ``buffer_size`` observations; every start makes a
 new ``instanceId`` (a restart, as a client sees it). The agent takes no commands: MTConnect
 is read-only.
+
+:meth:`MTConnectAgent.load_devices` replaces the virtual machine's device model with a real
+probe (served as given) and :meth:`MTConnectAgent.feed_shdr` observes an adapter's SHDR lines
+on it, as a reference agent fed by that adapter would: the reference agent's Okuma with its
+recorded log (``../shared/data/mtconnect/samples``) gives real observations to serve.
 """
 
 from __future__ import annotations
@@ -37,13 +42,21 @@ import secrets
 import time
 import xml.etree.ElementTree as ET
 from collections import deque
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Protocol
 from urllib.parse import parse_qs, urlsplit
 
-from cnctwin.thread import RUN_STATE_EXECUTION, UNIT_FACTORS, RunState
+from cnctwin.thread import (
+    RUN_STATE_EXECUTION,
+    UNIT_FACTORS,
+    Devices,
+    RunState,
+    ShdrFeed,
+    parse_devices,
+    parse_shdr,
+)
 from cnctwin.virtual.exposure import check_exposure
 
 __all__ = ["DATA_ITEMS", "DEVICE_NAME", "AgentItem", "MTConnectAgent"]
@@ -79,7 +92,9 @@ class AgentItem:
     component, component_id, component_name
         Where it sits (``Linear``, ``x``, ``X``).
     signal
-        The canonical signal it reports (``None``: derived, e.g. AVAILABILITY).
+        The canonical signal it reports (``None``: derived, e.g. AVAILABILITY, or fed by SHDR).
+    device, device_uuid
+        Its device.
     """
 
     id: str
@@ -91,6 +106,8 @@ class AgentItem:
     component_id: str
     component_name: str
     signal: str | None
+    device: str = DEVICE_NAME
+    device_uuid: str = _DEVICE_UUID
 
 
 def _axis(name: str) -> tuple[AgentItem, ...]:
@@ -210,9 +227,12 @@ DATA_ITEMS: tuple[AgentItem, ...] = (
     AgentItem("tool", "TOOL_NUMBER", None, "EVENT", None, "Path", "path", "path", "tool_number"),
 )
 
-_ELEMENT_OF_TYPE = {
-    item.type: "".join(w.title() for w in item.type.split("_")) for item in DATA_ITEMS
-}
+
+def _element(kind: str) -> str:
+    """The Streams element of a data item type: ``PATH_FEEDRATE`` -> ``PathFeedrate``."""
+    return "".join(w.title() for w in kind.split("_"))
+
+
 _GROUP_OF_CATEGORY = {"SAMPLE": "Samples", "EVENT": "Events", "CONDITION": "Condition"}
 
 
@@ -257,6 +277,8 @@ class _Observation:
     item: AgentItem
     value: str
     timestamp: str
+    native_code: str | None = None
+    message: str | None = None
 
 
 class _RequestError(Exception):
@@ -313,6 +335,9 @@ class MTConnectAgent:
         if buffer_size < 16:
             raise ValueError(f"MTConnect buffer_size {buffer_size}; valid: >= 16 observations")
         self.source = source
+        self.items = DATA_ITEMS
+        self._probe: bytes | None = None
+        self._devices_model: Devices | None = None
         self.host = host
         self.buffer_size = buffer_size
         self.instance_id = 1 + secrets.randbelow(2**31 - 2)
@@ -339,25 +364,129 @@ class MTConnectAgent:
     def publish(self, snapshot: Mapping[str, float] | None = None) -> None:
         """Add an observation for every data item whose value changed in ``snapshot``
         (default: ``source.snapshot()``)."""
+        if self._probe is not None:
+            return  # a loaded device model is fed by SHDR, not by the machine
         snap = self.source.snapshot() if snapshot is None else snapshot
         stamp = _timestamp(time.time())
-        for item in DATA_ITEMS:
-            text = _value_text(item, snap)
-            held = self._latest.get(item.id)
-            if held is not None and held.value == text:
-                continue
-            obs = _Observation(self._next, item, text, stamp)
-            self._next += 1
-            self._buffer.append(obs)
-            self._latest[item.id] = obs
+        for item in self.items:
+            self._observe(item, _value_text(item, snap), stamp)
+
+    def _observe(
+        self,
+        item: AgentItem,
+        text: str,
+        stamp: str,
+        native_code: str | None = None,
+        message: str | None = None,
+    ) -> None:
+        """A new observation of ``item``, unless its value (and condition) is unchanged."""
+        held = self._latest.get(item.id)
+        if held is not None and (held.value, held.native_code, held.message) == (
+            text,
+            native_code,
+            message,
+        ):
+            return
+        obs = _Observation(self._next, item, text, stamp, native_code, message)
+        self._next += 1
+        self._buffer.append(obs)
+        self._latest[item.id] = obs
 
     def _unavailable_all(self) -> None:
         stamp = _timestamp(time.time())
-        for item in DATA_ITEMS:
+        for item in self.items:
             obs = _Observation(self._next, item, _UNAVAILABLE, stamp)
             self._next += 1
             self._buffer.append(obs)
             self._latest[item.id] = obs
+
+    def load_devices(self, probe: bytes) -> Devices:
+        """Serve another device model: a probe's devices and data items (every value
+        ``UNAVAILABLE`` until :meth:`feed_shdr` observes it). ``/probe`` answers ``probe``
+        itself; the machine's snapshots are no longer published.
+
+        Raises
+        ------
+        DataError
+            ``probe`` is not an MTConnectDevices document.
+        """
+        devices = parse_devices(probe)
+        self.items = tuple(
+            AgentItem(
+                i.id,
+                i.type,
+                i.sub_type,
+                i.category,
+                i.units,
+                i.component,
+                i.component_id,
+                i.component_name,
+                None,
+                i.device,
+                i.device_uuid,
+            )
+            for i in devices.data_items
+            if ":" not in i.type  # an extension type has no element in the standard's schema
+        )
+        self._devices_model = devices
+        self._probe = probe
+        self._buffer.clear()
+        self._latest.clear()
+        self._unavailable_all()
+        return devices
+
+    def feed_shdr(self, lines: Iterable[str]) -> ShdrFeed:
+        """Observe an adapter's SHDR lines on the loaded device model (:meth:`load_devices`),
+        as an agent fed by that adapter does, at their SHDR timestamps. A number sent in a
+        data item's ``nativeUnits`` is converted to its ``units`` where both are in
+        :data:`~cnctwin.thread.mtconnect_map.UNIT_FACTORS` (MILLIMETER/MINUTE ->
+        MILLIMETER/SECOND: / 60); other values are served as sent.
+
+        Returns
+        -------
+        ShdrFeed
+            What was read; a key without a data item, a condition level outside
+            NORMAL/WARNING/FAULT/UNAVAILABLE, are added to its ``rejected``. Asset commands are
+            read and not served.
+        """
+        devices = self._devices_model
+        feed = parse_shdr(lines, devices)
+        by_key = {item.id: item for item in self.items}
+        factors: dict[str, float] = {}
+        if devices is not None:
+            for data_item in devices.data_items:
+                if data_item.name and data_item.name not in by_key and data_item.id in by_key:
+                    by_key[data_item.name] = by_key[data_item.id]
+                native = UNIT_FACTORS.get(data_item.native_units or "")
+                units = UNIT_FACTORS.get(data_item.units or "")
+                if native and units and native[0] == units[0] and native != units:
+                    factors[data_item.id] = native[1] / units[1]
+        for record in feed.records:
+            if record.key.startswith("@"):
+                continue
+            item = by_key.get(record.key)
+            if item is None:
+                feed.rejected.append(f"line {record.line}: no data item {record.key!r}")
+                continue
+            stamp = _timestamp(record.timestamp_s)
+            if item.category == "CONDITION":
+                level = record.fields[0].upper() or _UNAVAILABLE
+                if level not in ("NORMAL", "WARNING", "FAULT", _UNAVAILABLE):
+                    feed.rejected.append(f"line {record.line}: condition level {level!r}")
+                    continue
+                code, message = record.fields[1], record.fields[4]
+                self._observe(item, level, stamp, code or None, message or None)
+                continue
+            value = record.fields[0]
+            if not value and item.category == "SAMPLE":
+                value = _UNAVAILABLE
+            elif item.id in factors and value != _UNAVAILABLE:
+                try:
+                    value = _decimal(float(value) * factors[item.id])
+                except ValueError:
+                    pass  # not a number: served as sent, as a real agent would
+            self._observe(item, value, stamp)
+        return feed
 
     @property
     def first_sequence(self) -> int:
@@ -372,7 +501,8 @@ class MTConnectAgent:
     # Server ---------------------------------------------------------------------------
     async def start(self) -> None:
         """Observe the machine's current values and start listening."""
-        self._unavailable_all()  # an agent starts with every value unknown
+        if not self._buffer:  # an agent starts with every value unknown
+            self._unavailable_all()
         self.publish()
         self._server = await asyncio.start_server(self._handle, self.host, self._port)
         self._port = int(self._server.sockets[0].getsockname()[1])
@@ -453,13 +583,15 @@ class MTConnectAgent:
             parts = urlsplit(target)
             query = parse_qs(parts.query, keep_blank_values=True)
             path = [p for p in parts.path.split("/") if p]
-            if path and path[0] == DEVICE_NAME:
-                path = path[1:]
+            names = sorted({item.device for item in self.items})
+            device: str | None = None
+            if path and path[0] in names:
+                device, path = path[0], path[1:]
             elif len(path) == 2 or (
                 path and path[0] not in ("probe", "current", "sample", "assets")
             ):
                 raise _RequestError(
-                    "NoDevice", 404, f"no device {path[0]!r}; the device is {DEVICE_NAME!r}"
+                    "NoDevice", 404, f"no device {path[0]!r}; devices: {', '.join(names)}"
                 )
             request = path[0] if path else "probe"
             if len(path) > 1 or request not in ("probe", "current", "sample", "assets"):
@@ -476,8 +608,9 @@ class MTConnectAgent:
             if request == "assets":
                 return 200, self._assets()
             if request == "current":
-                return 200, self._streams(list(self._latest.values()), self._next)
-            return 200, self._sample(query)
+                latest = [o for o in self._latest.values() if device in (None, o.item.device)]
+                return 200, self._streams(latest, self._next)
+            return 200, self._sample(query, device)
         except _RequestError as err:
             return err.status, self._error(err, target)
 
@@ -495,7 +628,7 @@ class MTConnectAgent:
                 (name, text, None, None),
             ) from None
 
-    def _sample(self, query: dict[str, list[str]]) -> bytes:
+    def _sample(self, query: dict[str, list[str]], device: str | None) -> bytes:
         first, nxt = self.first_sequence, self._next
         start = self._int(query, "from", first)
         count = self._int(query, "count", min(_DEFAULT_COUNT, self.buffer_size))
@@ -515,7 +648,8 @@ class MTConnectAgent:
             )
         offset = start - first
         chosen = [self._buffer[i] for i in range(offset, min(offset + count, len(self._buffer)))]
-        return self._streams(chosen, chosen[-1].sequence + 1 if chosen else start)
+        nxt = chosen[-1].sequence + 1 if chosen else start
+        return self._streams([o for o in chosen if device in (None, o.item.device)], nxt)
 
     # Documents ------------------------------------------------------------------------
     def _root(self, kind: str) -> ET.Element:
@@ -551,6 +685,8 @@ class MTConnectAgent:
         return data
 
     def _devices(self) -> bytes:
+        if self._probe is not None:
+            return self._probe
         root = self._root("Devices")
         self._header(root, bufferSize=str(self.buffer_size), assetBufferSize="1024", assetCount="0")
         device = ET.SubElement(
@@ -583,7 +719,7 @@ class MTConnectAgent:
 
     @staticmethod
     def _add_items(component: ET.Element, ident: str) -> None:
-        items = [item for item in DATA_ITEMS if item.component_id == ident]
+        items = [item for item in DATA_ITEMS if item.component_id == ident]  # the vm's model
         if not items:
             return
         holder = ET.SubElement(component, "DataItems")
@@ -604,29 +740,33 @@ class MTConnectAgent:
             lastSequence=str(self._next - 1),
             nextSequence=str(next_sequence),
         )
-        device = ET.SubElement(
-            ET.SubElement(root, "Streams"),
-            "DeviceStream",
-            {"name": DEVICE_NAME, "uuid": _DEVICE_UUID},
-        )
-        by_component: dict[str, dict[str, list[_Observation]]] = {}
+        streams = ET.SubElement(root, "Streams")
+        by_device: dict[tuple[str, str], dict[str, dict[str, list[_Observation]]]] = {}
         for obs in sorted(observations, key=lambda o: o.sequence):
-            groups = by_component.setdefault(obs.item.component_id, {})
+            components = by_device.setdefault((obs.item.device, obs.item.device_uuid), {})
+            groups = components.setdefault(obs.item.component_id, {})
             groups.setdefault(obs.item.category, []).append(obs)
-        for ident, groups in by_component.items():
-            first = next(iter(groups.values()))[0].item
-            stream = ET.SubElement(
-                device,
-                "ComponentStream",
-                {"component": first.component, "componentId": ident, "name": first.component_name},
-            )
-            for category in ("SAMPLE", "EVENT", "CONDITION"):
-                if category not in groups:
-                    continue
-                group = ET.SubElement(stream, _GROUP_OF_CATEGORY[category])
-                for obs in groups[category]:
-                    self._observation(group, obs)
+        for (name, uuid), components in by_device.items():
+            device = ET.SubElement(streams, "DeviceStream", {"name": name, "uuid": uuid})
+            for ident, groups in components.items():
+                self._component_stream(device, ident, groups)
         return self._bytes(root)
+
+    def _component_stream(
+        self, device: ET.Element, ident: str, groups: dict[str, list[_Observation]]
+    ) -> None:
+        first = next(iter(groups.values()))[0].item
+        stream = ET.SubElement(
+            device,
+            "ComponentStream",
+            {"component": first.component, "componentId": ident, "name": first.component_name},
+        )
+        for category in ("SAMPLE", "EVENT", "CONDITION"):
+            if category not in groups:
+                continue
+            group = ET.SubElement(stream, _GROUP_OF_CATEGORY[category])
+            for obs in groups[category]:
+                self._observation(group, obs)
 
     @staticmethod
     def _observation(group: ET.Element, obs: _Observation) -> None:
@@ -637,11 +777,14 @@ class MTConnectAgent:
             "sequence": str(obs.sequence),
         }
         if item.category == "CONDITION":
-            ET.SubElement(group, obs.value.title(), {**attrs, "type": item.type})
+            if obs.native_code:
+                attrs["nativeCode"] = obs.native_code
+            element = ET.SubElement(group, obs.value.title(), {**attrs, "type": item.type})
+            element.text = obs.message
             return
         if item.sub_type:
             attrs["subType"] = item.sub_type
-        ET.SubElement(group, _ELEMENT_OF_TYPE[item.type], attrs).text = obs.value
+        ET.SubElement(group, _element(item.type), attrs).text = obs.value
 
     def _assets(self) -> bytes:
         root = self._root("Assets")
