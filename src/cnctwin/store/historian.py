@@ -656,7 +656,11 @@ class Historian:
         (a closed run's from ``hist_run_layouts``, others counted from the index)."""
         where, args = ("", ()) if run_id is None else ("WHERE run_id = ?", (int(run_id),))
         try:
-            rows = self._read(f"SELECT * FROM hist_run_layouts {where}", args)
+            rows = self._read(
+                "SELECT run_id, kind, layout_id, frames, first_seq, last_t_s "
+                f"FROM hist_run_layouts {where}",
+                args,
+            )
         except DataError:  # a database from before hist_run_layouts
             rows = []
         ids = (
