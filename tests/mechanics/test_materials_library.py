@@ -221,3 +221,55 @@ def test_the_kistler_entry_reproduces_the_measured_mean_forces() -> None:
         mean = mean_forces(cutter, entry.coefficients, cut, float(feed), 600.0)
         assert mean.fy_n == pytest.approx(measured[1], rel=0.05)
         assert abs(mean.fx_n - measured[0]) < 7.5 and abs(mean.fz_n - measured[2]) < 7.5
+
+
+# ISCAR's material-group table (ISO 513 / VDI 3323 groups), as printed in the 2017 turning
+# catalogue, p. 558: entry -> (Kc1 N/mm^2, mc, group numbers). Read second-hand (page text).
+ISCAR_2017 = {
+    "stainless-austenitic": (2150.0, 0.20, "14"),
+    "stainless-martensitic": (1875.0, 0.21, "12 and 13"),
+    "GJS-ferritic": (1225.0, 0.25, "17"),
+    "GJS-pearlitic": (1350.0, 0.28, "18"),
+    "tool-steel-annealed": (2450.0, 0.23, "10"),
+    "tool-steel-hardened": (2500.0, 0.23, "11"),
+    "aluminium-wrought-hardenable": (800.0, 0.25, "22"),
+    "aluminium-cast-AlSi": (700.0, 0.25, "23 and 24"),
+    "aluminium-cast-AlSi-over-12": (750.0, 0.25, "25"),
+    "brass": (700.0, 0.27, "27"),
+    "copper-electrolytic": (700.0, 0.27, "28"),
+    "titanium-CP": (1700.0, 0.23, "36"),
+    "titanium-alpha-beta": (2110.0, 0.22, "37"),
+    "nickel-cobalt-heat-resistant": (3300.0, 0.24, "33 to 35"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(ISCAR_2017))
+def test_an_iscar_group_entry_keeps_the_printed_numbers_and_states_its_source(name: str) -> None:
+    # A transcription check (the numbers as printed, the place they were read), not an
+    # independent one: no worked example accompanies the table in the copies read.
+    kc1, mc, groups = ISCAR_2017[name]
+    library = packaged_materials()
+    entry = library.kienzle_material(name)
+    assert entry.kc11_pa == pytest.approx(kc1 * 1e6, rel=1e-12) and entry.mc == mc
+    assert not entry.checked
+    source = " ".join(entry.source.split())
+    assert "ISCAR" in source and "VDI 3323" in source and f"group No. {groups}," in source
+    assert "katalog-tokarnyj-instrument-2017-page558" in source
+    assert "Second-hand" in entry.note and "cut off" in entry.conditions
+    # The derived milling entry: Kienzle's tangent at h_ref = 0.1 mm, tangential terms only.
+    derived = library.milling_material(f"{name}-kienzle")
+    assert derived.coefficients == kienzle_milling_coefficients(kc1 * 1e6, mc, 0.1e-3)
+    assert derived.source == entry.source and not derived.checked
+
+
+def test_the_titanium_notes_quantify_the_catalogues_disagreement() -> None:
+    # ISCAR's 2022 boring-systems catalogue prints other titanium values (Kc1, mc): the notes
+    # state how much less cutting force they give at h = 0.1 mm (Kienzle: kc1 h^(1 - mc)).
+    printed_2022 = {"titanium-CP": (1160.0, 0.24), "titanium-alpha-beta": (1245.0, 0.24)}
+    library = packaged_materials()
+    for name, (kc1_2022, mc_2022) in printed_2022.items():
+        kc1, mc, _ = ISCAR_2017[name]
+        ratio = (kc1_2022 * 0.1 ** (1 - mc_2022)) / (kc1 * 0.1 ** (1 - mc))
+        note = " ".join(library.kienzle_material(name).note.split())
+        assert f"Kc1 = {kc1_2022:g} N/mm^2 and mc = {mc_2022:g}" in note
+        assert f"give {round(100 * (1 - ratio))} % less cutting force" in note, (name, ratio)
