@@ -146,7 +146,8 @@ class ProgramLoads:
         chip thickness (mm) at its feed.
     fz_force_mm, fz_chip_mm
         The largest feed per tooth (mm) the force and the chip limit allow at the step's
-        engagement (``inf``: not limited).
+        engagement (``inf``: not limited); a step whose contact is the tool's bottom face only
+        (a plunge, no force in the milling model) holds its own feed per tooth.
     torque0_nm, torque1_nm_mm
         The mean cutting torque ``T = T0 + f_z T1`` (N m, N m per mm of feed per tooth).
     segments
@@ -289,8 +290,10 @@ def _step_load(
     if limits.max_chip_mm is not None and chip_per_fz > 0.0:
         fz_chip = limits.max_chip_mm / chip_per_fz
     cut = immersion_intervals(engagement, pitch_z_mm)
-    if cut is None:  # bottom contact only: no force the model knows of
-        return (0.0, 0.0, 0.0, engagement.h_max_mm, math.inf, fz_chip, 0.0, 0.0)
+    if cut is None:
+        # Bottom contact only (a plunge): the milling model knows no force there, so the step
+        # holds its own feed per tooth (a plunge is never sped up).
+        return (0.0, 0.0, 0.0, engagement.h_max_mm, fz_mm, fz_chip, 0.0, 0.0)
     omega = step.spindle_rpm * _RAD_S_PER_RPM
     ref_m = fz_mm * 1e-3 if fz_mm > 0.0 else _FZ_REFERENCE_M
     ref_mm = ref_m * 1e3
