@@ -458,12 +458,31 @@ def linger(board: LiveDashboard | None, summary: RunSummary) -> None:
     board.wait_until_interrupted()
 
 
+_PROTOCOL_LOGGERS = ("asyncua", "asyncuagds", "pymodbus")
+
+
+class _OneLine(logging.Filter):
+    """A protocol library's error with its exception on one line, without the traceback
+    (e.g. asyncua's "Publish iteration crashed" when the server closes first)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.exc_info and record.name.split(".")[0] in _PROTOCOL_LOGGERS:
+            error = record.exc_info[1]
+            record.msg = f"{record.getMessage()}: {type(error).__name__}: {error}"
+            record.args = None
+            record.exc_info = record.exc_text = None
+        return True
+
+
 def quiet_protocol_logs() -> None:
     """Keep the protocol libraries' notes (asyncua, pymodbus) off the terminal unless they
-    are errors; ``--debug`` shows everything."""
+    are errors, each error on one line; ``--debug`` shows everything."""
     if not logging.getLogger("cnctwin").isEnabledFor(logging.DEBUG):
-        for name in ("asyncua", "asyncuagds", "pymodbus"):
+        for name in _PROTOCOL_LOGGERS:
             logging.getLogger(name).setLevel(logging.ERROR)
+        for handler in logging.getLogger().handlers:
+            if not any(isinstance(f, _OneLine) for f in handler.filters):
+                handler.addFilter(_OneLine())
 
 
 def note(line: str) -> None:
