@@ -40,11 +40,26 @@ def run_json(args: list[str]) -> dict:
     return json.loads(out)
 
 
-@pytest.mark.parametrize("name", sorted(p.name for p in EXAMPLES.glob("*.toml")))
+TOOL_MAPS = {"demo_tools.toml"}  # stability files by tool number, for the roadmap
+STABILITY_FILES = sorted(p.name for p in EXAMPLES.glob("*.toml") if p.name not in TOOL_MAPS)
+
+
+@pytest.mark.parametrize("name", STABILITY_FILES)
 def test_examples_are_valid(name: str) -> None:
     config = load_stability_config(EXAMPLES / name)
     assert config.tool_dynamics().modes
     config.process()
+
+
+def test_the_tool_map_example_names_stability_files() -> None:
+    from cnctwin.dynamics import load_tool_stability
+
+    loaded = load_tool_stability(EXAMPLES / "demo_tools.toml")
+    assert isinstance(loaded, dict) and list(loaded) == [1]
+    assert loaded[1] == load_stability_config(EXAMPLES / "ubc_two_mode.toml")
+    assert load_tool_stability(EXAMPLES / "insperger_slot.toml") == load_stability_config(
+        EXAMPLES / "insperger_slot.toml"
+    )
 
 
 def test_orthogonal_example_reproduces_the_textbook_limit() -> None:
@@ -219,7 +234,7 @@ def test_speed_option_errors_exit_2_in_one_line(
     assert message in err and err.count("\n") == 1
 
 
-@pytest.mark.parametrize("name", sorted(p.name for p in EXAMPLES.glob("*.toml")))
+@pytest.mark.parametrize("name", STABILITY_FILES)
 def test_the_example_configs_run_through_the_cli(name: str) -> None:
     report = run_json(["--config", str(EXAMPLES / name), "--rpm-range", "6000:12000:5"])
     assert len({len(report[key]) for key in LISTS}) == 1 and len(report["spindle_rpm"]) == 5
@@ -415,11 +430,17 @@ def test_roadmap_per_tool_leaves_a_tool_without_modes_at_its_speed(
                          "--method", "zoa"], capsys)  # fmt: skip
     assert both["tools_without_modes"] == []
     assert {e["tool"] for e in both["engagements"]} == {1, 2}
+    # The same as a tool map (paths relative to the map).
+    (tmp_path / "map.toml").write_text('[tools]\nT1 = "slot.toml"\n2 = "slot.toml"\n')
+    mapped = roadmap_json([*base, "--stability", str(tmp_path / "map.toml"), "--method", "zoa"],
+                          capsys)  # fmt: skip
+    assert mapped["segments"] == both["segments"]
 
 
 @pytest.mark.parametrize(
     ("stability", "message"),
     [
+        (["map.toml"], "tools.X1"),
         (["T9=x.toml"], "tool T9"),
         (["T1="], "T1=FILE"),
         (["a.toml", "T1=b.toml"], "not both"),
@@ -431,10 +452,12 @@ def test_roadmap_stability_option_errors_are_one_line(
 ) -> None:
     (tmp_path / "cell.toml").write_text(TWO_TOOLS)
     (tmp_path / "p.ngc").write_text(TWO_TOOL_PASSES)
+    (tmp_path / "map.toml").write_text('[tools]\nX1 = "a.toml"\n')
     slot = str(EXAMPLES / "insperger_slot.toml")
     options = []
     for value in stability:
-        options += ["--stability", value.replace("x.toml", slot)]
+        value = value.replace("x.toml", slot).replace("map.toml", str(tmp_path / "map.toml"))
+        options += ["--stability", value]
     code, out, err = invoke_roadmap([str(tmp_path / "p.ngc"), "--config",
                                      str(tmp_path / "cell.toml"), *options], capsys)  # fmt: skip
     assert code == 2 and message in err and err.count("\n") == 1, err

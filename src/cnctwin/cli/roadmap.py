@@ -226,7 +226,8 @@ def roadmap(
         typer.Option(
             "--stability",
             help="Stability file (modes, coefficients, method, rpm) for every milling tool, "
-            "or T<n>=FILE, once per tool (tools without one keep their speed).",
+            "a tool map ([tools] T1 = FILE), or T<n>=FILE once per tool (tools without one "
+            "keep their speed).",
         ),
     ],
     margin: Annotated[
@@ -266,7 +267,7 @@ def roadmap(
     programmed one if stable, else the nearest stable one (Ward 2021, Fig. 12).
     """
     from cnctwin.config import load_config
-    from cnctwin.dynamics import load_stability_config
+    from cnctwin.dynamics import load_stability_config, load_tool_stability
 
     if not (math.isfinite(margin) and 1.0 <= margin <= MAX_MARGIN):
         raise InputError(f"--margin {margin!r}; give a factor >= 1 and <= {MAX_MARGIN:g}")
@@ -278,7 +279,7 @@ def roadmap(
     settings = load_config(config)
     modes: StabilityConfig | dict[int, StabilityConfig]
     if isinstance(files, Path):
-        modes = load_stability_config(files)
+        modes = load_tool_stability(files)
     else:
         modes = {number: load_stability_config(path) for number, path in files.items()}
     report, result = roadmap_report(

@@ -24,6 +24,7 @@ from cnctwin.dynamics.config import (
     MIN_IMMERSION,
     StabilityConfig,
     load_stability_config,
+    load_tool_stability,
 )
 from cnctwin.dynamics.frf import (
     FRF,
@@ -114,6 +115,7 @@ __all__ = [
     "force_window",
     "impact_frf",
     "load_stability_config",
+    "load_tool_stability",
     "modal_frf",
     "program_roadmap",
     "read_damping_model",

@@ -39,6 +39,7 @@ __all__ = [
     "StabilityConfig",
     "load_modes_file",
     "load_stability_config",
+    "load_tool_stability",
 ]
 
 _DIRECTIONS = {"x": 0.0, "y": 90.0}
@@ -370,6 +371,45 @@ def load_stability_config(
             raise ConfigError(f"{table}: must be a table", str(path))
         section.update(values)
     return _validate(StabilityConfig, data, str(path))
+
+
+def load_tool_stability(
+    path: str | os.PathLike[str],
+) -> StabilityConfig | dict[int, StabilityConfig]:
+    """Read a stability file, or a tool map: stability files by tool number.
+
+    A tool map is TOML with a ``[tools]`` table only: ``T1 = "end_mill.toml"`` (or ``1 =``)
+    per tool, each path relative to the map's folder; the tools it does not name have no
+    modes (:func:`cnctwin.dynamics.program_roadmap`).
+
+    Raises
+    ------
+    ConfigError
+        ``"FILE: ..."`` for a bad key, a value that is not a path, an empty map, and what
+        :func:`load_stability_config` refuses in the files it names.
+    """
+    data = _read(path)
+    if "tools" not in data or "modes" in data:
+        return load_stability_config(path)
+    source = str(path)
+    tools = data["tools"]
+    if set(data) != {"tools"} or not isinstance(tools, dict) or not tools:
+        raise ConfigError(
+            'a tool map holds one [tools] table of T<n> = "FILE" entries and nothing else',
+            source,
+        )
+    files: dict[int, StabilityConfig] = {}
+    for key, value in tools.items():
+        digits = key[1:] if key[:1] in ("T", "t") else key
+        if not digits.isdigit() or not isinstance(value, str) or not value:
+            raise ConfigError(
+                f'tools.{key} = {value!r}: give T<n> = "FILE" (a stability file per tool)',
+                source,
+            )
+        if int(digits) in files:
+            raise ConfigError(f"tools.{key}: tool T{int(digits)} given twice", source)
+        files[int(digits)] = load_stability_config(Path(path).parent / value)
+    return files
 
 
 def load_modes_file(path: str | os.PathLike[str]) -> list[ModeEntry]:
