@@ -14,9 +14,10 @@ Then every page's commands run, in page order, with the installed ``cnctwin``, i
 working directory laid out like the repository (the shipped examples copied, ``../shared``
 linked) and with a home of their own: each must exit 0 with no traceback on stderr, and a
 ``--json`` command must print valid JSON. The commands that cannot simply run to their end here
-are in :data:`SPECIAL`, each with the reason and what is checked instead. The pages whose
-servers take fixed ports (4840, 5020, 8765, 8766) run one after the other in one test; the
-others run one page per test, in parallel under ``pytest -n``.
+are in :data:`SPECIAL`, each with the reason and what is checked instead. One test per page,
+in parallel under ``pytest -n``; each page in a network namespace of its own where the system
+allows it (``unshare -rn``), so the servers' fixed ports (4840, 5020, 8765, 8766) meet nothing
+else; elsewhere the pages with such servers run one after the other in one test.
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ from _documented import (
     run_page_isolated,
     steps,
 )
+from skips import missing
 from typer.core import TyperGroup
 
 from cnctwin.cli.app import app
@@ -226,7 +228,7 @@ def test_every_special_command_is_on_its_page() -> None:
 def test_the_commands_of_a_page_run_as_written(pages: tuple[str, ...], tmp_path: Path) -> None:
     reads_shared = any(c.page in pages and "../shared/" in shlex.join(c.argv) for c in ALL)
     if reads_shared and not (SHARED / "data").is_dir():
-        pytest.skip("../shared/data is not here; the page's commands read it")
+        missing("../shared/data is not here; the page's commands read it", "CNCTWIN_REQUIRE_DATA")
     problems = []
     for page in pages:
         root = tmp_path / Path(page).stem
