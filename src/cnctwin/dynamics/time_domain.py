@@ -83,6 +83,10 @@ _STEPS_PER_CYCLE = 200  # least steps per cycle of the highest natural frequency
 _SLICES_PER_CYCLE = 20  # slice lag at most 1/20 of the highest mode's period
 _MAX_STEPS = 10_000_000  # 640 MB of output (8 float64 per step)
 _CHATTER_RATIO = 1e-3  # default threshold of the non-synchronous energy fraction
+#: A vibration off the tooth period dies out (a stable cut) when even its growth rate's
+#: upper bound (rate + 2 sigma) shrinks it below this fraction over the steady window: a
+#: saturated chatter drifts down by a few per cent and is not called stable.
+_DECAYED = 0.8
 _COLUMNS = {"displacement": 0, "velocity": 2, "acceleration": 4, "force": 6}
 
 
@@ -313,12 +317,16 @@ class MillingVibration:
         frequency (Hopf) or at odd multiples of half the tooth-passing frequency (period
         doubling). The decision rests on the growth rate of ``s(t) - s(t - T)`` (which the
         periodic forced motion does not have), fitted over the steady window with its
-        standard error sigma (:meth:`growth_rate`): ``"stable"`` when ``rate + 2 sigma < 0``
-        (it dies out, however much energy it still holds) or it has settled to rounding;
-        ``"chatter"`` when ``rate - 2 sigma > 0`` (it grows); when the interval straddles 0,
-        ``"undecided"`` unless ``final``, in which case the non-synchronous energy decides:
-        ``"chatter"`` above ``threshold`` (chatter saturated by the tool leaving the cut neither
-        grows nor decays), else ``"stable"``. :func:`cnctwin.dynamics.run_milling` asks with
+        standard error sigma (:meth:`growth_rate`): ``"stable"`` when ``rate + 2 sigma``
+        shrinks it below :data:`_DECAYED` (0.8) of itself over the steady window (it dies out,
+        however much energy it still holds; a saturated chatter drifting down by a few per
+        cent is not) or it has settled to rounding;
+        ``"chatter"`` when ``rate - 2 sigma > 0`` (it grows); otherwise ``"undecided"``
+        unless ``final``, in which case: ``"stable"`` when ``rate + 2 sigma < 0`` and the
+        vibration off the tooth period never grew since the cut began (a slow decay near the
+        boundary); else the non-synchronous energy decides: ``"chatter"`` above
+        ``threshold`` (chatter saturated by the tool leaving the cut neither grows nor decays,
+        or drifts), else ``"stable"``. :func:`cnctwin.dynamics.run_milling` asks with
         ``final=False`` and doubles the simulated time while undecided, up to a cap.
         ``chatter`` is the decision ``"chatter"`` (docs/chatter.md).
 
@@ -352,12 +360,15 @@ class MillingVibration:
         growth = self._growth(signal, window)
         rate, sigma = self._growth_rate(signal, window)
         decision: Decision
-        if rate + 2.0 * sigma < 0.0:
+        seconds = (window.stop - window.start) * self.tooth_period_s / self.steps_per_tooth
+        if math.exp((rate + 2.0 * sigma) * seconds) < _DECAYED:
             decision = "stable"
         elif rate - 2.0 * sigma > 0.0:
             decision = "chatter"
         elif not final:
             decision = "undecided"
+        elif rate + 2.0 * sigma < 0.0 and self._overall_growth(signal) < 1.0:
+            decision = "stable"  # dying out slowly, and never grew since the cut began
         else:
             decision = "chatter" if ratio > threshold else "stable"
         return ChatterVerdict(decision == "chatter", ratio, growth, frequency, threshold,
@@ -383,6 +394,19 @@ class MillingVibration:
         """
         signal = self._signals()[_column(quantity) // 2]
         return self._growth_rate(signal, self.steady_window(transient_s))
+
+    def _overall_growth(self, signal: np.ndarray) -> float:
+        """Per-period RMS of ``s(t) - s(t - T)`` over the run's last tenth of periods over
+        that of its first tenth after the second period (the forced motion's build-up): how
+        far the vibration off the tooth period grew since the cut began."""
+        m = self.steps_per_tooth
+        periods = signal.shape[0] // m - 1
+        change = signal[m : (periods + 1) * m] - signal[: periods * m]
+        rms = np.sqrt(np.mean(change.reshape(periods, m, -1) ** 2, axis=(1, 2)))
+        tenth = max(1, periods // 10)
+        early = float(rms[2 : 2 + tenth].mean()) if periods > 2 + tenth else float(rms[0])
+        late = float(rms[-tenth:].mean())
+        return late / early if early > 0.0 else math.inf
 
     def _growth_rate(self, signal: np.ndarray, window: slice) -> tuple[float, float]:
         m = self.steps_per_tooth
