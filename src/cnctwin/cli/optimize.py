@@ -51,7 +51,10 @@ def optimize(
     ] = None,
     stability: Annotated[
         Path | None,
-        typer.Option("--stability", help="Stability file: spindle speeds from its roadmap."),
+        typer.Option(
+            "--stability",
+            help="Stability file or tool map: spindle speeds from the program's roadmap.",
+        ),
     ] = None,
     min_feed: Annotated[
         float | None,
@@ -106,9 +109,9 @@ def optimize(
     started = time.perf_counter()
     speeds = None
     if stability is not None:
-        from cnctwin.dynamics import load_stability_config, program_roadmap
+        from cnctwin.dynamics import load_tool_stability, program_roadmap
 
-        modes = load_stability_config(stability)
+        modes = load_tool_stability(stability)
         speeds = scheduled_speeds(program_roadmap(program, settings, modes, density_per_mm=rho))
     result = optimize_program(
         text, str(program), settings, limits, coefficients=coefficients,
