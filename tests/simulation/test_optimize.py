@@ -241,3 +241,22 @@ def test_a_program_that_loops_is_refused(tmp_path: Path) -> None:
             coefficients=CuttingCoefficients.from_n_mm(800, 300), density_per_mm=5.0,
             cycle_s=0.0125,
         )  # fmt: skip
+
+
+def test_slot_feed_meets_the_closed_form_peak_force(tmp_path: Path) -> None:
+    # Four straight teeth in a full slot without edge forces: two teeth 90 degrees apart cut at
+    # any time and their sin(2 phi) terms cancel, so the force is constant at
+    # a f_z (Krc, Ktc) in x and y (Altintas 2012, Eq. 2.10 summed): peak = a f_z |(Ktc, Krc)|.
+    depth_mm, rpm, limit_n = 2.0, 6000.0, 60.0
+    expected = limit_n / (depth_mm * math.hypot(800.0, 300.0)) * 4 * rpm
+    (tmp_path / "slot.toml").write_text(SLOT_CONFIG)
+    config = load_config(tmp_path / "slot.toml")
+    result = optimize_program(
+        SLOT_PROGRAM, "slot.ngc", config, FeedLimits(max_force_n=limit_n),
+        coefficients=CuttingCoefficients.from_n_mm(800.0, 300.0), density_per_mm=10.0,
+        cycle_s=0.0125,
+    )  # fmt: skip
+    slowest = min((p for p in result.blocks[6].pieces if p[2] != "air"), key=lambda p: p[1])
+    assert slowest[2] == "force"
+    assert slowest[1] == pytest.approx(expected, rel=0.03)
+    assert result.limits_hold
