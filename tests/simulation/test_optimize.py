@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import math
 import re
+import shutil
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -165,17 +167,21 @@ def test_demo_path_is_the_original_path(demo: OptimizedProgram) -> None:
     assert split >= 3  # the demo's long blocks are split
 
 
-def test_demo_program_is_read_alike_by_linuxcnc(demo: OptimizedProgram, tmp_path: Path) -> None:
+def _rs274() -> tuple[Any, str]:
+    """The rs274 oracle module of tests/nc and LinuxCNC's ``rs274`` (skip without it)."""
     sys.path.insert(0, str(ROOT / "tests" / "nc"))
     try:
         import rs274_oracle
     finally:
         sys.path.remove(str(ROOT / "tests" / "nc"))
-    import shutil
-
     executable = shutil.which("rs274")
     if executable is None:
         pytest.skip("LinuxCNC's rs274 is not installed (apt-get install linuxcnc-uspace)")
+    return rs274_oracle, executable
+
+
+def test_demo_program_is_read_alike_by_linuxcnc(demo: OptimizedProgram, tmp_path: Path) -> None:
+    rs274_oracle, executable = _rs274()
     path = tmp_path / "demo_opt.ngc"
     path.write_text(demo.text)
     theirs = rs274_oracle.run_rs274(executable, path)
@@ -260,3 +266,27 @@ def test_slot_feed_meets_the_closed_form_peak_force(tmp_path: Path) -> None:
     assert slowest[2] == "force"
     assert slowest[1] == pytest.approx(expected, rel=0.03)
     assert result.limits_hold
+
+
+def test_fusion_program_keeps_its_path_for_linuxcnc(shared_data: Path, tmp_path: Path) -> None:
+    # A real Fusion 360 post (grbl style: modal axis words without G, F on its own blocks),
+    # rewritten for a chip limit above its programmed chip (feeds rise where the cut allows).
+    program = shared_data / "gcode" / "fusion360_grbl_shooshx" / "1024_block_14bit.nc"
+    config = load_config(ROOT / "examples" / "fusion360" / "1024_block_14bit.toml")
+    result = optimize_program(
+        program.read_text(), str(program), config, FeedLimits(max_chip_mm=0.12),
+        coefficients=milling_material("AA6060-T6").coefficients,
+        density_per_mm=config.simulation.density_per_mm, cycle_s=config.simulation.cycle_ms / 1e3,
+    )  # fmt: skip
+    assert result.limits_hold
+    assert result.summary()["cycle_time_after_s"] < result.summary()["cycle_time_before_s"]
+    before = [s.end_mm for s in Interpreter(config.nc_setup()).run_text(program.read_text())]
+    after = [s.end_mm for s in Interpreter(config.nc_setup()).run_text(result.text)]
+    assert set(before) <= set(after)  # every original end point is still programmed
+    rs274_oracle, executable = _rs274()
+    path = tmp_path / "opt.nc"
+    path.write_text(result.text)
+    theirs = rs274_oracle.run_rs274(executable, path)
+    ours = rs274_oracle.run_cnctwin(path)
+    assert not theirs.error and not ours.error
+    assert rs274_oracle.first_difference(ours, theirs) == ""
