@@ -54,7 +54,7 @@ def test_quick_study_writes_every_output(tmp_path: Path) -> None:
     assert "(material left uncut), tolerance 1 %" in excluded[(5.0, 200.0)]["reasons"][0]
     # Progress and the estimated cost go to stderr, never into the JSON on stdout.
     assert "dexel study: 24 runs on 2 process(es)" in done.stderr
-    assert "the runs take at most about" in done.stderr
+    assert "for all runs (the first scaled by" in done.stderr
     assert summary["paper"]["density_per_mm"] == 10.0 and summary["paper"]["runtime_s"] == 41.7
     assert summary["at_paper_optimum"]["cycle_ms"] == pytest.approx(12.5)
     assert summary["t_star_fit"]["points"] == 12

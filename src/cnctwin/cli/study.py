@@ -107,10 +107,12 @@ def dexel_report(
         nonlocal done
         done += 1
         if done == 1:
+            scaled, bound = estimate_wall_s(study, result.spec, result.runtime_s, n)
             err.print(
-                f"dexel study: first run {result.runtime_s:.2f} s; the runs take at most about "
-                f"{estimate_wall_s(total, result.runtime_s, n):.0f} s ({total} runs x the "
-                f"first, the longest, / {min(n, total)} process(es))"
+                f"dexel study: first run {result.runtime_s:.2f} s; estimated {scaled:.0f} s for "
+                f"all runs (the first scaled by each run's rho^2 / (t_cycle vf)), at most "
+                f"{bound:.0f} s ({total} runs x the first, the longest, / {min(n, total)} "
+                "process(es))"
             )
         if advance is not None:
             advance()
