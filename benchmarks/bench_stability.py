@@ -40,8 +40,8 @@ the ZOA's shape between them, interpolated candidates computed before they are s
 on the packaged demo (T1 with the UBC tool's modes, T2 without) and on the KIT notch program
 (../shared/data/gcode, skipped without it), one run each.
 
-``--quick`` (CI) runs 20 speeds once and the demo's roadmap over 7000-9000 rpm with the SDM
-at 4 speeds only.
+``--quick`` (CI) runs 20 speeds once and the demo's roadmap at 2 dexels per mm over
+7000-9000 rpm with the SDM at 4 speeds only.
 """
 
 from __future__ import annotations
@@ -202,6 +202,7 @@ def roadmaps(quick: bool) -> None:
         grid = np.linspace(7000.0, 9000.0, 201) if quick else None
         wall, cpu = time.perf_counter(), time.process_time()
         points = {"sdm_points": 4} if quick else {}
+        density = 2.0 if quick else density
         road = program_roadmap(program, config, stability, grid, density_per_mm=density,
                                method="sdm", **points)  # type: ignore[arg-type]  # fmt: skip
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
