@@ -163,6 +163,12 @@ BASES: dict[tuple[str, ...], Base] = {
             "--cycle-ms 100 --json".split()
         )
     ),
+    ("optimize",): Base(
+        lambda t: (
+            f"{_program(t / 'p.ngc')} -c {PACKAGED / 'demo.toml'} --max-force-n 200 "
+            f"--density 2 --cycle-ms 100 --out {t / 'opt.ngc'} --json".split()
+        )
+    ),
     ("signals",): Base(
         lambda t: (
             f"{PACKAGED / 'demo.ngc'} -c {PACKAGED / 'demo.toml'} --density 2 "

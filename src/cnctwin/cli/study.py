@@ -85,10 +85,6 @@ def dexel_report(
 
     n = default_workers() if workers is None else workers
     check_count("--workers", n, 1, MAX_WORKERS, unit="processes")
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: not a folder; give a folder for the results")
-    if html is not None:
-        check_report_path(html)
     try:
         constraints = Constraints(volume_tolerance_pct, min_realtime_factor)
     except CnctwinError as error:
@@ -96,6 +92,10 @@ def dexel_report(
             f"--volume-tolerance-pct {volume_tolerance_pct} / --min-realtime-factor "
             f"{min_realtime_factor}: {error}"
         ) from None
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: not a folder; give a folder for the results")
+    if html is not None:
+        check_report_path(html)
     study = DexelStudy.quick() if quick else DexelStudy.paper()
     total = len(study.runs())
     err = Console(stderr=True, highlight=False)

@@ -79,6 +79,9 @@ FEED_STEP = 0.1
 MARGIN_MM = 0.5
 #: The least feed of a block, as a fraction of its programmed feed, without ``--min-feed``.
 MIN_FEED_FRACTION = 0.1
+#: Range of a feed given as an option, mm/min: the least the written program can state
+#: (three significant digits, 0.001 mm/min) to far above any machine's axes.
+FEED_RANGE_MM_MIN = (0.001, 1e6)
 #: Most pieces a block is split into.
 MAX_PIECES = 12
 _MM_PER_INCH = 25.4
@@ -226,6 +229,13 @@ class OptimizedProgram:
         }
 
 
+def _check_feed(option: str, feed: float | None) -> None:
+    """Refuse a feed option (mm/min) outside :data:`FEED_RANGE_MM_MIN`; ``None`` passes."""
+    low, high = FEED_RANGE_MM_MIN
+    if feed is not None and not (math.isfinite(feed) and low <= feed <= high):
+        raise InputError(f"{option} {feed!r}: give a feed from {low:g} to {high:g} mm/min")
+
+
 def _line_times(loads: ProgramLoads, origin: Mapping[int, int] | None = None) -> dict[int, float]:
     """Time (s) per source line (of the original program, through ``origin``)."""
     dt = step_durations(loads.t_s)
@@ -310,19 +320,14 @@ def optimize_program(
     NCError
         For a program the interpreter refuses.
     """
-    if min_feed_mm_min is not None and not (
-        math.isfinite(min_feed_mm_min) and min_feed_mm_min > 0.0
-    ):
-        raise InputError(f"--min-feed {min_feed_mm_min!r}: give a feed > 0 mm/min")
+    for option, feed in (("--min-feed", min_feed_mm_min), ("--max-feed", max_feed_mm_min)):
+        _check_feed(option, feed)
     least = 0.0 if min_feed_mm_min is None else min_feed_mm_min
-    if max_feed_mm_min is not None and not (max_feed_mm_min > 0.0 and max_feed_mm_min >= least):
-        raise InputError(
-            f"--max-feed {max_feed_mm_min!r}: give a feed > 0 and >= --min-feed, mm/min"
-        )
+    if max_feed_mm_min is not None and max_feed_mm_min < least:
+        raise InputError(f"--max-feed {max_feed_mm_min!r}: give a feed >= --min-feed, mm/min")
     if not (math.isfinite(max_factor) and max_factor >= 1.0):
         raise InputError(f"--max-factor {max_factor!r}: give a factor >= 1")
-    if air_feed_mm_min is not None and not (air_feed_mm_min > 0.0):
-        raise InputError(f"--air-feed {air_feed_mm_min!r}: give a feed > 0 mm/min")
+    _check_feed("--air-feed", air_feed_mm_min)
     if passes < 1:
         raise InputError(f"passes={passes!r}: give at least 1")
     axes = config.machine.axes

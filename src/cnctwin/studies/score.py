@@ -246,6 +246,10 @@ def optimum(scored: Sequence[Setting]) -> Setting:
     return min(scored, key=lambda s: (s.score, s.density_per_mm**2 / s.cycle_s))
 
 
+#: Largest least real-time factor a constraint may ask for (process time / CPU time).
+MAX_REALTIME_FACTOR = 1e6
+
+
 @dataclass(frozen=True, slots=True)
 class Constraints:
     """What a setting must meet to be chosen.
@@ -254,10 +258,10 @@ class Constraints:
     ----------
     max_volume_deviation_pct
         Tolerance on the removed volume against a continuous cut's, at the setting's worst
-        feed (:attr:`Setting.volume_deviation_pct`), percent, >= 0.
+        feed (:attr:`Setting.volume_deviation_pct`), percent, 0 to 100.
     min_realtime_factor
         Least process time over CPU time of the setting's runs (:attr:`Setting.realtime_factor`),
-        > 0; 1: the simulation keeps up with the machine.
+        > 0 and at most :data:`MAX_REALTIME_FACTOR`; 1: the simulation keeps up with the machine.
     """
 
     max_volume_deviation_pct: float = 1.0
@@ -265,14 +269,20 @@ class Constraints:
 
     def __post_init__(self) -> None:
         if not (
-            math.isfinite(self.max_volume_deviation_pct) and self.max_volume_deviation_pct >= 0
+            math.isfinite(self.max_volume_deviation_pct)
+            and 0 <= self.max_volume_deviation_pct <= 100
         ):
             raise ConfigError(
-                f"volume tolerance {self.max_volume_deviation_pct!r} %; give a tolerance >= 0 %"
+                f"volume tolerance {self.max_volume_deviation_pct!r} %; "
+                "give a tolerance from 0 to 100 %"
             )
-        if not (math.isfinite(self.min_realtime_factor) and self.min_realtime_factor > 0):
+        if not (
+            math.isfinite(self.min_realtime_factor)
+            and 0 < self.min_realtime_factor <= MAX_REALTIME_FACTOR
+        ):
             raise ConfigError(
-                f"real-time factor {self.min_realtime_factor!r}; give a least factor > 0"
+                f"real-time factor {self.min_realtime_factor!r}; give a least factor > 0 "
+                f"and <= {MAX_REALTIME_FACTOR:g}"
             )
 
     def violations(self, setting: Setting) -> tuple[str, ...]:
