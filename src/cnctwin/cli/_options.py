@@ -11,10 +11,23 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import Annotated
+
+import typer
 
 from cnctwin.errors import InputError
 
 __all__ = ["MAX_SEED", "check_count", "check_number", "progress"]
+
+
+#: ``--density``: the simulation's dexel density, dexels per mm, overriding the config's.
+Density = Annotated[
+    float | None, typer.Option("--density", help="Dexels per mm (overrides the config).")
+]
+#: ``--cycle-ms``: the simulation's cycle time, ms, overriding the config's.
+CycleMs = Annotated[
+    float | None, typer.Option("--cycle-ms", help="Cycle time in ms (overrides the config).")
+]
 
 #: Largest random seed accepted: the 32-bit seeds every generator of the project takes.
 MAX_SEED = 2**32 - 1

@@ -123,7 +123,9 @@ COMMANDS: dict[str, _Lazy] = {
         "web",
         "Serve the run browser: list recorded runs, open one, zoom any signal, overlay, export.",
     ),
-    "virtual": _Lazy("virtual", "app", "The virtual machine: serve it over OPC UA, Modbus TCP or MTConnect."),
+    "virtual": _Lazy(
+        "virtual", "app", "The virtual machine: serve it over OPC UA, Modbus TCP or MTConnect."
+    ),
 }
 
 

@@ -19,6 +19,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.cli._options import CycleMs, Density
 from cnctwin.cli.simulate import resolution
 from cnctwin.errors import InputError
 
@@ -75,12 +76,8 @@ def optimize(
         Path | None, typer.Option("--report", help="Write the report as JSON here.")
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
-    density: Annotated[
-        float | None, typer.Option("--density", help="Dexels per mm (overrides the config).")
-    ] = None,
-    cycle_ms: Annotated[
-        float | None, typer.Option("--cycle-ms", help="Cycle time in ms (overrides the config).")
-    ] = None,
+    density: Density = None,
+    cycle_ms: CycleMs = None,
 ) -> None:
     """Rewrite a program's feeds (and speeds) per block from force, power and chip limits."""
     from cnctwin.config import load_config

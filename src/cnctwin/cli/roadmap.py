@@ -24,6 +24,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.cli._options import Density
 from cnctwin.cli.stability import ProgressLine, parse_rpm_range
 from cnctwin.errors import InputError
 from cnctwin.report import check_report_path
@@ -240,9 +241,7 @@ def roadmap(
         str | None,
         typer.Option("--rpm-range", help="MIN:MAX:N speed grid (default: file's, every 10 rpm)."),
     ] = None,
-    density: Annotated[
-        float | None, typer.Option("--density", help="Dexels per mm (overrides the config).")
-    ] = None,
+    density: Density = None,
     step_mm: Annotated[
         float | None,
         typer.Option("--step-mm", help="Map step along the path, mm (default 1/density)."),

@@ -19,7 +19,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.cli._options import progress
+from cnctwin.cli._options import CycleMs, Density, progress
 from cnctwin.cli.simulate import resolution
 from cnctwin.config import MachiningConfig, load_config
 
@@ -168,12 +168,8 @@ def signals(
         Path | None, typer.Option("--plot", help="Write the plot to this PNG file.")
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
-    density: Annotated[
-        float | None, typer.Option("--density", help="Dexels per mm (overrides the config).")
-    ] = None,
-    cycle_ms: Annotated[
-        float | None, typer.Option("--cycle-ms", help="Cycle time in ms (overrides the config).")
-    ] = None,
+    density: Density = None,
+    cycle_ms: CycleMs = None,
 ) -> None:
     """Predicted forces, spindle torque, power and current, and feed-drive loads over time.
 

@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.cli._options import progress
+from cnctwin.cli._options import CycleMs, Density, progress
 from cnctwin.config import (
     MAX_CYCLE_MS,
     MAX_DENSITY_PER_MM,
@@ -110,12 +110,8 @@ def simulate(
     out: Annotated[
         Path | None, typer.Option("--out", help="Write engagement.csv, stock.stl, summary.json.")
     ] = None,
-    density: Annotated[
-        float | None, typer.Option("--density", help="Dexels per mm (overrides the config).")
-    ] = None,
-    cycle_ms: Annotated[
-        float | None, typer.Option("--cycle-ms", help="Cycle time in ms (overrides the config).")
-    ] = None,
+    density: Density = None,
+    cycle_ms: CycleMs = None,
     html: Annotated[
         Path | None,
         typer.Option("--report", help="Write a self-contained HTML report (interactive plots)."),

@@ -66,8 +66,8 @@ class ProgressLine:
     def estimate(self, cost: SdmCost, what: str = "speeds") -> None:
         """Write the estimated cost: speeds x depth evaluations x the measured time of one."""
         self.stream.write(
-            f"{self.label}: estimated cost {cost.speeds} {what} x ~{cost.evaluations_per_speed:.0f}"
-            f" depth evaluations x {cost.seconds_per_evaluation * 1e3:.2g} ms = "
+            f"{self.label}: estimated cost {cost.speeds} {what} x ~{cost.evaluations_per_speed:.3g}"
+            f" depth evaluations x {cost.seconds_per_evaluation * 1e3:.3g} ms = "
             f"~{_duration(cost.seconds)}\n"
         )
         self.stream.flush()
