@@ -274,3 +274,22 @@ def test_models_built_in_code_are_validated_too() -> None:
     tool = ToolConfig(number=2, kind="ball", diameter_mm=8.0)
     assert math.isclose(tool.corner_radius_mm or 0.0, 4.0)
     assert tool.tool_entry() == ToolEntry(number=2, diameter_mm=8.0)
+
+
+@pytest.mark.parametrize(
+    ("kind", "key", "value", "allowed"),
+    [
+        ("flat", "pitch_mm", 1.0, "'tap'"),
+        ("bull", "web_mm", 1.0, "'drill'"),
+        ("ball", "tip_angle_deg", 90.0, "'conical', 'snub' or 'drill'"),
+    ],
+)
+def test_a_key_of_another_tool_kind_is_named_with_the_kinds_it_belongs_to(
+    kind: str, key: str, value: float, allowed: str
+) -> None:
+    extra = {"corner_radius_mm": 1.0} if kind == "bull" else {}
+    with pytest.raises(ValueError) as caught:
+        ToolConfig.model_validate(
+            {"number": 1, "kind": kind, "diameter_mm": 10.0, key: value, **extra}
+        )
+    assert f"is only for kind {allowed}; remove it for kind '{kind}'" in str(caught.value)

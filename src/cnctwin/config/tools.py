@@ -40,6 +40,17 @@ _CONES = ("conical", "snub")
 DEFAULT_POINT_ANGLE_DEG = 118.0
 
 
+def _only_for(error: str, kinds: tuple[str, ...], kind: str) -> PydanticCustomError:
+    """The error for a key given on a tool kind it does not belong to (``kinds`` hold it)."""
+    named = [f"'{k}'" for k in kinds]
+    allowed = named[0] if len(named) == 1 else f"{', '.join(named[:-1])} or {named[-1]}"
+    return PydanticCustomError(
+        error,
+        "is only for kind {allowed}; remove it for kind '{kind}'",
+        {"allowed": allowed, "kind": kind},
+    )
+
+
 class ToolConfig(Section):
     """One cutting tool.
 
@@ -169,11 +180,7 @@ class ToolConfig(Section):
         if kind == "drill":
             return DEFAULT_POINT_ANGLE_DEG if value is None else value
         if value is not None and kind is not None and kind not in _CONES:
-            raise PydanticCustomError(
-                "tip_angle",
-                "is only for kind 'conical', 'snub' or 'drill'; remove it for kind '{kind}'",
-                {"kind": kind},
-            )
+            raise _only_for("tip_angle", (*_CONES, "drill"), kind)
         return value
 
     @field_validator("web_mm")
@@ -184,9 +191,7 @@ class ToolConfig(Section):
         if kind is None or diameter is None:
             return value  # kind or diameter is itself invalid and reported
         if kind != "drill" and value:
-            raise PydanticCustomError(
-                "web", "is only for kind 'drill'; remove it for kind '{kind}'", {"kind": kind}
-            )
+            raise _only_for("web", ("drill",), kind)
         if value >= diameter:
             raise PydanticCustomError(
                 "web",
@@ -204,9 +209,7 @@ class ToolConfig(Section):
             return value  # kind or diameter is itself invalid and reported
         if kind != "tap":
             if value is not None:
-                raise PydanticCustomError(
-                    "pitch", "is only for kind 'tap'; remove it for kind '{kind}'", {"kind": kind}
-                )
+                raise _only_for("pitch", ("tap",), kind)
             return None
         if value is None or not value < 0.5 * diameter:
             raise PydanticCustomError(
