@@ -396,13 +396,20 @@ M30
 """
 
 
+@pytest.fixture
+def two_tools(tmp_path: Path) -> Path:
+    """A folder with the two-tool cell (cell.toml) and its program (p.ngc)."""
+    (tmp_path / "cell.toml").write_text(TWO_TOOLS)
+    (tmp_path / "p.ngc").write_text(TWO_TOOL_PASSES)
+    return tmp_path
+
+
 def test_roadmap_per_tool_leaves_a_tool_without_modes_at_its_speed(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    two_tools: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     from cnctwin.dynamics.stability import MillingProcess, sdm_lobes
 
-    (tmp_path / "cell.toml").write_text(TWO_TOOLS)
-    (tmp_path / "p.ngc").write_text(TWO_TOOL_PASSES)
+    tmp_path = two_tools
     # The benchmark's file asks for 40 equal steps; the roadmap's default is the auto grid.
     text = (EXAMPLES / "insperger_slot.toml").read_text()
     (tmp_path / "slot.toml").write_text(text.replace("steps = 40", 'steps = "auto"'))
@@ -448,10 +455,9 @@ def test_roadmap_per_tool_leaves_a_tool_without_modes_at_its_speed(
     ],
 )
 def test_roadmap_stability_option_errors_are_one_line(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], stability: list[str], message: str
+    two_tools: Path, capsys: pytest.CaptureFixture[str], stability: list[str], message: str
 ) -> None:
-    (tmp_path / "cell.toml").write_text(TWO_TOOLS)
-    (tmp_path / "p.ngc").write_text(TWO_TOOL_PASSES)
+    tmp_path = two_tools
     (tmp_path / "map.toml").write_text('[tools]\nX1 = "a.toml"\n')
     slot = str(EXAMPLES / "insperger_slot.toml")
     options = []
