@@ -170,9 +170,8 @@ def monodromy(
     d = basis.shape[1]
     ny = 2 * n
     size = ny + m * d
+    p, g1, g2 = step_maps(a0, lq_h, phi, basis, depth, dts, active)
     cs = _mm(basis.T, phi)  # (d, n): s = cs q
-    free = np.eye(ny)
-    free_dt = -1.0
     y = np.zeros((ny, size))
     for i in range(ny):
         y[i, i] = 1.0
@@ -181,27 +180,12 @@ def monodromy(
     for k in range(1, m + 1):
         for c in range(d):
             s[m - k, c, ny + (k - 1) * d + c] = 1.0
-    big = ny + 2 * d
-    augmented = np.zeros((big, big))
     for i in range(m):
         s[i + m] = _mm(cs, y[:n])
-        dt = dts[i]
-        if not active[i]:
-            if dt != free_dt:
-                free = expm(a0 * dt)
-                free_dt = dt
-            y = _mm(free, y)
-            continue
-        augmented[:, :] = 0.0
-        augmented[:ny, :ny] = a0
-        augmented[n:ny, :n] += depth * _mm(lq_h[i], phi)
-        augmented[n:ny, ny : ny + d] = -depth * _mm(lq_h[i], basis)
-        for c in range(d):
-            augmented[ny + c, ny + d + c] = 1.0 / dt
-        x = expm(augmented * dt)
-        gamma2 = x[:ny, ny + d : ny + 2 * d]
-        gamma1 = x[:ny, ny : ny + d] - gamma2
-        y = _mm(x[:ny, :ny], y) + _mm(gamma1, s[i]) + _mm(gamma2, s[i + 1])
+        if active[i]:
+            y = _mm(p[i], y) + _mm(g1[i], s[i]) + _mm(g2[i], s[i + 1])
+        else:
+            y = _mm(p[i], y)
     out = np.zeros((size, size))
     out[:ny] = y
     for k in range(1, m + 1):
