@@ -197,6 +197,7 @@ class _Link:
         self.gaps_s: list[float] = []
         self._lost_s: float | None = None
         self._ever = False
+        self._closing = False
 
     def up(self) -> None:
         with self._lock:
@@ -210,10 +211,15 @@ class _Link:
             self._lost_s = None
             self.connected.set()
 
+    def close(self) -> None:
+        """The client disconnects on purpose: that is no loss."""
+        with self._lock:
+            self._closing = True
+
     def down(self, reason: str) -> None:
         with self._lock:
             self.connected.clear()
-            if self._ever and self._lost_s is None:
+            if self._ever and self._lost_s is None and not self._closing:
                 self._lost_s = self._clock()
                 self.events.append(LinkEvent("mqtt_lost", self._lost_s, {"reason": reason}))
 
@@ -342,6 +348,7 @@ class MqttPublisher:
             )
             with contextlib.suppress(Exception):
                 info.wait_for_publish(timeout=1.0)
+        self.link.close()
         self._client.disconnect()
         self._client.loop_stop()
 
@@ -460,6 +467,7 @@ class MqttSource:
 
     def stop(self) -> None:
         """Disconnect."""
+        self.link.close()
         self._client.disconnect()
         self._client.loop_stop()
 
