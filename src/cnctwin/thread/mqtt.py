@@ -4,7 +4,7 @@ paho-mqtt runs each client's network traffic in a thread of its own (``loop_star
 from the twin's asyncio loop: a slow or absent broker never takes time from the cycle.
 
 :class:`MqttPublisher` takes messages from the cycle with :meth:`~MqttPublisher.offer`
-(a lock and a deque append, microseconds), encodes them as JSON in a thread of its own and
+(no lock: a queue put and a count, microseconds), encodes them as JSON in a thread of its own and
 hands them to paho with QoS 1. The local buffer (``[mqtt.publish] buffer``) holds what the
 broker has not acknowledged: messages waiting while the broker is away and messages in
 flight. paho sends the unacknowledged ones again after a reconnect (DUP set), so a
@@ -25,6 +25,7 @@ import json
 import logging
 import math
 import os
+import queue
 import ssl
 import threading
 import time
@@ -239,12 +240,15 @@ def _connect(client: Any, config: MqttConfig, properties: Any = None) -> None:
 class MqttPublisher:
     """Publishes the twin's messages with a bounded local buffer, off the cycle's thread.
 
+    The cycle's side (:meth:`offer`) takes no lock: a C-level queue put and integer counts,
+    so a publisher thread that the OS has put aside never holds up the cycle.
+
     Parameters
     ----------
     config
         The ``[mqtt]`` table (broker, credentials, ``[mqtt.publish]``).
     clock
-        Monotonic clock, s (link events and gaps).
+        Monotonic clock, s (link events, gaps, acknowledgement times).
     status
         Extra fields of the retained status message (``PREFIX/status``).
 
@@ -281,12 +285,14 @@ class MqttPublisher:
         self.last_ack_s = math.nan
         self._clock = clock
         self._status = dict(status or {})
-        self._queue: deque[tuple[int, str, dict[str, Any]]] = deque()
-        self._cond = threading.Condition()
+        self._queue: queue.SimpleQueue[tuple[int, str, dict[str, Any]] | None] = (
+            queue.SimpleQueue()
+        )
+        self._lock = threading.Lock()  # the pump's and paho's, never the cycle's
         self._inflight: dict[int, int] = {}  # paho mid -> seq
         self._early: set[int] = set()  # mids acknowledged before they were registered
-        self._seq = 0
-        self._stopping = False
+        self._own: set[int] = set()  # mids of the status messages
+        self._stopping = threading.Event()
         self._thread: threading.Thread | None = None
         self._client = _client(config, "pub")
         self._client.max_queued_messages_set(self.capacity)
@@ -302,9 +308,8 @@ class MqttPublisher:
 
     @property
     def pending(self) -> int:
-        """Messages offered and not yet acknowledged (or dropped)."""
-        with self._cond:
-            return len(self._queue) + len(self._inflight)
+        """Messages offered and not yet acknowledged."""
+        return self.offered - self.acked
 
     def start(self) -> None:
         """Connect in the background (it keeps trying; :meth:`offer` works meanwhile)."""
@@ -313,33 +318,27 @@ class MqttPublisher:
         _connect(self._client, self.config)
 
     def offer(self, kind: str, payload: dict[str, Any]) -> bool:
-        """Queue one message for ``PREFIX/kind`` (never blocks; the cycle calls it).
+        """Queue one message for ``PREFIX/kind``; never blocks. Call it from one thread (the
+        cycle's).
 
         ``payload`` is encoded later: hand over a dict the caller no longer changes. A
         sequence number ``seq`` is added. Returns ``False`` when the buffer was full and
         the message was dropped.
         """
-        with self._cond:
-            if len(self._queue) + len(self._inflight) >= self.capacity:
-                self.dropped += 1
-                return False
-            self._seq += 1
-            self.offered += 1
-            self._queue.append((self._seq, kind, payload))
-            self._cond.notify()
+        if self.offered - self.acked >= self.capacity:
+            self.dropped += 1
+            return False
+        self.offered += 1
+        self._queue.put((self.offered, kind, payload))
         return True
 
     def stop(self, flush_s: float = 2.0) -> None:
         """Wait up to ``flush_s`` for the buffer to empty, mark the twin offline, disconnect."""
         deadline = time.monotonic() + flush_s
-        with self._cond:
-            while (self._queue or self._inflight) and self.link.connected.is_set():
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    break
-                self._cond.wait(min(left, 0.05))
-            self._stopping = True
-            self._cond.notify_all()
+        while self.pending and self.link.connected.is_set() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        self._stopping.set()
+        self._queue.put(None)
         if self._thread is not None:
             self._thread.join(timeout=2.0)
         if self.link.connected.is_set():
@@ -368,24 +367,24 @@ class MqttPublisher:
         return finite_json.dumps({"online": online, "time_unix_s": time.time(), **self._status})
 
     def _pump(self) -> None:
-        """Encode and hand messages to paho, as fast as the buffer lets them leave."""
-        while True:
-            with self._cond:
-                while not self._stopping and not self._queue:
-                    self._cond.wait(0.5)
-                if self._stopping:
-                    return
-                seq, kind, payload = self._queue[0]
+        """Encode the offered messages and hand them to paho, in order."""
+        while not self._stopping.is_set():
+            item = self._queue.get()
+            if item is None:
+                return
+            seq, kind, payload = item
             text = finite_json.dumps({"seq": seq, **payload})
-            # paho keeps a QoS 1 message until its PUBACK, across reconnects. No lock of ours
-            # is held while paho takes its own (its PUBACK callback takes ours).
-            info = self._client.publish(self.topic(kind), text, self.qos)
-            kept = info.rc == _OK or (self.qos == 1 and info.rc == _NO_CONN)
-            with self._cond:
-                if not kept:  # paho's queue is full, or QoS 0 without a broker: wait
-                    self._cond.wait(0.05)
-                    continue
-                self._queue.popleft()
+            while not self._stopping.is_set():
+                # paho keeps a QoS 1 message until its PUBACK, across reconnects. No lock of
+                # ours is held while paho takes its own (its PUBACK callback takes ours).
+                info = self._client.publish(self.topic(kind), text, self.qos)
+                if info.rc == _OK or (self.qos == 1 and info.rc == _NO_CONN):
+                    break
+                # paho's queue is full, or QoS 0 without a broker: wait and try again
+                self._stopping.wait(0.05)
+            else:
+                return
+            with self._lock:
                 if self.qos == 0 or info.mid in self._early:
                     self._early.discard(info.mid)
                     self._acknowledged(seq)
@@ -393,20 +392,19 @@ class MqttPublisher:
                     self._inflight[info.mid] = seq
 
     def _acknowledged(self, seq: int) -> None:
-        """Count one acknowledgement (holding ``_cond``)."""
-        self.acked += 1
+        """Count one acknowledgement (holding ``_lock``)."""
         self.acked_seq.append(seq)
         self.last_ack_s = self._clock()
-        self._cond.notify_all()
+        self.acked += 1
 
     def _on_connect(self, client: Any, userdata: Any, flags: Any, reason: Any, props: Any) -> None:
         if reason.is_failure:
             logger.warning("MQTT broker %s refused the publisher: %s", self.config.broker, reason)
             return
-        client.publish(self.topic("status"), self._status_payload(True), 1, retain=True)
+        info = client.publish(self.topic("status"), self._status_payload(True), 1, retain=True)
+        with self._lock:
+            self._own.add(info.mid)  # its PUBACK is no message of the cycle's
         self.link.up()
-        with self._cond:
-            self._cond.notify_all()
 
     def _on_disconnect(
         self, client: Any, userdata: Any, flags: Any, reason: Any, props: Any
@@ -414,7 +412,10 @@ class MqttPublisher:
         self.link.down(str(reason))
 
     def _on_publish(self, client: Any, userdata: Any, mid: int, reason: Any, props: Any) -> None:
-        with self._cond:
+        with self._lock:
+            if mid in self._own:
+                self._own.discard(mid)
+                return
             seq = self._inflight.pop(mid, None)
             if seq is None:  # acknowledged before :meth:`_pump` registered it
                 self._early.add(mid)
