@@ -1,8 +1,9 @@
 """Benchmark: what publishing over MQTT costs the twin's cycle (docs/mqtt.md).
 
 The demo twin (packaged ``demo_twin.toml``: dexel cut, forces, filters, windows, force band,
-form error, rules, control) runs against an in-process virtual machine at the twin's real period (12.5 ms; the machine advances 25 ms per read,
-the demo's two times real time), alternately without ``[mqtt]`` and with it (a private
+form error, rules, control) runs against an in-process virtual machine at the twin's real
+period (12.5 ms; the machine advances 25 ms per read, the demo's two times real time),
+alternately without ``[mqtt]`` and with it (a private
 Mosquitto on loopback, telemetry of every sample, QoS 1, one sensor signal subscribed).
 Reported per variant: cycles, overruns, cycle work p50/p99/max (the stages plus the outlet)
 and the MQTT outlet's own p50/p99/max, in ms, and the messages published and acknowledged.
@@ -25,8 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from cnctwin.thread import Mosquitto, MqttPublisher, MqttSource
-from cnctwin.twin import RunConfig, build_twin, load_run_config
-from cnctwin.twin.local import LocalConnection
+from cnctwin.twin import LocalConnection, RunConfig, build_twin, load_run_config
 from cnctwin.virtual import VirtualMachine
 
 STEP_S = 0.025  # machine time per cycle: the demo's 2x real time at 12.5 ms

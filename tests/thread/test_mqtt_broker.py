@@ -98,7 +98,10 @@ def test_a_full_buffer_drops_new_messages_and_counts_them() -> None:
 
 def test_mosquitto_pub_values_reach_the_source_and_garbage_is_rejected() -> None:
     if shutil.which("mosquitto_pub") is None:
-        missing("mosquitto_pub is not installed (Debian package mosquitto-clients)", "CNCTWIN_REQUIRE_SERVICES")
+        missing(
+            "mosquitto_pub is not installed (Debian package mosquitto-clients)",
+            "CNCTWIN_REQUIRE_SERVICES",
+        )
     with private_broker() as broker:
         config = MqttConfig.model_validate(
             {

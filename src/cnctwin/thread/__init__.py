@@ -31,6 +31,7 @@ if TYPE_CHECKING:
         measure_read_latency,
     )
     from cnctwin.thread.modbus import ModbusConnection
+    from cnctwin.thread.modbus_map import READ_MAP, STATUS_MAP, WRITE_MAP, RegisterAddress
     from cnctwin.thread.mosquitto import Mosquitto
     from cnctwin.thread.mqtt import (
         LinkEvent,
@@ -47,7 +48,6 @@ if TYPE_CHECKING:
         MqttSignalConfig,
         broker_address,
     )
-    from cnctwin.thread.modbus_map import READ_MAP, STATUS_MAP, WRITE_MAP, RegisterAddress
     from cnctwin.thread.mtconnect import MTConnectConnection, SequenceGap
     from cnctwin.thread.mtconnect_documents import (
         AgentError,

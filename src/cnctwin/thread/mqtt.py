@@ -127,7 +127,9 @@ def parse_sensor_payload(payload: bytes, spec: MqttSignalConfig, max_bytes: int)
     try:
         data = json.loads(payload.decode("utf-8"), parse_constant=_reject_constant)
     except (UnicodeDecodeError, ValueError, RecursionError) as err:
-        raise DataError(f"payload is no JSON ({str(err)[:80]}); valid: 12.5 or " + '{"value": 12.5}') from None
+        raise DataError(
+            f"payload is no JSON ({str(err)[:80]}); valid: 12.5 or " + '{"value": 12.5}'
+        ) from None
     if isinstance(data, dict):
         unknown = set(data) - {"value", "unit", "seq"}
         if unknown:
@@ -285,9 +287,7 @@ class MqttPublisher:
         self.last_ack_s = math.nan
         self._clock = clock
         self._status = dict(status or {})
-        self._queue: queue.SimpleQueue[tuple[int, str, dict[str, Any]] | None] = (
-            queue.SimpleQueue()
-        )
+        self._queue: queue.SimpleQueue[tuple[int, str, dict[str, Any]] | None] = queue.SimpleQueue()
         self._lock = threading.Lock()  # the pump's and paho's, never the cycle's
         self._inflight: dict[int, int] = {}  # paho mid -> seq
         self._early: set[int] = set()  # mids acknowledged before they were registered
@@ -591,7 +591,9 @@ async def measure_mqtt_latency(
         stack.callback(publisher.stop, 0.5)
         for link, what in ((source.link, "source"), (publisher.link, "publisher")):
             if not await asyncio.to_thread(link.connected.wait, timeout_s):
-                raise DataError(f"MQTT broker {endpoint} not reached by the {what} in {timeout_s} s")
+                raise DataError(
+                    f"MQTT broker {endpoint} not reached by the {what} in {timeout_s} s"
+                )
         await asyncio.sleep(0.2)  # the source's subscription settles
         writes: list[float] = []
         trips: list[float] = []

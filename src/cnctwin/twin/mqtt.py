@@ -249,12 +249,19 @@ class MqttOutlet:
         if state.connected and state.new_sample and state.time_s >= self._next_s:
             self._next_s = max(self._next_s + self.period_s, state.time_s)
             at = state.received_s if math.isfinite(state.received_s) else state.deadline_s
-            pub.offer("telemetry", telemetry_payload(state, at - self.t0_s, at + self._unix_offset_s))
+            pub.offer(
+                "telemetry", telemetry_payload(state, at - self.t0_s, at + self._unix_offset_s)
+            )
         for result in state.decisions:
             at = result.written_s if math.isfinite(result.written_s) else time.monotonic()
-            pub.offer("decisions", decision_payload(result, at - self.t0_s, at + self._unix_offset_s))
+            pub.offer(
+                "decisions", decision_payload(result, at - self.t0_s, at + self._unix_offset_s)
+            )
         for event in state.events:
-            pub.offer("events", event_payload(event, event.t_s - self.t0_s, event.t_s + self._unix_offset_s))
+            pub.offer(
+                "events",
+                event_payload(event, event.t_s - self.t0_s, event.t_s + self._unix_offset_s),
+            )
 
     def stats(self) -> dict[str, Any]:
         """The publisher's and the source's counts (JSON-ready)."""
