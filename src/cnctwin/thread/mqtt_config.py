@@ -192,7 +192,8 @@ class MqttConfig(Section):
     keepalive_s
         MQTT keep-alive, s: a broker silent for 1.5 times this counts as lost.
     reconnect_max_s
-        Longest wait between reconnection attempts, s (they start at 0.1 s and double).
+        Longest wait between reconnection attempts, s (they start at 1 s and double; paho
+        counts in whole seconds).
     max_payload_bytes
         Largest sensor payload accepted, bytes; the broker is asked (MQTT 5 maximum packet
         size) not to send larger ones.
