@@ -9,6 +9,8 @@ queued messages saved to disk every ``autosave_s`` and at a clean stop).
 
 from __future__ import annotations
 
+import os
+import pwd
 import shutil
 import signal
 import socket
@@ -61,7 +63,15 @@ class Mosquitto:
         self.port = port or _free_port()
         self.url = f"mqtt://127.0.0.1:{self.port}"
         self._dir = Path(tempfile.mkdtemp(prefix="cnctwin-mosquitto-"))
-        lines = [f"listener {self.port} 127.0.0.1", "allow_anonymous true", "log_dest none"]
+        # started as root (or in a user namespace that maps us to root), Mosquitto would drop
+        # to the user "mosquitto"; as the user that starts it, it keeps running as that one
+        user = pwd.getpwuid(os.geteuid()).pw_name
+        lines = [
+            f"listener {self.port} 127.0.0.1",
+            "allow_anonymous true",
+            "log_dest none",
+            f"user {user}",
+        ]
         if persistence:
             lines += [
                 "persistence true",
