@@ -177,3 +177,49 @@ def test_a_subscriber_gets_the_documented_payloads_and_mosquitto_pub_feeds_a_rul
     assert decision["reason"].startswith("spindle vibration 2.00 g")
     kinds = [m["kind"] for m in by_topic["events"]]
     assert "mqtt_rejected" in kinds and "signal_invalid" in kinds
+
+
+class _Link:
+    def __init__(self, events: list[Any]) -> None:
+        self.events = events
+
+    def drain(self) -> list[Any]:
+        out, self.events = self.events, []
+        return out
+
+
+class _Publisher:
+    """Stands in for the publisher: its link reports a loss and a return of the broker."""
+
+    def __init__(self) -> None:
+        from cnctwin.thread import LinkEvent
+
+        self.link = _Link(
+            [
+                LinkEvent("mqtt_lost", 10.0, {"reason": "broker gone"}),
+                LinkEvent("mqtt_restored", 12.5, {"gap_s": 2.5}),
+            ]
+        )
+        self.offered: list[tuple[str, dict[str, Any]]] = []
+
+    def offer(self, kind: str, payload: dict[str, Any]) -> bool:
+        self.offered.append((kind, payload))
+        return True
+
+
+def test_the_broker_gap_becomes_events_of_the_run_published_with_the_documented_schema() -> None:
+    from cnctwin.twin.mqtt import MqttOutlet
+
+    validator = jsonschema.Draft202012Validator(documented_schemas()["events"])
+    publisher = _Publisher()
+    outlet = MqttOutlet(publisher, None, telemetry_hz=10.0, t0_s=2.0)  # type: ignore[arg-type]
+    state = CycleState(0, 0.0)
+    outlet.send(state)
+    assert [(e.kind, e.t_s) for e in state.events] == [("mqtt_lost", 10.0), ("mqtt_restored", 12.5)]
+    assert state.events[1].data == {"role": "publisher", "gap_s": 2.5}
+    assert "after a gap of 2.500 s" in state.events[1].message
+    sent = [payload for kind, payload in publisher.offered if kind == "events"]
+    assert [p["t_s"] for p in sent] == [8.0, 10.5]  # since the run's start
+    for payload in sent:
+        assert not list(validator.iter_errors({"seq": 1, **payload}))
+    assert not [kind for kind, _ in publisher.offered if kind == "telemetry"]  # no sample yet

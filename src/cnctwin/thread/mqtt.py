@@ -461,7 +461,7 @@ class MqttSource:
         from paho.mqtt.packettypes import PacketTypes
         from paho.mqtt.properties import Properties
 
-        props = Properties(PacketTypes.CONNECT)
+        props = Properties(PacketTypes.CONNECT)  # type: ignore[no-untyped-call]
         # the broker drops larger messages for this client instead of sending them
         props.MaximumPacketSize = self.config.max_payload_bytes + 512
         _connect(self._client, self.config, props)

@@ -210,7 +210,8 @@ class TwinRuntime:
         self.realtime = realtime
         self.on_cycle = on_cycle
         self.stop_hold_s = stop_hold_s
-        self.timings = {part.name: TimingSeries() for part in [*self.stages, *self.outlets]}
+        names = [stage.name for stage in self.stages] + [outlet.name for outlet in self.outlets]
+        self.timings = {name: TimingSeries() for name in names}
         self.cycle_times = TimingSeries()
         self.overruns = 0
         self.cycles = 0
