@@ -132,7 +132,10 @@ async def run_session(
             twin.runtime.prepare()
             if on_start is not None:
                 on_start(twin)
-            return await twin.runtime.run(duration_s=duration_s, stop_event=stop_event)
+            summary = await twin.runtime.run(duration_s=duration_s, stop_event=stop_event)
+        # the counts after the publisher's final flush (the historian has those before it)
+        summary.outlets = {outlet.name: outlet.stats() for outlet in twin.runtime.outlets}
+        return summary
     finally:
         await conn.close()
 
