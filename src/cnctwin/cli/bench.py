@@ -1,10 +1,11 @@
 """``cnctwin bench``: measurements of the digital thread against a machine.
 
 ``cnctwin bench latency`` runs Heide 2025 section 2.5's write-to-read-back test over OPC UA
-or Modbus TCP, and the read round trip alone over MTConnect (read-only). Without
-``--endpoint`` it starts the virtual machine (packaged demo program) and its server in a
-child process, as a separate machine would be, and measures over loopback; ``--jitter-ms``
-puts a :class:`~cnctwin.thread.latency.JitterProxy` in the path.
+or Modbus TCP, the read round trip alone over MTConnect (read-only), and the publish-to-
+receive round trip through a broker over MQTT. Without ``--endpoint`` it starts the virtual
+machine (packaged demo program) and its server in a child process, as a separate machine
+would be (for MQTT: a private Mosquitto), and measures over loopback; ``--jitter-ms`` puts a
+:class:`~cnctwin.thread.latency.JitterProxy` in the path.
 """
 
 from __future__ import annotations
@@ -54,9 +55,11 @@ async def run_latency(
     """
     from cnctwin.virtual import TRANSPORTS, virtual_machine_server
 
-    if transport not in TRANSPORTS:
-        raise InputError(f"--transport {transport!r}; valid: {', '.join(TRANSPORTS)}")
+    if transport not in (*TRANSPORTS, "mqtt"):
+        raise InputError(f"--transport {transport!r}; valid: {', '.join(TRANSPORTS)}, mqtt")
     interval_s = interval_ms / 1e3
+    if transport == "mqtt":
+        return await _mqtt_latency(endpoint, n, interval_s, jitter_ms, seed)
     if endpoint is None:
         async with virtual_machine_server(transport) as url:
             result = await measure_endpoint_latency(
@@ -72,10 +75,35 @@ async def run_latency(
     return result, endpoint
 
 
+async def _mqtt_latency(
+    endpoint: str | None, n: int, interval_s: float, jitter_ms: float, seed: int
+) -> tuple[LatencyResult, str]:
+    """The MQTT round trip through ``endpoint``, or through a private Mosquitto."""
+    from cnctwin.thread import Mosquitto, broker_address, measure_mqtt_latency
+
+    if endpoint is None:
+        with Mosquitto() as broker:
+            result = await measure_mqtt_latency(
+                broker.url, n=n, interval_s=interval_s, jitter_ms=jitter_ms, seed=seed
+            )
+            return result, broker.url
+    try:
+        broker_address(endpoint)
+    except ValueError as err:
+        raise InputError(f"--endpoint: {err}") from None
+    result = await measure_mqtt_latency(
+        endpoint, n=n, interval_s=interval_s, jitter_ms=jitter_ms, seed=seed
+    )
+    return result, endpoint
+
+
 def latency(
     transport: Annotated[
         str,
-        typer.Option("--transport", help="Protocol: opcua, modbus or mtconnect (read only)."),
+        typer.Option(
+            "--transport",
+            help="Protocol: opcua, modbus, mtconnect (read only) or mqtt (publish to receive).",
+        ),
     ] = "opcua",
     n: Annotated[int, typer.Option("--n", min=1, help="Round trips.")] = 500,
     interval_ms: Annotated[
@@ -93,16 +121,16 @@ def latency(
         str | None,
         typer.Option(
             "--endpoint",
-            help="Measure this server (opc.tcp://HOST:PORT/PATH, modbus://HOST:PORT or an "
-            "MTConnect agent's http://HOST:PORT) "
-            "instead of starting the virtual machine.",
+            help="Measure this server (opc.tcp://HOST:PORT/PATH, modbus://HOST:PORT, an "
+            "MTConnect agent's http://HOST:PORT or an MQTT broker's mqtt://HOST:PORT) "
+            "instead of starting the virtual machine (or a private Mosquitto).",
         ),
     ] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the jitter.")] = 0,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
 ) -> None:
     """Write-to-read-back latency of the feed override (Heide 2025, section 2.5); over
-    MTConnect (read-only) the read round trip."""
+    MTConnect (read-only) the read round trip; over MQTT publish to receive via the broker."""
     check_count("--n", n, 1, MAX_ROUND_TRIPS)
     check_number("--interval-ms", interval_ms, 0.0, MAX_PAUSE_MS, unit="ms")
     check_number("--jitter-ms", jitter_ms, 0.0, MAX_PAUSE_MS, unit="ms")
@@ -121,7 +149,9 @@ def latency(
     if as_json:
         typer.echo(finite_json.dumps(report))
         return
-    kind = "read" if result.write_ms is None else "write-to-read-back"
+    kind = {"mqtt": "publish-to-receive"}.get(
+        transport, "read" if result.write_ms is None else "write-to-read-back"
+    )
     table = Table(
         title=f"{transport} {kind} latency, {result.n} round trips ({url}, jitter {jitter_ms:g} ms)"
     )

@@ -225,6 +225,20 @@ def summary_table(report: dict[str, Any], title: str) -> Table:
         ("samples recorded", str(report["samples_recorded"])),
         ("history", str(report["database"])),
     ]
+    mqtt = report.get("outlets", {}).get("mqtt_publish", {})
+    if "publisher" in mqtt:
+        pub = mqtt["publisher"]
+        rows.append(
+            (
+                "MQTT messages",
+                f"{pub['acked']} of {pub['offered']} acknowledged, {pub['dropped']} dropped, "
+                f"{pub['reconnects']} reconnections",
+            )
+        )
+    if "source" in mqtt:
+        src = mqtt["source"]
+        rejected = sum(src["rejected"].values())
+        rows.append(("MQTT sensor messages", f"{src['received']} received, {rejected} rejected"))
     for key, value in rows:
         table.add_row(key, value)
     return table

@@ -1,7 +1,8 @@
 """The digital thread: one :class:`MachineConnection` interface over industrial protocols.
 
 The transports (:class:`OpcUaConnection`, :class:`ModbusConnection`, and the read-only
-:class:`MTConnectConnection`) load asyncua and pymodbus;
+:class:`MTConnectConnection`) load asyncua and pymodbus, the MQTT publisher and sensor
+source (:class:`MqttPublisher`, :class:`MqttSource`) paho-mqtt;
 they are imported on first use so that the signal catalogue and the connection interface stay
 light for the modules that only need those.
 """
@@ -31,6 +32,22 @@ if TYPE_CHECKING:
     )
     from cnctwin.thread.modbus import ModbusConnection
     from cnctwin.thread.modbus_map import READ_MAP, STATUS_MAP, WRITE_MAP, RegisterAddress
+    from cnctwin.thread.mosquitto import Mosquitto
+    from cnctwin.thread.mqtt import (
+        LinkEvent,
+        MqttPublisher,
+        MqttSource,
+        SensorValue,
+        measure_mqtt_latency,
+        parse_sensor_payload,
+    )
+    from cnctwin.thread.mqtt_config import (
+        SENSOR_SIGNALS,
+        MqttConfig,
+        MqttPublishConfig,
+        MqttSignalConfig,
+        broker_address,
+    )
     from cnctwin.thread.mtconnect import MTConnectConnection, SequenceGap
     from cnctwin.thread.mtconnect_documents import (
         AgentError,
@@ -65,6 +82,18 @@ _LAZY = {
     "LatencyStats": "cnctwin.thread.latency",
     "measure_endpoint_latency": "cnctwin.thread.latency",
     "ModbusConnection": "cnctwin.thread.modbus",
+    "Mosquitto": "cnctwin.thread.mosquitto",
+    "LinkEvent": "cnctwin.thread.mqtt",
+    "MqttPublisher": "cnctwin.thread.mqtt",
+    "MqttSource": "cnctwin.thread.mqtt",
+    "SensorValue": "cnctwin.thread.mqtt",
+    "measure_mqtt_latency": "cnctwin.thread.mqtt",
+    "parse_sensor_payload": "cnctwin.thread.mqtt",
+    "SENSOR_SIGNALS": "cnctwin.thread.mqtt_config",
+    "MqttConfig": "cnctwin.thread.mqtt_config",
+    "MqttPublishConfig": "cnctwin.thread.mqtt_config",
+    "MqttSignalConfig": "cnctwin.thread.mqtt_config",
+    "broker_address": "cnctwin.thread.mqtt_config",
     "MTConnectConnection": "cnctwin.thread.mtconnect",
     "SequenceGap": "cnctwin.thread.mtconnect",
     "AgentError": "cnctwin.thread.mtconnect_documents",
@@ -99,6 +128,18 @@ __all__ = [
     "ConnectionState",
     "MachineConnection",
     "ModbusConnection",
+    "Mosquitto",
+    "LinkEvent",
+    "MqttPublisher",
+    "MqttSource",
+    "SensorValue",
+    "measure_mqtt_latency",
+    "parse_sensor_payload",
+    "SENSOR_SIGNALS",
+    "MqttConfig",
+    "MqttPublishConfig",
+    "MqttSignalConfig",
+    "broker_address",
     "MTConnectConnection",
     "OpcUaConnection",
     "Reading",

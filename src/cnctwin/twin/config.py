@@ -11,7 +11,9 @@ root :class:`~cnctwin.config.MachiningConfig` (``[machine]``, ``[[tools]]``, ``[
 - ``[[rules]]`` and ``[control]`` (:mod:`cnctwin.control.config`): what the twin decides and
   whether it may command the machine;
 - ``[twin]`` (:class:`cnctwin.twin.settings.TwinSettings`): cycle time, filters, windows and
-  the monitoring models.
+  the monitoring models;
+- ``[mqtt]`` (:class:`cnctwin.thread.MqttConfig`, off by default): the broker the twin
+  publishes to and the external sensor signals it takes in (docs/mqtt.md).
 
 Load it with ``cnctwin.config.load_config(path, model=RunConfig)`` or :func:`load_run_config`.
 """
@@ -26,7 +28,7 @@ from pydantic_core import PydanticCustomError
 from cnctwin.config import MachiningConfig, load_config
 from cnctwin.control import ControlConfig, RuleConfig
 from cnctwin.store import HistorianConfig
-from cnctwin.thread import ConnectionConfig
+from cnctwin.thread import ConnectionConfig, MqttConfig
 from cnctwin.twin.settings import TwinSettings
 from cnctwin.virtual import VirtualMachineConfig
 
@@ -50,6 +52,8 @@ class RunConfig(MachiningConfig):
         Whether commands reach the machine, and their bounds.
     twin
         The runtime.
+    mqtt
+        The MQTT link (publish and sensor input only).
     """
 
     connection: ConnectionConfig = Field(default_factory=ConnectionConfig)
@@ -58,6 +62,7 @@ class RunConfig(MachiningConfig):
     rules: list[RuleConfig] = Field(default_factory=list)
     control: ControlConfig = Field(default_factory=ControlConfig)
     twin: TwinSettings = Field(default_factory=TwinSettings)
+    mqtt: MqttConfig = Field(default_factory=MqttConfig)
 
     @classmethod
     def from_machining(cls, machining: MachiningConfig, **tables: object) -> RunConfig:
@@ -68,7 +73,8 @@ class RunConfig(MachiningConfig):
         machining
             Machine, tools, stock, material, simulation.
         **tables
-            ``connection``, ``virtual``, ``historian``, ``rules``, ``control``, ``twin`` as
+            ``connection``, ``virtual``, ``historian``, ``rules``, ``control``, ``twin``,
+            ``mqtt`` as
             models or as the dictionaries their TOML tables would give.
         """
         data: dict[str, object] = {

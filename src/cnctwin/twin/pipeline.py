@@ -7,12 +7,14 @@ import os
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from cnctwin.control import Expression, RuleEngine, SafetyFilter
 from cnctwin.thread import SIGNALS, MachineConnection
 from cnctwin.twin.actions import ActionStage, RuleStage
 from cnctwin.twin.config import RunConfig
 from cnctwin.twin.monitoring import ForceBand
+from cnctwin.twin.mqtt import MqttOutlet, MqttSignalStage
 from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.program import ProgramMap
 from cnctwin.twin.recorder import Recorder
@@ -31,6 +33,9 @@ from cnctwin.twin.stages import (
     Stage,
 )
 
+if TYPE_CHECKING:  # paho-mqtt loads only with an enabled [mqtt]
+    from cnctwin.thread import MqttPublisher, MqttSource
+
 __all__ = ["SHED_ORDER", "Twin", "build_twin", "shed_order", "signal_names"]
 
 #: The optional work of the cycle, first shed first when the twin is overloaded
@@ -47,6 +52,8 @@ def signal_names(config: RunConfig) -> list[str]:
     """Every name a rule may read with this configuration: signals, filtered signals,
     features and predictions."""
     names = list(SIGNALS)
+    if config.mqtt.enabled:
+        names += [s.signal for s in config.mqtt.signals if s.signal not in SIGNALS]
     names += [f"filtered_{name}" for name in config.twin.filters]
     names += [f"{w.signal}_{f}" for w in config.twin.windows for f in w.features]
     names += list(PREDICTIONS)
@@ -105,6 +112,9 @@ def build_twin(
     realtime: bool = True,
     clock: Callable[[], float] = time.monotonic,
     sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
+    mqtt_source: MqttSource | None = None,
+    mqtt_publisher: MqttPublisher | None = None,
+    t0_s: float | None = None,
 ) -> Twin:
     """The twin cycle's stages (docs/twin.md) for ``config``, reading and writing ``connection``.
 
@@ -124,6 +134,12 @@ def build_twin(
     clock, sleep
         The runtime's clock (s) and wait (s); tests give a fake clock (see
         :class:`~cnctwin.twin.runtime.TwinRuntime`).
+    mqtt_source, mqtt_publisher
+        The started MQTT sensor source and publisher of ``[mqtt]`` (docs/mqtt.md), or
+        ``None``: the source's signals join each sample after the read, the publisher gets
+        every cycle after the watchdog.
+    t0_s
+        ``time.monotonic()`` of the run's start, for the published times (default: now).
 
     Raises
     ------
@@ -142,8 +158,10 @@ def build_twin(
     actions = ActionStage(
         connection, safety, recorder, stop_confirmation=twin_cfg.stop_confirmation
     )
-    stages: list[Stage] = [
-        ReadStage.from_config(connection, config),
+    stages: list[Stage] = [ReadStage.from_config(connection, config)]
+    if mqtt_source is not None:
+        stages.append(MqttSignalStage(mqtt_source, config.mqtt.signals))
+    stages += [
         KinematicsStage(
             ProgramMap(config, program, text=program_text), twin_cfg.position_deadband_mm
         ),
@@ -158,6 +176,16 @@ def build_twin(
     if twin_cfg.form_error.enabled:
         stages.append(FormErrorStage(twin_cfg.form_error, physics))
     stages += [RuleStage(engine), actions]
+    outlets: list[MqttOutlet] = []
+    if mqtt_source is not None or mqtt_publisher is not None:
+        outlets.append(
+            MqttOutlet(
+                mqtt_publisher,
+                mqtt_source,
+                telemetry_hz=config.mqtt.publish.telemetry_hz,
+                t0_s=time.monotonic() if t0_s is None else t0_s,
+            )
+        )
     runtime = TwinRuntime(
         stages,
         actions,
@@ -169,5 +197,6 @@ def build_twin(
         shed_order=shed_order(config),
         clock=clock,
         sleep=sleep,
+        outlets=outlets,
     )
     return Twin(runtime, physics, actions, safety)

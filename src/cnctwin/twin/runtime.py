@@ -30,7 +30,7 @@ import math
 import time
 from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 from cnctwin.thread import RunState
 from cnctwin.twin.actions import ActionStage
@@ -40,12 +40,27 @@ from cnctwin.twin.stages import Stage
 from cnctwin.twin.state import CycleState, TwinEvent
 from cnctwin.twin.timing import OverloadMonitor, TimingSeries
 
-__all__ = ["RunSummary", "TwinRuntime"]
+__all__ = ["Outlet", "RunSummary", "TwinRuntime"]
 
 logger = logging.getLogger(__name__)
 
 # events the watchdog records itself (:meth:`TwinRuntime._emit`) as it raises them
 _RECORDED_BY_WATCH = ("reached", "connected", "connection_lost", "connection_restored")
+
+
+class Outlet(Protocol):
+    """Where each finished cycle goes out (the MQTT publisher, docs/mqtt.md): called after
+    the watchdog with the cycle's state, it must not block; events it appends are recorded."""
+
+    name: str
+
+    def send(self, state: CycleState) -> None:
+        """Hand the cycle on (quickly: its time counts in the cycle's)."""
+        ...
+
+    def stats(self) -> dict[str, Any]:
+        """Figures for the run's summary (JSON-ready)."""
+        ...
 
 
 @dataclass
@@ -88,7 +103,9 @@ class RunSummary:
     gaps_s
         Length of each connection gap, s.
     stages_ms
-        Stage name -> ``{"p50_ms", "p99_ms", "max_ms"}``.
+        Stage name -> ``{"p50_ms", "p99_ms", "max_ms"}`` (outlets too).
+    outlets
+        Outlet name -> its figures (MQTT: messages offered, acknowledged, dropped, gaps).
     """
 
     cycles: int = 0
@@ -110,6 +127,7 @@ class RunSummary:
     reconnects: int = 0
     gaps_s: list[float] = field(default_factory=list)
     stages_ms: dict[str, dict[str, float]] = field(default_factory=dict)
+    outlets: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The summary as JSON-ready values."""
@@ -149,6 +167,9 @@ class TwinRuntime:
         The clock (s) that times the cycles, the watchdog and the stop hold, and how the
         runtime waits (s): ``time.monotonic`` and
         ``asyncio.sleep``; tests give a fake clock whose sleep advances it.
+    outlets
+        Called with each cycle's state after the watchdog (:class:`Outlet`); their time
+        counts in the cycle time.
     """
 
     def __init__(
@@ -166,8 +187,10 @@ class TwinRuntime:
         shed_order: Sequence[str] = (),
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
+        outlets: Sequence[Outlet] = (),
     ) -> None:
         self.stages = list(stages)
+        self.outlets = list(outlets)
         self.overload = overload or OverloadConfig()
         self.shed_order = tuple(shed_order) if self.overload.shed else ()
         self.load = OverloadMonitor(
@@ -187,7 +210,8 @@ class TwinRuntime:
         self.realtime = realtime
         self.on_cycle = on_cycle
         self.stop_hold_s = stop_hold_s
-        self.timings = {stage.name: TimingSeries() for stage in self.stages}
+        names = [stage.name for stage in self.stages] + [outlet.name for outlet in self.outlets]
+        self.timings = {name: TimingSeries() for name in names}
         self.cycle_times = TimingSeries()
         self.overruns = 0
         self.cycles = 0
@@ -263,9 +287,16 @@ class TwinRuntime:
                         result = await result
                     state = result
                     self.timings[stage.name].add(self._clock() - t_stage)
-                self.cycle_times.add(self._clock() - started)
+                work_s = self._clock() - started
                 self.cycles += 1
                 await self._watch(state)
+                for outlet in self.outlets:
+                    t_out = self._clock()
+                    outlet.send(state)
+                    spent = self._clock() - t_out
+                    self.timings[outlet.name].add(spent)
+                    work_s += spent
+                self.cycle_times.add(work_s)
                 if self.realtime:
                     self._judge_load(state, self._clock() > deadline + self.cycle_s)
                 self._bookkeep(state)
@@ -494,6 +525,7 @@ class TwinRuntime:
                 name: {k: v for k, v in series.summary().items() if k != "count"}
                 for name, series in self.timings.items()
             },
+            outlets={outlet.name: outlet.stats() for outlet in self.outlets},
         )
 
 

@@ -7,6 +7,7 @@ import logging
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from cnctwin.errors import CnctwinError
 from cnctwin.store import Historian
@@ -17,7 +18,10 @@ from cnctwin.twin.recorder import Recorder
 from cnctwin.twin.runtime import RunSummary
 from cnctwin.twin.state import CycleState
 
-__all__ = ["open_connection", "run_session"]
+if TYPE_CHECKING:  # paho-mqtt loads only with an enabled [mqtt]
+    from cnctwin.thread import MqttPublisher, MqttSource
+
+__all__ = ["MqttLink", "open_connection", "run_session"]
 
 logger = logging.getLogger(__name__)
 
@@ -113,14 +117,79 @@ async def run_session(
                 },
                 t0,
             )
-        twin = build_twin(config, conn, recorder=recorder, program=program, realtime=realtime)
-        twin.runtime.on_cycle = on_cycle
-        twin.runtime.prepare()
-        if on_start is not None:
-            on_start(twin)
-        return await twin.runtime.run(duration_s=duration_s, stop_event=stop_event)
+        with MqttLink(config, endpoint) as link:
+            twin = build_twin(
+                config,
+                conn,
+                recorder=recorder,
+                program=program,
+                realtime=realtime,
+                mqtt_source=link.source,
+                mqtt_publisher=link.publisher,
+                t0_s=t0,
+            )
+            twin.runtime.on_cycle = on_cycle
+            twin.runtime.prepare()
+            if on_start is not None:
+                on_start(twin)
+            summary = await twin.runtime.run(duration_s=duration_s, stop_event=stop_event)
+        # the counts after the publisher's final flush (the historian has those before it)
+        summary.outlets = {outlet.name: outlet.stats() for outlet in twin.runtime.outlets}
+        return summary
     finally:
         await conn.close()
+
+
+class MqttLink:
+    """The MQTT publisher and sensor source of an enabled ``[mqtt]`` (docs/mqtt.md), started
+    on entry (they connect in the background) and stopped on exit (the publisher first
+    flushes what the broker has not acknowledged, for up to 2 s).
+
+    Parameters
+    ----------
+    config
+        The whole configuration.
+    endpoint
+        The machine's endpoint, for the retained status message.
+
+    Attributes
+    ----------
+    publisher, source
+        ``None`` when ``[mqtt]`` is off, publishing is off, or there are no signals.
+    """
+
+    def __init__(self, config: RunConfig, endpoint: str) -> None:
+        self.config = config.mqtt
+        self.endpoint = endpoint
+        self.publisher: MqttPublisher | None = None
+        self.source: MqttSource | None = None
+
+    def __enter__(self) -> MqttLink:
+        mqtt = self.config
+        if not mqtt.enabled:
+            return self
+        from cnctwin.thread import MqttPublisher, MqttSource
+        from cnctwin.twin.mqtt import SCHEMAS
+
+        try:
+            if mqtt.publish.enabled:
+                status = {"schema": SCHEMAS["status"], "machine": self.endpoint}
+                self.publisher = MqttPublisher(mqtt, status=status)
+                self.publisher.start()
+            if mqtt.signals:
+                self.source = MqttSource(mqtt)
+                self.source.start()
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
+        logger.info("MQTT: %s (publish: %s)", mqtt.broker, self.publisher is not None)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.source is not None:
+            self.source.stop()
+        if self.publisher is not None:
+            self.publisher.stop()
 
 
 async def _connect(
