@@ -11,8 +11,6 @@ from __future__ import annotations
 import asyncio
 import csv
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +18,7 @@ import pytest
 from asyncua import Client, ua
 from timeouts import BODY_S
 
+from cnctwin.cli.app import run
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.store import Historian
 from cnctwin.thread.opcua import NAMESPACE_URI, NODE_MAP
@@ -210,7 +209,10 @@ def _csv(path: Path, text: str) -> Path:
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("time_s,x_mm\n0,1\n0.1,abc\n", r"bad\.csv: column 'x_mm' is not numeric \(line 3: 'abc'\)"),
+        (
+            "time_s,x_mm\n0,1\n0.1,abc\n",
+            r"bad\.csv: column 'x_mm' is not numeric \(line 3: 'abc'\)",
+        ),
         ("time_s,x_mm\n0,1\n-0.1,2\n", r"bad\.csv: column 'time_s' goes back in time at line 3"),
         ("t,x_mm\n0,1\n", r"bad\.csv: column 'time_s' is missing"),
         ("a,b\n0,1\n", r"bad\.csv: no column is a canonical signal"),
@@ -248,13 +250,21 @@ def test_bad_mappings_and_missing_columns_name_the_key_and_file(
         read_replay_log(umich, load_replay_map(text))
 
 
-def test_cli_refuses_a_bad_log_in_one_line_exit_2(tmp_path: Path) -> None:
-    bad = _csv(tmp_path / "bad.csv", "time_s,x_mm\n0,1\n0.1,oops\n")
-    done = subprocess.run(
-        [sys.executable, "-m", "cnctwin", "virtual", "serve", "--replay", str(bad), "--port", "0"],
-        capture_output=True, text=True, timeout=120,
-    )  # fmt: skip
-    assert done.returncode == 2, done.stderr
-    assert done.stderr.strip().count("\n") == 0
-    assert "column 'x_mm' is not numeric (line 3: 'oops')" in done.stderr
-    assert str(bad) in done.stderr
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--replay", "BAD"], "bad.csv: column 'x_mm' is not numeric (line 3: 'oops')"),
+        (["--replay", "BAD", "--map", "no.toml"], "no.toml: cannot read mapping"),
+        (["--map", "m.toml"], "--map needs --replay LOG"),
+        (["--replay", "BAD", "--loop", "--once"], "--loop and --once: give one"),
+        (["--replay", "BAD", "--config", "x.toml"], "--config and --replay: give one"),
+    ],
+)
+def test_cli_refuses_bad_replays_in_one_line_exit_2(
+    tmp_path: Path, argv: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = str(_csv(tmp_path / "bad.csv", "time_s,x_mm\n0,1\n0.1,oops\n"))
+    assert run(["virtual", "serve", "--port", "0", *(bad if a == "BAD" else a for a in argv)]) == 2
+    err = capsys.readouterr().err
+    assert message in err
+    assert err.count("\n") == 1

@@ -552,9 +552,7 @@ def check_command(name: str, value: float) -> float:
         try:
             number = float(value)
         except (TypeError, ValueError):
-            raise ConfigError(
-                f"command {name}={value!r} is not a number; valid: {valid}"
-            ) from None
+            raise ConfigError(f"command {name}={value!r} is not a number; valid: {valid}") from None
     if not math.isfinite(number):
         raise ConfigError(f"command {name}={value!r} is not finite; valid: {valid}")
     assert spec.low is not None and spec.high is not None  # every command has a range

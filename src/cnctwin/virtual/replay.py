@@ -201,7 +201,7 @@ def read_replay_log(path: str | Path, mapping: ReplayMap | None = None) -> Repla
     else:
         assert timing.period_s is not None
         period = timing.period_s
-        times = np.flatnonzero(keep) * period
+        times = np.flatnonzero(keep).astype(np.float64) * period
     times = times - times[0]
     signals: dict[str, NDArray[np.float64]] = {}
     for name, source in mapping.signals.items():
@@ -243,9 +243,7 @@ def _read(path: Path, kind: str, columns: list[str]) -> Any:
     try:
         if kind == "parquet":
             return pq.read_table(path, columns=columns)
-        return pacsv.read_csv(
-            path, convert_options=pacsv.ConvertOptions(include_columns=columns)
-        )
+        return pacsv.read_csv(path, convert_options=pacsv.ConvertOptions(include_columns=columns))
     except (OSError, pa.ArrowException) as err:
         raise DataError(f"{path}: cannot read the log: {_one_line(err)}") from err
 
