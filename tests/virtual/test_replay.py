@@ -12,6 +12,7 @@ import asyncio
 import csv
 import math
 from pathlib import Path
+from xml.etree import ElementTree
 
 import numpy as np
 import pytest
@@ -25,6 +26,7 @@ from cnctwin.thread.opcua import NAMESPACE_URI, NODE_MAP
 from cnctwin.thread.signals import RunState
 from cnctwin.virtual import (
     ModbusMachineServer,
+    MTConnectAgent,
     OpcUaMachineServer,
     ReplayMachine,
     UserTable,
@@ -155,6 +157,28 @@ def test_umich_replay_over_modbus_reads_back_float32(umich: Path) -> None:
                 client.close()
 
     asyncio.run(asyncio.wait_for(body(), BODY_S))
+
+
+def test_umich_replay_as_an_mtconnect_agent_marks_what_is_not_recorded(umich: Path) -> None:
+    replay = ReplayMachine(read_replay_log(umich, load_replay_map(UMICH_MAP)))
+    replay.step(replay.tick_s)
+    agent = MTConnectAgent(replay)
+    agent.publish()
+    status, body = agent.answer("GET", "/current")
+    assert status == 200
+    root = ElementTree.fromstring(body)
+    items = {e.get("dataItemId"): e.text for e in root.iter() if e.get("dataItemId")}
+    assert float(items["x_pos"] or "nan") == replay.snapshot()["x_mm"]
+    assert items["x_load"] == "UNAVAILABLE" and items["s_torque"] == "UNAVAILABLE"
+
+
+def test_a_log_over_the_memory_limit_is_refused_before_it_is_read(
+    umich: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("CNCTWIN_MEMORY_LIMIT_GB", "0.001")  # 1 MB: under 8 x the 234 kB file
+    with pytest.raises(ConfigError, match=r"replay log .*experiment_04\.csv") as err:
+        read_replay_log(umich, load_replay_map(UMICH_MAP))
+    assert "\n" not in str(err.value)
 
 
 def test_replay_loops_after_the_recorded_duration(umich: Path) -> None:
