@@ -78,6 +78,11 @@ SPECIAL: dict[tuple[str, str], Special] = {
         f"{SERVE} --config src/cnctwin/examples/demo_twin.toml --transport modbus --port 5020 "
         "--speed 1",
     ): Special("server", MACHINE, port=5020, ready="modbus://127.0.0.1:5020"),
+    (
+        "docs/replay.md",
+        f"{SERVE} --replay ../shared/data/umich_cnc_mill_tool_wear/experiment_05.csv "
+        "--map examples/replay/umich.toml --loop",
+    ): Special("server", MACHINE, port=4840, ready=OPCUA),
     ("docs/dashboard.md", "cnctwin demo --web"): Special(
         "server",
         "a server: it waits up to 60 s for a browser, runs, then serves the page until Ctrl-C",

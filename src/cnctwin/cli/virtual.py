@@ -7,7 +7,8 @@ client) can be tried without a real machine. ``--once`` ends with the program
 after it, still answering. Security (docs/security.md): ``--security-mode``,
 ``--certificate``, ``--private-key``, ``--trust``, ``--users``, ``--anonymous``; a non-loopback
 ``--host`` without security needs ``--insecure``. ``cnctwin virtual hash-password`` makes a
-users file's entry.
+users file's entry. ``--replay LOG`` serves a recorded log instead (``--map``, ``--loop``;
+docs/replay.md).
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from cnctwin.virtual import ROLES, Role, UserTable, check_exposure, hash_passwor
 
 if TYPE_CHECKING:
     from cnctwin.twin import RunConfig
-    from cnctwin.virtual import OpcUaServerSecurity
+    from cnctwin.virtual import OpcUaServerSecurity, ReplayMachine
 
 __all__ = ["app", "hash_password_command", "serve"]
 
@@ -108,11 +109,29 @@ def serve(
             "--insecure", help="Allow a non-loopback --host without security (trusted network)."
         ),
     ] = False,
+    replay: Annotated[
+        Path | None,
+        typer.Option(
+            "--replay",
+            help="Serve a recorded log (CSV or Parquet) instead of the simulated machine.",
+        ),
+    ] = None,
+    mapping: Annotated[
+        Path | None,
+        typer.Option(
+            "--map",
+            help="Mapping TOML of the log's columns (default: the historian's export format).",
+        ),
+    ] = None,
+    loop: Annotated[
+        bool, typer.Option("--loop", help="With --replay: start again after the last row.")
+    ] = False,
 ) -> None:
     """Serve a virtual machine until Ctrl-C (or, with --once, until its program ends).
 
     The endpoint is printed on stdout as soon as the server listens; point a twin at it with
-    ``cnctwin run --config TWIN.toml --endpoint URL``.
+    ``cnctwin run --config TWIN.toml --endpoint URL``. With ``--replay`` it serves a
+    recorded log at recorded time (x ``--speed``) the same way (docs/replay.md).
     """
     from cnctwin.twin import load_run_config
 
@@ -129,15 +148,40 @@ def serve(
         check_number("--speed", speed, 0.0, MAX_SPEED_FACTOR, low_open=True, unit="x real time")
     check_number("--delay", delay, 0.0, MAX_WAIT_S, unit="s")
     protocol = cast(Literal["opcua", "modbus", "mtconnect"], transport)
+    recorded = _recorded(replay, mapping, loop, config, once)
     quiet_protocol_logs()
-    if config is None:
+    settings = None
+    if recorded is not None:
+        note(f"replay {recorded.log.summary()}")
+    elif config is None:
         with as_file(files("cnctwin.examples")) as folder:
             settings = load_run_config(folder / DEFAULT_CONFIG)
     else:
         settings = load_run_config(config)
     asyncio.run(
-        _serve(settings, protocol, speed, host, port, delay, once, security, table, insecure)
+        _serve(
+            settings, protocol, speed, host, port, delay, once, security, table, insecure, recorded
+        )
     )
+
+
+def _recorded(
+    replay: Path | None, mapping: Path | None, loop: bool, config: Path | None, once: bool
+) -> ReplayMachine | None:
+    """The recorded machine of ``--replay`` (None without it); InputError on options that do
+    not go with it."""
+    if replay is None:
+        if mapping is not None or loop:
+            raise InputError(f"{'--map' if mapping is not None else '--loop'} needs --replay LOG")
+        return None
+    if config is not None:
+        raise InputError("--config and --replay: give one (a replay has no [virtual] table)")
+    if loop and once:
+        raise InputError("--loop and --once: give one (a looping replay never ends)")
+    from cnctwin.virtual import ReplayMachine, load_replay_map, read_replay_log
+
+    log = read_replay_log(replay, load_replay_map(mapping) if mapping is not None else None)
+    return ReplayMachine(log, loop=loop)
 
 
 @app.command("hash-password")
@@ -215,7 +259,7 @@ def _access(
 
 
 async def _serve(
-    settings: RunConfig,
+    settings: RunConfig | None,
     transport: Literal["opcua", "modbus", "mtconnect"],
     speed: float | None,
     host: str,
@@ -225,6 +269,7 @@ async def _serve(
     security: OpcUaServerSecurity | None,
     users: UserTable,
     insecure: bool,
+    replay: ReplayMachine | None,
 ) -> None:
     from cnctwin.twin import MachineServer
 
@@ -234,14 +279,17 @@ async def _serve(
         with contextlib.suppress(NotImplementedError, RuntimeError):
             loop.add_signal_handler(sig, stop.set)
     try:
-        machine = MachineServer(settings, transport, speed, host, port, security, users, insecure)
+        machine = MachineServer(
+            settings, transport, speed, host, port, security, users, insecure, replay
+        )
         await machine.start()
     except OSError as err:
         raise InputError(f"cannot listen on {host}:{port}: {err.strerror or err}") from err
     try:
         typer.echo(machine.endpoint)
+        what = "replay" if replay is not None else "virtual machine"
         note(
-            f"virtual machine serving {transport} at {machine.endpoint}, "
+            f"{what} serving {transport} at {machine.endpoint}, "
             f"{machine.clock.speed:g}x real time; program starts in {delay_s:g} s; Ctrl-C ends"
         )
         with contextlib.suppress(TimeoutError):
@@ -249,7 +297,8 @@ async def _serve(
         machine.go()
         while not stop.is_set():
             if once and machine.vm.finished:
-                note(f"program finished at t = {machine.vm.time_s:.2f} s")
+                done = "replay" if replay is not None else "program"
+                note(f"{done} finished at t = {machine.vm.time_s:.2f} s")
                 with contextlib.suppress(TimeoutError):
                     await asyncio.wait_for(stop.wait(), END_GRACE_S)
                 break

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any, Literal, Protocol
 from cnctwin import finite_json
 from cnctwin.errors import CnctwinError, ConfigError
 from cnctwin.twin.config import RunConfig
-from cnctwin.virtual import MachineClock, UserTable, VirtualMachine
+from cnctwin.virtual import MachineClock, ReplayMachine, UserTable, VirtualMachine
 
 if TYPE_CHECKING:
     from cnctwin.virtual import OpcUaServerSecurity
@@ -59,8 +59,8 @@ class MachineServer:
     Parameters
     ----------
     config
-        The run configuration; its ``[virtual]`` table (required) and physics describe the
-        machine.
+        The run configuration; its ``[virtual]`` table (required without ``replay``) and
+        physics describe the machine.
     transport
         ``"opcua"`` or ``"modbus"``.
     speed
@@ -71,9 +71,12 @@ class MachineServer:
         OPC UA endpoint security, users and roles, and leave to serve without security on a
         non-loopback host (docs/security.md). Default: policy None, and an anonymous session
         may command the machine (the twin of ``cnctwin demo``, on loopback).
+    replay
+        A recorded machine to serve instead of the simulated one (``config`` is then unused;
+        ``speed`` ``None`` is real time): the same clock and servers.
     """
 
-    config: RunConfig
+    config: RunConfig | None
     transport: Transport = "opcua"
     speed: float | None = None
     host: str = "127.0.0.1"
@@ -81,15 +84,21 @@ class MachineServer:
     security: OpcUaServerSecurity | None = None
     users: UserTable = field(default_factory=lambda: UserTable(anonymous="operator"))
     insecure: bool = False
+    replay: ReplayMachine | None = None
 
     def __post_init__(self) -> None:
-        if self.config.virtual is None:
+        self.vm: VirtualMachine | ReplayMachine
+        if self.replay is not None:
+            self.vm = self.replay
+            speed = self.speed if self.speed is not None else 1.0
+        elif self.config is None or self.config.virtual is None:
             raise ConfigError(
                 "the configuration has no [virtual] table; add one to describe the virtual "
                 "machine (program, speed, faults)"
             )
-        self.vm = VirtualMachine(self.config.virtual, self.config)
-        speed = self.speed if self.speed is not None else self.config.virtual.speed
+        else:
+            self.vm = VirtualMachine(self.config.virtual, self.config)
+            speed = self.speed if self.speed is not None else self.config.virtual.speed
         self.clock = MachineClock(self.vm, self.vm.tick_s, speed)
         self.server: _Server = self._make_server(self.port)
         self.clock.add_listener(self._publish)

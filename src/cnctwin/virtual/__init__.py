@@ -13,6 +13,9 @@ Public API::
     async with MachineClock(vm, vm.tick_s, speed=1.0) as clock:   # real time, in asyncio
         ...
 
+    log = read_replay_log("run.csv", load_replay_map("map.toml"))   # a recorded machine
+    replay = ReplayMachine(log)                     # the same interface: step, snapshot, ...
+
 Units: the signals' own (mm, mm/min, rpm, N, N m, A, W, %, s); see docs/virtual-machine.md.
 """
 
@@ -32,6 +35,8 @@ from cnctwin.virtual.config import (
 from cnctwin.virtual.exposure import check_exposure, is_loopback
 from cnctwin.virtual.faults import FaultEvent, FaultInjector, blank_with_holes
 from cnctwin.virtual.machine import VirtualMachine
+from cnctwin.virtual.replay import ReplayLog, ReplayMachine, read_replay_log
+from cnctwin.virtual.replay_map import ReplayMap, load_replay_map
 from cnctwin.virtual.users import ROLES, Role, UserTable, hash_password, load_users
 
 if TYPE_CHECKING:
@@ -67,6 +72,9 @@ __all__ = [
     "OpcUaMachineServer",
     "OpcUaServerSecurity",
     "ROLES",
+    "ReplayLog",
+    "ReplayMachine",
+    "ReplayMap",
     "Role",
     "SecurityMode",
     "TRANSPORTS",
@@ -79,7 +87,9 @@ __all__ = [
     "check_exposure",
     "hash_password",
     "is_loopback",
+    "load_replay_map",
     "load_users",
+    "read_replay_log",
     "virtual_machine_server",
 ]
 

@@ -50,7 +50,7 @@ from cnctwin.virtual._motion import PathFollower
 from cnctwin.virtual.config import HoleFault, VirtualMachineConfig
 from cnctwin.virtual.faults import FaultEvent, FaultInjector, blank_with_holes
 
-__all__ = ["VirtualMachine"]
+__all__ = ["VirtualMachine", "check_command"]
 
 logger = logging.getLogger(__name__)
 
@@ -289,30 +289,7 @@ class VirtualMachine:
         ``tool_length_wear_mm`` shifts the Z axis (and the tool tip) at once;
         ``tool_radius_wear_mm`` is stored and read back but does not move the path.
         """
-        spec = COMMANDS.get(name)
-        if spec is None:
-            raise ConfigError(
-                f"command {name!r} is unknown; valid commands: {', '.join(sorted(COMMANDS))}"
-            )
-        valid = f"{spec.low:g} to {spec.high:g} {spec.unit}"
-        if spec.kind == "bool":
-            valid = "0 or 1"
-        if isinstance(value, bool):
-            number = float(value)
-        else:
-            try:
-                number = float(value)
-            except (TypeError, ValueError):
-                raise ConfigError(
-                    f"command {name}={value!r} is not a number; valid: {valid}"
-                ) from None
-        if not math.isfinite(number):
-            raise ConfigError(f"command {name}={value!r} is not finite; valid: {valid}")
-        assert spec.low is not None and spec.high is not None  # every command has a range
-        if spec.kind == "bool" and number not in (0.0, 1.0):
-            raise ConfigError(f"command {name}={value!r}; valid: {valid}")
-        if not spec.low <= number <= spec.high:
-            raise ConfigError(f"command {name}={value!r} is out of range; valid: {valid}")
+        number = check_command(name, value)
         if name == "stop":
             if number == 1.0 and not self._stop_latched:
                 self._stop_latched = True
@@ -538,6 +515,52 @@ class VirtualMachine:
             and tcp[2] <= hi[2]
             and tcp[2] + cutter.flute_length_mm >= lo[2]
         )
+
+
+def check_command(name: str, value: float) -> float:
+    """A command's value as a float, checked against :data:`~cnctwin.thread.COMMANDS`.
+
+    Parameters
+    ----------
+    name
+        A command's name.
+    value
+        In the command's unit (flags: 0 or 1).
+
+    Returns
+    -------
+    float
+        The value, in the command's unit.
+
+    Raises
+    ------
+    ConfigError
+        On an unknown name, a value that is not a finite number, or one outside the range;
+        the message names the value and what is valid.
+    """
+    spec = COMMANDS.get(name)
+    if spec is None:
+        raise ConfigError(
+            f"command {name!r} is unknown; valid commands: {', '.join(sorted(COMMANDS))}"
+        )
+    valid = f"{spec.low:g} to {spec.high:g} {spec.unit}"
+    if spec.kind == "bool":
+        valid = "0 or 1"
+    if isinstance(value, bool):
+        number = float(value)
+    else:
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise ConfigError(f"command {name}={value!r} is not a number; valid: {valid}") from None
+    if not math.isfinite(number):
+        raise ConfigError(f"command {name}={value!r} is not finite; valid: {valid}")
+    assert spec.low is not None and spec.high is not None  # every command has a range
+    if spec.kind == "bool" and number not in (0.0, 1.0):
+        raise ConfigError(f"command {name}={value!r}; valid: {valid}")
+    if not spec.low <= number <= spec.high:
+        raise ConfigError(f"command {name}={value!r} is out of range; valid: {valid}")
+    return number
 
 
 def _load_physics(config: VirtualMachineConfig) -> MachiningConfig:

@@ -320,8 +320,9 @@ class OpcUaMachineServer:
         notify: list[tuple[dict[int, Any], int, ua.DataValue]] = []
         for name, value in snap.items():
             slot = self._slots.get(name)
-            if slot is None or self._published.get(name, _UNSET) == value:
-                continue
+            before = self._published.get(name, _UNSET)
+            if slot is None or before == value or (before != before and value != value):
+                continue  # unchanged (NaN, a value not known, stays unknown)
             self._published[name] = value
             data = _data_value(name, value, stamp)
             slot.value = data
@@ -403,7 +404,9 @@ class OpcUaMachineServer:
             parts = tuple(identifier.split("."))
             node = await parent(parts[:-1])
             vtype = variant_type(name)
-            initial = _coerce(name, snapshot.get(name, 0.0))
+            value = snapshot.get(name, 0.0)
+            # a value not known yet (NaN) gets its status when start() publishes
+            initial = _coerce(name, value if math.isfinite(value) else 0.0)
             variable = await node.add_variable(
                 _node_id(identifier, ns),
                 ua.QualifiedName(parts[-1], ns),
