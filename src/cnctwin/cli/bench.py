@@ -1,7 +1,7 @@
 """``cnctwin bench``: measurements of the digital thread against a machine.
 
-``cnctwin bench latency`` runs Heide 2025 section 2.5's write-to-read-back test over OPC UA
-or Modbus TCP, and the read round trip alone over MTConnect (read-only). Without
+``cnctwin bench latency`` runs Heide 2025 section 2.5's write-to-read-back test over OPC UA,
+Modbus TCP or ADS, and the read round trip alone over MTConnect (read-only). Without
 ``--endpoint`` it starts the virtual machine (packaged demo program) and its server in a
 child process, as a separate machine would be, and measures over loopback; ``--jitter-ms``
 puts a :class:`~cnctwin.thread.latency.JitterProxy` in the path.
@@ -75,7 +75,7 @@ async def run_latency(
 def latency(
     transport: Annotated[
         str,
-        typer.Option("--transport", help="Protocol: opcua, modbus or mtconnect (read only)."),
+        typer.Option("--transport", help="Protocol: opcua, modbus, mtconnect (read only) or ads."),
     ] = "opcua",
     n: Annotated[int, typer.Option("--n", min=1, help="Round trips.")] = 500,
     interval_ms: Annotated[
@@ -93,8 +93,8 @@ def latency(
         str | None,
         typer.Option(
             "--endpoint",
-            help="Measure this server (opc.tcp://HOST:PORT/PATH, modbus://HOST:PORT or an "
-            "MTConnect agent's http://HOST:PORT) "
+            help="Measure this server (opc.tcp://HOST:PORT/PATH, modbus://HOST:PORT, an "
+            "MTConnect agent's http://HOST:PORT or ads://AMSNETID:AMSPORT@HOST:PORT) "
             "instead of starting the virtual machine.",
         ),
     ] = None,
