@@ -356,3 +356,52 @@ def test_encoding_refuses_what_the_type_cannot_hold() -> None:
     for value in (655.36, -0.01, math.inf, math.nan):
         with pytest.raises(ValueError):
             symbol.encode(value)
+
+
+def test_the_shipped_maps_load_and_the_default_covers_every_signal() -> None:
+    from cnctwin.thread import COMMANDS, SIGNALS, default_symbol_map
+
+    default = default_symbol_map()
+    assert set(default.signals) == set(SIGNALS)
+    assert set(default.commands) == set(COMMANDS)
+    repo = Path(__file__).resolve().parents[2]
+    example = load_symbol_map(repo / "examples/ads/twincat_nc_symbols.toml")
+    assert example.readback("feed_override_pct").symbol == "GVL_Axes.stAxisX.PlcToNc.Override"
+    assert "emergency_stop" not in example.commands
+
+
+def test_the_virtual_machine_server_obeys_pyads_own_client_and_refuses_out_of_range() -> None:
+    from cnctwin.virtual import AdsMachineServer
+
+    class Machine:
+        def __init__(self) -> None:
+            self.values = {"feed_override_pct": 100.0, "heartbeat": 3.0, "run_state": 1.0}
+
+        def snapshot(self) -> dict[str, float]:
+            return dict(self.values)
+
+        def command(self, name: str, value: float) -> None:
+            if not 0.0 <= value <= 150.0:
+                raise ConfigError(f"{name}={value} out of range")
+            self.values[name] = value
+
+    machine = Machine()
+
+    async def main() -> None:
+        async with AdsMachineServer(machine) as server:
+            plc = pyads.Connection(NET_ID, 851, f"127.0.0.1:{server.port}")
+            plc.set_timeout(2000)
+
+            def by_name() -> None:
+                with plc:
+                    plc.write_by_name("GVL_Twin.fFeedOverrideCmd", 55.0, pyads.PLCTYPE_LREAL)
+                    with pytest.raises(pyads.ADSError, match="1803"):
+                        plc.write_by_name("GVL_Twin.fFeedOverrideCmd", 400.0, pyads.PLCTYPE_LREAL)
+                    with pytest.raises(pyads.ADSError, match="1827"):  # a reading, not a command
+                        plc.write_by_name("GVL_Twin.fFeedOverride", 1.0, pyads.PLCTYPE_LREAL)
+                    assert plc.read_by_name("GVL_Twin.fFeedOverride", pyads.PLCTYPE_LREAL) == 55.0
+
+            await asyncio.to_thread(by_name)
+
+    asyncio.run(asyncio.wait_for(main(), BODY_S))
+    assert machine.values["feed_override_pct"] == 55.0

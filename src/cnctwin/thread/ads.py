@@ -6,7 +6,8 @@ host and TCP port of its AMS router (default 48898). The symbol map
 (:mod:`cnctwin.thread.ads_map`, ``[connection] symbol_map``) names a PLC symbol, its type and
 scale for each canonical signal and command.
 
-Opening a connection (pyads' bundled AdsLib routes in-process on Linux and macOS; docs/ads.md):
+Opening a connection (pyads' bundled AdsLib routes in-process on Linux and macOS; on Windows
+the TwinCAT router does, and steps 1 and 2's route are TwinCAT's; docs/ads.md):
 
 1. this computer's AMS Net ID is set (``[connection] local_net_id``, else the IPv4 address it
    reaches the PLC from plus ``.1.1``): the PLC answers only a Net ID its static route names;
@@ -43,6 +44,7 @@ import ctypes
 import logging
 import socket
 import struct
+import sys
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -94,6 +96,9 @@ _ADSIGRP_SUMUP_READ = 0xF080
 #: socket errors) means the PLC was not reached.
 _DEVICE_ERRORS = range(0x700, 0x740)
 _SYMBOL_NOT_FOUND = 0x710
+#: pyads' AdsLib routes in this process (Linux, macOS, BSD); on Windows the TwinCAT router
+#: service does, with the routes and the Net ID configured in TwinCAT.
+_IN_PROCESS_ROUTER = sys.platform != "win32"
 #: ADS type of a symbol whose type is not elementary (an enumeration, an alias): its size
 #: alone is checked.
 _BIGTYPE = 65
@@ -288,12 +293,16 @@ class AdsConnection(MachineConnection):
 
     def _open_blocking(self) -> None:
         endpoint = self.endpoint
-        local = self._local_net_id or _local_net_id(endpoint.host, endpoint.port)
+        local = "the TwinCAT router's"
         try:
-            pyads_ex.adsSetLocalAddress(AmsAddr(local, 0).netIdStruct())
+            if _IN_PROCESS_ROUTER:
+                local = self._local_net_id or _local_net_id(endpoint.host, endpoint.port)
+                pyads_ex.adsSetLocalAddress(AmsAddr(local, 0).netIdStruct())
             self._port = pyads_ex.adsPortOpenEx()
             pyads_ex.adsSyncSetTimeoutEx(self._port, max(1, round(self.timeout_s * 1e3)))
-            pyads_ex.adsAddRoute(self._addr.netIdStruct(), f"{endpoint.host}:{endpoint.port}")
+            if _IN_PROCESS_ROUTER:
+                route = f"{endpoint.host}:{endpoint.port}"
+                pyads_ex.adsAddRoute(self._addr.netIdStruct(), route)
         except ADSError as err:
             self._close_blocking()
             raise ConnectionLost(
@@ -356,10 +365,10 @@ class AdsConnection(MachineConnection):
         port, self._port = self._port, None
         if port is None:
             return
-        for call, args in (
-            (pyads_ex.adsDelRoute, (self._addr.netIdStruct(),)),
-            (pyads_ex.adsPortCloseEx, (port,)),
-        ):
+        calls: list[tuple[Any, tuple[Any, ...]]] = [(pyads_ex.adsPortCloseEx, (port,))]
+        if _IN_PROCESS_ROUTER:
+            calls.insert(0, (pyads_ex.adsDelRoute, (self._addr.netIdStruct(),)))
+        for call, args in calls:
             try:
                 call(*args)
             except ADSError as err:

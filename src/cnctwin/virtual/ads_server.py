@@ -60,6 +60,14 @@ class _MachineHandler(AdvancedHandler):  # type: ignore[misc]
         if command_id == constants.ADSCOMMAND_WRITE:
             data = request.ams_header.data
             group, offset, length = struct.unpack_from("<III", data)
+            if group == constants.ADSIGRP_SYM_VALBYHND:  # a write by handle (by name)
+                try:
+                    variable = self.get_variable_by_handle(offset)
+                except KeyError:
+                    return AmsResponseData(
+                        state, request.ams_header.error_code, _result(_SYMBOL_NOT_FOUND)
+                    )
+                group, offset = variable.index_group, variable.index_offset
             target = self.commands.get((group, offset))
             if target is not None:
                 code = self.on_write(target[0], target[1], bytes(data[12 : 12 + length]))
