@@ -221,6 +221,21 @@ def test_garbage_values_are_rejected_and_the_rest_kept(map_path: Path) -> None:
     run(map_path, body)
 
 
+def test_an_answer_of_the_wrong_size_is_rejected_not_zero_filled(map_path: Path) -> None:
+    async def body(server: AdsTestServer, connection: AdsConnection) -> None:
+        # after the connection resolved GVL.fX as 8 bytes, the PLC serves 4: the sum-read
+        # answer is 4 bytes short (pyads' buffer would hold zeros at its end)
+        variable(server, "GVL.fX").value = struct.pack("<f", 1.0)
+        reading = await connection.read()
+        assert reading.values == {}
+        assert "Insufficient data" in reading.rejected["feed_override_pct"]
+        assert connection.state is ConnectionState.CONNECTED
+        variable(server, "GVL.fX").value = struct.pack("<d", 2.0)
+        assert (await connection.read()).values["x_mm"] == 2.0
+
+    run(map_path, body)
+
+
 def test_a_symbol_of_the_wrong_type_or_size_is_unusable_not_misread(map_path: Path) -> None:
     variables = dict(VARIABLES)
     variables["GVL.fX"] = (12345, C.ADST_INT16, "INT")  # the map says LREAL

@@ -12,7 +12,7 @@ the TwinCAT router does, and steps 1 and 2's route are TwinCAT's; docs/ads.md):
 1. this computer's AMS Net ID is set (``[connection] local_net_id``, else the IPv4 address it
    reaches the PLC from plus ``.1.1``): the PLC answers only a Net ID its static route names;
 2. a route to the PLC's Net ID over ``HOST:PORT`` is added, an AMS port opened, the ADS
-   timeout set to ``timeout_s``, and the PLC's ADS state read (it must answer);
+   timeout set to 80 % of ``timeout_s``, and the PLC's ADS state read (it must answer);
 3. every mapped symbol is resolved by name (ADSIGRP_SYM_INFOBYNAMEEX) to its index group,
    index offset, size and ADS type. A symbol the PLC does not know, or whose size or
    elementary type differs from the map's (an enumeration or alias, ADS type 65, is checked
@@ -54,7 +54,7 @@ from urllib.parse import urlsplit
 from pyads import pyads_ex
 from pyads.errorcodes import ERROR_CODES
 from pyads.pyads_ex import ADSError
-from pyads.structs import AmsAddr
+from pyads.structs import AmsAddr, SAdsSumRequest
 
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.examples import example_file
@@ -193,6 +193,13 @@ def _describe(code: int) -> str:
     return f"ADS error {code} ({ERROR_CODES.get(code, 'unknown')})"
 
 
+def _ads_timeout_ms(timeout_s: float) -> int:
+    """AdsLib's own timeout: 80 % of the connection's, so that a request the PLC leaves
+    unanswered ends with ADS error 1861 on the connection's thread before the connection's
+    timeout abandons it (the next request would queue behind it)."""
+    return max(1, round(0.8 * timeout_s * 1e3))
+
+
 def _lost(err: ADSError) -> bool:
     return err.err_code not in _DEVICE_ERRORS
 
@@ -299,7 +306,7 @@ class AdsConnection(MachineConnection):
                 local = self._local_net_id or _local_net_id(endpoint.host, endpoint.port)
                 pyads_ex.adsSetLocalAddress(AmsAddr(local, 0).netIdStruct())
             self._port = pyads_ex.adsPortOpenEx()
-            pyads_ex.adsSyncSetTimeoutEx(self._port, max(1, round(self.timeout_s * 1e3)))
+            pyads_ex.adsSyncSetTimeoutEx(self._port, _ads_timeout_ms(self.timeout_s))
             if _IN_PROCESS_ROUTER:
                 route = f"{endpoint.host}:{endpoint.port}"
                 pyads_ex.adsAddRoute(self._addr.netIdStruct(), route)
@@ -399,15 +406,40 @@ class AdsConnection(MachineConnection):
         rejected: dict[str, str],
     ) -> None:
         """One ADSIGRP_SUMUP_READ: n error codes (uint32), then each symbol's bytes."""
-        requests = [(self._places[n].group, self._places[n].offset, s.type.size) for n, s in chunk]
+        requests = (SAdsSumRequest * len(chunk))()
+        for request, (name, symbol) in zip(requests, chunk, strict=True):
+            place = self._places[name]
+            request.iGroup, request.iOffset, request.size = (
+                place.group,
+                place.offset,
+                symbol.type.size,
+            )
+        expected = 4 * len(chunk) + sum(symbol.type.size for _, symbol in chunk)
         try:
-            answer = bytes(self._request(pyads_ex.adsSumReadBytes, requests))
+            # pyads' adsSumReadBytes, with the answer's length checked: a short answer would
+            # otherwise leave zeros in the buffer, read as values
+            answer = bytes(
+                self._request(
+                    pyads_ex.adsSyncReadWriteReqEx2,
+                    _ADSIGRP_SUMUP_READ,
+                    len(chunk),
+                    None,
+                    requests,
+                    None,
+                    False,
+                    True,
+                )
+            )
+        except ConnectionLost:
+            raise
+        except RuntimeError as err:  # pyads: "Insufficient data (expected N bytes, M were read)"
+            rejected.update(dict.fromkeys((n for n, _ in chunk), f"sum-read: {err}"))
+            return
         except ADSError as err:
             rejected.update(
                 dict.fromkeys((n for n, _ in chunk), f"sum-read: {_describe(err.err_code)}")
             )
             return
-        expected = 4 * len(chunk) + sum(size for _, _, size in requests)
         if len(answer) != expected:
             why = f"sum-read answer of {len(answer)} bytes, expected {expected}"
             rejected.update(dict.fromkeys((n for n, _ in chunk), why))
@@ -456,6 +488,8 @@ class AdsConnection(MachineConnection):
             raise DataError(
                 f"machine signal {name!r}: PLC answered {_describe(err.err_code)}"
             ) from None
+        except ConnectionLost:
+            raise
         except RuntimeError as err:  # pyads: fewer bytes than asked for
             raise DataError(f"machine signal {name!r} at {symbol}: {err}") from None
         values: dict[str, float] = {}
