@@ -420,3 +420,17 @@ def test_the_virtual_machine_server_obeys_pyads_own_client_and_refuses_out_of_ra
 
     asyncio.run(asyncio.wait_for(main(), BODY_S))
     assert machine.values["feed_override_pct"] == 55.0
+
+
+def test_the_virtual_ads_server_listens_on_loopback_unless_told_insecure() -> None:
+    from cnctwin.virtual import AdsMachineServer
+
+    class Machine:
+        def snapshot(self) -> dict[str, float]:
+            return {}
+
+        def command(self, name: str, value: float) -> None:
+            raise AssertionError("no command expected")
+
+    with pytest.raises(ConfigError, match="ADS has no security.*--insecure"):
+        AdsMachineServer(Machine(), host="0.0.0.0")
