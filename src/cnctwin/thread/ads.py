@@ -45,6 +45,7 @@ import logging
 import socket
 import struct
 import sys
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -193,6 +194,14 @@ def _describe(code: int) -> str:
     return f"ADS error {code} ({ERROR_CODES.get(code, 'unknown')})"
 
 
+def _type_name(info: Any) -> str:
+    """The PLC's name of a symbol's type, from its symbol information ("?" when unreadable)."""
+    try:
+        return str(info.symbol_type)[:64] or "?"
+    except (UnicodeDecodeError, ValueError):
+        return "?"
+
+
 def _ads_timeout_ms(timeout_s: float) -> int:
     """AdsLib's own timeout: 80 % of the connection's, so that a request the PLC leaves
     unanswered ends with ADS error 1861 on the connection's thread before the connection's
@@ -279,7 +288,7 @@ class AdsConnection(MachineConnection):
         self._executor = ThreadPoolExecutor(1, thread_name_prefix="cnctwin-ads")
 
     # Blocking pyads calls, one at a time on the connection's thread ----------------------
-    async def _call(self, fn: Any, *args: Any) -> Any:
+    async def _call(self, fn: Callable[..., T], *args: Any) -> T:
         return await asyncio.get_running_loop().run_in_executor(self._executor, fn, *args)
 
     def _request(self, fn: Any, *args: Any) -> Any:
@@ -318,14 +327,13 @@ class AdsConnection(MachineConnection):
         try:
             self._request(pyads_ex.adsSyncReadStateReqEx)
             self._resolve()
-        except ADSError as err:
-            self._close_blocking()
-            raise ConnectionLost(
-                f"PLC {endpoint} refused its state: {_describe(err.err_code)}"
-            ) from err
         except ConnectionLost:
             self._close_blocking()
             raise
+        except (ADSError, RuntimeError) as err:
+            self._close_blocking()
+            why = _describe(err.err_code) if isinstance(err, ADSError) else str(err)
+            raise ConnectionLost(f"PLC {endpoint} did not give its state: {why}") from err
         logger.info(
             "ADS connection to %s (local Net ID %s): %d symbols, %d unusable",
             endpoint,
@@ -344,6 +352,11 @@ class AdsConnection(MachineConnection):
         for key, symbol in entries:
             try:
                 info = self._request(pyads_ex.adsGetSymbolInfo, symbol.symbol)
+            except ConnectionLost:
+                raise
+            except (RuntimeError, ValueError) as err:  # pyads: an answer of the wrong length
+                self.unusable[key] = f"symbol {symbol.symbol}: malformed symbol information ({err})"
+                continue
             except ADSError as err:
                 why = (
                     "not found in the PLC"
@@ -355,7 +368,7 @@ class AdsConnection(MachineConnection):
             data_type = int(info.dataType)
             if info.size != symbol.type.size or data_type not in (symbol.type.ads_type, _BIGTYPE):
                 self.unusable[key] = (
-                    f"symbol {symbol.symbol} is {info.symbol_type or '?'} ({info.size} bytes, "
+                    f"symbol {symbol.symbol} is {_type_name(info)} ({info.size} bytes, "
                     f"ADS type {info.dataType}) in the PLC, {symbol.type.name} "
                     f"({symbol.type.size} bytes, ADS type {symbol.type.ads_type}) in "
                     f"{self.symbols.source}"
