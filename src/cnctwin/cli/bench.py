@@ -1,7 +1,7 @@
 """``cnctwin bench``: measurements of the digital thread against a machine.
 
-``cnctwin bench latency`` runs Heide 2025 section 2.5's write-to-read-back test over OPC UA
-or Modbus TCP, the read round trip alone over MTConnect (read-only), and the publish-to-
+``cnctwin bench latency`` runs Heide 2025 section 2.5's write-to-read-back test over OPC UA,
+Modbus TCP or ADS, the read round trip alone over MTConnect (read-only), and the publish-to-
 receive round trip through a broker over MQTT. Without ``--endpoint`` it starts the virtual
 machine (packaged demo program) and its server in a child process, as a separate machine
 would be (for MQTT: a private Mosquitto), and measures over loopback; ``--jitter-ms`` puts a
@@ -102,7 +102,7 @@ def latency(
         str,
         typer.Option(
             "--transport",
-            help="Protocol: opcua, modbus, mtconnect (read only) or mqtt (publish to receive).",
+            help="Protocol: opcua, modbus, mtconnect (read only), ads or mqtt (publish to receive).",
         ),
     ] = "opcua",
     n: Annotated[int, typer.Option("--n", min=1, help="Round trips.")] = 500,
@@ -122,8 +122,9 @@ def latency(
         typer.Option(
             "--endpoint",
             help="Measure this server (opc.tcp://HOST:PORT/PATH, modbus://HOST:PORT, an "
-            "MTConnect agent's http://HOST:PORT or an MQTT broker's mqtt://HOST:PORT) "
-            "instead of starting the virtual machine (or a private Mosquitto).",
+            "MTConnect agent's http://HOST:PORT, ads://AMSNETID:AMSPORT@HOST:PORT or an MQTT"
+            " broker's mqtt://HOST:PORT) instead of starting the virtual machine (or a private"
+            " Mosquitto).",
         ),
     ] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the jitter.")] = 0,

@@ -56,7 +56,8 @@ def serve(
         ),
     ] = None,
     transport: Annotated[
-        str, typer.Option(help="Protocol: opcua, modbus or mtconnect (an agent, read-only).")
+        str,
+        typer.Option(help="Protocol: opcua, modbus, mtconnect (an agent, read-only) or ads."),
     ] = "opcua",
     host: Annotated[str, typer.Option(help="Address to listen on.")] = "127.0.0.1",
     port: Annotated[int, typer.Option(help="Port (0: a free one, printed).")] = 4840,
@@ -135,8 +136,8 @@ def serve(
     """
     from cnctwin.twin import load_run_config
 
-    if transport not in ("opcua", "modbus", "mtconnect"):
-        raise InputError(f"--transport {transport!r}; valid: opcua, modbus, mtconnect")
+    if transport not in ("opcua", "modbus", "mtconnect", "ads"):
+        raise InputError(f"--transport {transport!r}; valid: opcua, modbus, mtconnect, ads")
     secured = transport == "opcua" and security_mode != "None"
     check_exposure(host, transport, secured=secured, insecure=insecure)
     security, table = _access(
@@ -147,7 +148,7 @@ def serve(
     if speed is not None:
         check_number("--speed", speed, 0.0, MAX_SPEED_FACTOR, low_open=True, unit="x real time")
     check_number("--delay", delay, 0.0, MAX_WAIT_S, unit="s")
-    protocol = cast(Literal["opcua", "modbus", "mtconnect"], transport)
+    protocol = cast(Literal["opcua", "modbus", "mtconnect", "ads"], transport)
     recorded = _recorded(replay, mapping, loop, config, once)
     quiet_protocol_logs()
     settings = None
@@ -239,10 +240,12 @@ def _access(
         )
         if value is not None
     ]
-    if transport in ("modbus", "mtconnect"):
+    if transport in ("modbus", "mtconnect", "ads"):
         if given or mode != "None":
             options = ", ".join(given or ["--security-mode"])
-            name = "Modbus TCP" if transport == "modbus" else "the MTConnect agent"
+            name = {"modbus": "Modbus TCP", "mtconnect": "the MTConnect agent", "ads": "ADS"}[
+                transport
+            ]
             raise InputError(f"{options}: OPC UA only; {name} has no security")
         return None, UserTable()
     if mode not in ("None", "Sign", "SignAndEncrypt"):
@@ -260,7 +263,7 @@ def _access(
 
 async def _serve(
     settings: RunConfig | None,
-    transport: Literal["opcua", "modbus", "mtconnect"],
+    transport: Literal["opcua", "modbus", "mtconnect", "ads"],
     speed: float | None,
     host: str,
     port: int,

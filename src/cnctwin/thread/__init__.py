@@ -1,8 +1,8 @@
 """The digital thread: one :class:`MachineConnection` interface over industrial protocols.
 
-The transports (:class:`OpcUaConnection`, :class:`ModbusConnection`, and the read-only
-:class:`MTConnectConnection`) load asyncua and pymodbus, the MQTT publisher and sensor
-source (:class:`MqttPublisher`, :class:`MqttSource`) paho-mqtt;
+The transports (:class:`OpcUaConnection`, :class:`ModbusConnection`, :class:`AdsConnection`
+and the read-only :class:`MTConnectConnection`) load asyncua, pymodbus and pyads, the MQTT
+publisher and sensor source (:class:`MqttPublisher`, :class:`MqttSource`) paho-mqtt;
 they are imported on first use so that the signal catalogue and the connection interface stay
 light for the modules that only need those.
 """
@@ -21,6 +21,8 @@ from cnctwin.thread.connection import (
 from cnctwin.thread.signals import COMMANDS, SIGNALS, RunState, SignalSpec
 
 if TYPE_CHECKING:
+    from cnctwin.thread.ads import AdsConnection, default_symbol_map
+    from cnctwin.thread.ads_map import Symbol, SymbolMap, load_symbol_map
     from cnctwin.thread.config import ConnectionConfig
     from cnctwin.thread.latency import (
         JitterProxy,
@@ -73,6 +75,11 @@ if TYPE_CHECKING:
 
 # pydantic, asyncio, asyncua, pymodbus and cryptography load with these: imported on first use.
 _LAZY = {
+    "AdsConnection": "cnctwin.thread.ads",
+    "default_symbol_map": "cnctwin.thread.ads",
+    "Symbol": "cnctwin.thread.ads_map",
+    "SymbolMap": "cnctwin.thread.ads_map",
+    "load_symbol_map": "cnctwin.thread.ads_map",
     "ConnectionConfig": "cnctwin.thread.config",
     "JitterProxy": "cnctwin.thread.latency",
     "LatencyResult": "cnctwin.thread.latency",
@@ -120,6 +127,11 @@ _LAZY = {
 }
 
 __all__ = [
+    "AdsConnection",
+    "Symbol",
+    "SymbolMap",
+    "default_symbol_map",
+    "load_symbol_map",
     "COMMANDS",
     "SIGNALS",
     "Backoff",

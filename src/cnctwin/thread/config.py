@@ -52,10 +52,11 @@ class ConnectionConfig(Section):
     Attributes
     ----------
     transport
-        ``"opcua"``, ``"modbus"`` or ``"mtconnect"`` (read-only: docs/mtconnect.md).
+        ``"opcua"``, ``"modbus"``, ``"mtconnect"`` (read-only: docs/mtconnect.md) or ``"ads"``
+        (Beckhoff TwinCAT: docs/ads.md).
     endpoint
-        ``opc.tcp://HOST:PORT/PATH``, ``modbus://HOST:PORT`` or, for an MTConnect agent,
-        ``http://HOST:PORT[/DEVICE]``.
+        ``opc.tcp://HOST:PORT/PATH``, ``modbus://HOST:PORT``, for an MTConnect agent
+        ``http://HOST:PORT[/DEVICE]``, for ADS ``ads://AMSNETID[:AMSPORT]@HOST[:PORT]``.
     timeout_s
         Timeout of one request, s.
     reconnect_initial_s, reconnect_max_s
@@ -66,6 +67,12 @@ class ConnectionConfig(Section):
         MTConnect: observations asked for per ``/sample`` request.
     security
         OPC UA security.
+    symbol_map
+        ADS: the symbol map TOML (canonical signal -> PLC symbol, type, scale), a path
+        relative to the configuration file; ``None`` takes the packaged ``ads_symbols.toml``.
+    local_net_id
+        ADS: this computer's AMS Net ID, as the PLC's static route names it; ``None`` takes
+        the IPv4 address this computer reaches the PLC from, plus ``.1.1``.
     mapping
         Canonical signal name -> protocol address, overriding the transport's default map
         (the virtual machine's). OPC UA: a NodeId string (``"ns=2;s=Machine.X"``) or a browse
@@ -74,7 +81,7 @@ class ConnectionConfig(Section):
         docs/mtconnect.md).
     """
 
-    transport: Literal["opcua", "modbus", "mtconnect"] = "opcua"
+    transport: Literal["opcua", "modbus", "mtconnect", "ads"] = "opcua"
     endpoint: str = "opc.tcp://127.0.0.1:4840/cnctwin"
     timeout_s: float = Field(default=2.0, ge=0.001, le=600.0)
     reconnect_initial_s: float = Field(default=0.1, ge=0.001, le=3600.0)
@@ -82,4 +89,6 @@ class ConnectionConfig(Section):
     unit_id: int = Field(default=1, ge=0, le=247)
     sample_count: int = Field(default=1000, ge=1, le=100_000)
     security: OpcUaSecurityConfig = Field(default_factory=OpcUaSecurityConfig)
+    symbol_map: str | None = None
+    local_net_id: str | None = None
     mapping: dict[str, str] = Field(default_factory=dict)

@@ -427,8 +427,8 @@ class JitterProxy:
 
 
 def _polling_connection(transport: str, endpoint: str, timeout_s: float) -> MachineConnection:
-    """A connection of ``transport`` (``"opcua"``, ``"modbus"`` or ``"mtconnect"``) that
-    reads by request."""
+    """A connection of ``transport`` (``"opcua"``, ``"modbus"``, ``"mtconnect"`` or ``"ads"``)
+    that reads by request (ADS: the packaged symbol map, GVL_Twin)."""
     config = ConnectionConfig(
         transport=transport,  # type: ignore[arg-type]
         endpoint=endpoint,
@@ -443,6 +443,10 @@ def _polling_connection(transport: str, endpoint: str, timeout_s: float) -> Mach
         from cnctwin.thread.mtconnect import MTConnectConnection
 
         return MTConnectConnection(config)
+    if transport == "ads":
+        from cnctwin.thread.ads import AdsConnection
+
+        return AdsConnection(config)
     from cnctwin.thread.modbus import ModbusConnection
 
     return ModbusConnection(config)
@@ -462,11 +466,13 @@ async def measure_endpoint_latency(
     Parameters
     ----------
     transport
-        ``"opcua"``, ``"modbus"`` or ``"mtconnect"``; OPC UA reads by request, without a
-        subscription; MTConnect is read-only: its read round trip
-        (:func:`measure_read_latency`).
+        ``"opcua"``, ``"modbus"``, ``"mtconnect"`` or ``"ads"``; OPC UA reads by request,
+        without a subscription; MTConnect is read-only: its read round trip
+        (:func:`measure_read_latency`); ADS writes and reads back the feed override at the
+        packaged symbol map's symbols (Heide 2025 section 2.5's test).
     endpoint
-        ``opc.tcp://HOST:PORT/PATH``, ``modbus://HOST:PORT`` or ``http://HOST:PORT``.
+        ``opc.tcp://HOST:PORT/PATH``, ``modbus://HOST:PORT``, ``http://HOST:PORT`` or
+        ``ads://AMSNETID:AMSPORT@HOST:PORT``.
     n
         Round trips.
     interval_s
@@ -480,11 +486,11 @@ async def measure_endpoint_latency(
     Raises
     ------
     InputError
-        For a transport other than ``"opcua"``, ``"modbus"`` and ``"mtconnect"``, or jitter
-        on an endpoint without ``HOST:PORT``.
+        For a transport other than ``"opcua"``, ``"modbus"``, ``"mtconnect"`` and ``"ads"``,
+        or jitter on an endpoint without ``HOST:PORT``.
     """
-    if transport not in ("opcua", "modbus", "mtconnect"):
-        raise InputError(f"transport {transport!r}; valid: opcua, modbus, mtconnect")
+    if transport not in ("opcua", "modbus", "mtconnect", "ads"):
+        raise InputError(f"transport {transport!r}; valid: opcua, modbus, mtconnect, ads")
     timeout_s = 2.0 + 4.0 * jitter_ms / 1e3
 
     async def once(url: str) -> LatencyResult:
@@ -507,5 +513,7 @@ async def measure_endpoint_latency(
     if parts.hostname is None or parts.port is None:
         raise InputError(f"endpoint {endpoint!r} has no host:port; valid: SCHEME://HOST:PORT")
     async with JitterProxy(parts.hostname, parts.port, jitter_ms, seed=seed) as proxy:
-        via = parts._replace(netloc=f"{proxy.host}:{proxy.port}")
+        userinfo = parts.netloc.rpartition("@")[0]  # ADS: the AMS Net ID and port
+        netloc = f"{proxy.host}:{proxy.port}"
+        via = parts._replace(netloc=f"{userinfo}@{netloc}" if userinfo else netloc)
         return await once(urlunsplit(via))

@@ -38,7 +38,7 @@ __all__ = ["MachineProcess", "MachineServer", "Transport", "serve"]
 
 logger = logging.getLogger(__name__)
 
-Transport = Literal["opcua", "modbus", "mtconnect"]
+Transport = Literal["opcua", "modbus", "mtconnect", "ads"]
 
 
 class _Server(Protocol):
@@ -62,7 +62,7 @@ class MachineServer:
         The run configuration; its ``[virtual]`` table (required without ``replay``) and
         physics describe the machine.
     transport
-        ``"opcua"`` or ``"modbus"``.
+        ``"opcua"``, ``"modbus"``, ``"mtconnect"`` or ``"ads"``.
     speed
         Machine seconds per wall second; ``None`` takes ``[virtual].speed``.
     host, port
@@ -118,7 +118,13 @@ class MachineServer:
             from cnctwin.virtual import MTConnectAgent
 
             return MTConnectAgent(self.vm, self.host, port, insecure=self.insecure)
-        raise ConfigError(f"transport {self.transport!r}; valid: 'opcua', 'modbus', 'mtconnect'")
+        if self.transport == "ads":
+            from cnctwin.virtual import AdsMachineServer
+
+            return AdsMachineServer(self.vm, self.host, port, insecure=self.insecure)
+        raise ConfigError(
+            f"transport {self.transport!r}; valid: 'opcua', 'modbus', 'mtconnect', 'ads'"
+        )
 
     async def _publish(self, snapshot: dict[str, float]) -> None:
         result = self.server.publish(snapshot)
@@ -127,7 +133,8 @@ class MachineServer:
 
     @property
     def endpoint(self) -> str:
-        """The server's address (``opc.tcp://...``, ``modbus://...`` or ``http://...``)."""
+        """The server's address (``opc.tcp://...``, ``modbus://...``, ``http://...`` or
+        ``ads://...``)."""
         return self.server.endpoint
 
     async def start(self) -> None:
@@ -234,7 +241,7 @@ class MachineProcess:
     config
         The run configuration (its ``[virtual]`` table describes the machine).
     transport
-        ``"opcua"`` or ``"modbus"``.
+        ``"opcua"``, ``"modbus"``, ``"mtconnect"`` or ``"ads"``.
     speed
         Machine seconds per wall second; ``None`` takes ``[virtual].speed``.
     host, port

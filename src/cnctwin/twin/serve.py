@@ -24,8 +24,8 @@ def main(argv: list[str]) -> None:
     logging.getLogger("asyncua").setLevel(logging.ERROR)
     transport, host, port, speed = argv
     config = RunConfig.model_validate_json(sys.stdin.readline())
-    if transport not in ("opcua", "modbus", "mtconnect"):
-        raise SystemExit(f"transport {transport!r}; valid: opcua, modbus, mtconnect")
+    if transport not in ("opcua", "modbus", "mtconnect", "ads"):
+        raise SystemExit(f"transport {transport!r}; valid: opcua, modbus, mtconnect, ads")
     asyncio.run(
         serve(config, transport, float(speed) if speed else None, host, int(port))  # type: ignore[arg-type]
     )

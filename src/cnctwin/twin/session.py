@@ -27,14 +27,14 @@ logger = logging.getLogger(__name__)
 
 
 def open_connection(config: ConnectionConfig, base_dir: Path | None = None) -> MachineConnection:
-    """The client of ``[connection]``: OPC UA, Modbus TCP or MTConnect (not yet connected).
+    """The client of ``[connection]``: OPC UA, Modbus TCP, MTConnect or ADS (not yet connected).
 
     Parameters
     ----------
     config
         The table.
     base_dir
-        Folder of the configuration file (relative certificate paths).
+        Folder of the configuration file (relative certificate and symbol map paths).
     """
     if config.transport == "modbus":
         from cnctwin.thread import ModbusConnection
@@ -44,6 +44,10 @@ def open_connection(config: ConnectionConfig, base_dir: Path | None = None) -> M
         from cnctwin.thread import MTConnectConnection
 
         return MTConnectConnection(config)
+    if config.transport == "ads":
+        from cnctwin.thread import AdsConnection
+
+        return AdsConnection(config, base_dir=base_dir)
     from cnctwin.thread import OpcUaConnection
 
     return OpcUaConnection(config, base_dir=base_dir)

@@ -215,6 +215,9 @@ class ReadStage:
         except ConnectionLost:
             self.failures += 1
             state.connected = False
+            if self.freshness is not None and self.freshness.last_fresh_s is not None:
+                # a gap starts at the last fresh sample, also when a read times out
+                state.last_sample_s = self.freshness.last_fresh_s
             return state
         state.connected = True
         state.received_s = reading.received_s

@@ -40,6 +40,7 @@ from cnctwin.virtual.replay_map import ReplayMap, load_replay_map
 from cnctwin.virtual.users import ROLES, Role, UserTable, hash_password, load_users
 
 if TYPE_CHECKING:
+    from cnctwin.virtual.ads_server import AdsMachineServer
     from cnctwin.virtual.modbus_server import ModbusMachineServer
     from cnctwin.virtual.mtconnect_agent import MTConnectAgent
     from cnctwin.virtual.opcua_server import OpcUaMachineServer, OpcUaServerSecurity, SecurityMode
@@ -48,6 +49,7 @@ if TYPE_CHECKING:
 # The servers load asyncua and pymodbus, the child process multiprocessing: imported on
 # first use.
 _LAZY = {
+    "AdsMachineServer": "cnctwin.virtual.ads_server",
     "ModbusMachineServer": "cnctwin.virtual.modbus_server",
     "MTConnectAgent": "cnctwin.virtual.mtconnect_agent",
     "OpcUaMachineServer": "cnctwin.virtual.opcua_server",
@@ -58,6 +60,7 @@ _LAZY = {
 }
 
 __all__ = [
+    "AdsMachineServer",
     "AxisDriveConfig",
     "ChatterFault",
     "ClockStats",

@@ -27,8 +27,8 @@ def check_exposure(host: str, transport: str, *, secured: bool, insecure: bool) 
     host
         The address to listen on.
     transport
-        ``"opcua"``, ``"modbus"`` or ``"mtconnect"`` (Modbus TCP and the MTConnect agent have
-        no security: never ``secured``).
+        ``"opcua"``, ``"modbus"``, ``"mtconnect"`` or ``"ads"`` (Modbus TCP, the MTConnect
+        agent and the ADS server have no security: never ``secured``).
     secured
         The server authenticates its peers (OPC UA Sign or SignAndEncrypt with a trust list).
     insecure
@@ -41,8 +41,8 @@ def check_exposure(host: str, transport: str, *, secured: bool, insecure: bool) 
     """
     if secured or insecure or is_loopback(host):
         return
-    if transport in ("modbus", "mtconnect"):
-        name = "Modbus TCP" if transport == "modbus" else "the MTConnect agent"
+    if transport in ("modbus", "mtconnect", "ads"):
+        name = {"modbus": "Modbus TCP", "mtconnect": "the MTConnect agent", "ads": "ADS"}[transport]
         fix = f"{name} has no security: listen on 127.0.0.1"
     else:
         fix = (

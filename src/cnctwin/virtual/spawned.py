@@ -1,8 +1,8 @@
 """The virtual machine and its server in a child process, as a separate machine would be.
 
 :func:`virtual_machine_server` starts the virtual machine (the packaged demo program, in real
-time on its :class:`~cnctwin.virtual.MachineClock`) behind an OPC UA, Modbus TCP or MTConnect
-server in a spawned child process and yields the server's endpoint on loopback; leaving the
+time on its :class:`~cnctwin.virtual.MachineClock`) behind an OPC UA, Modbus TCP, MTConnect
+or ADS server in a spawned child process and yields the server's endpoint on loopback; leaving the
 context stops the child. Used to measure the digital thread (``cnctwin bench latency``,
 benchmarks/bench_opcua_latency.py) without the client and the machine sharing a process.
 """
@@ -21,7 +21,7 @@ from cnctwin.errors import CnctwinError, InputError
 __all__ = ["TRANSPORTS", "virtual_machine_server"]
 
 #: The protocols the virtual machine serves.
-TRANSPORTS = ("opcua", "modbus", "mtconnect")
+TRANSPORTS = ("opcua", "modbus", "mtconnect", "ads")
 _START_TIMEOUT_S = 120.0
 
 
@@ -34,7 +34,13 @@ def _serve_child(transport: str, pipe: Connection) -> None:
 
 
 async def _serve(transport: str, pipe: Connection) -> None:
-    from cnctwin.virtual import MachineClock, ModbusMachineServer, MTConnectAgent, VirtualMachine
+    from cnctwin.virtual import (
+        AdsMachineServer,
+        MachineClock,
+        ModbusMachineServer,
+        MTConnectAgent,
+        VirtualMachine,
+    )
     from cnctwin.virtual.config import VirtualMachineConfig
     from cnctwin.virtual.opcua_server import OpcUaMachineServer
     from cnctwin.virtual.users import UserTable
@@ -42,11 +48,13 @@ async def _serve(transport: str, pipe: Connection) -> None:
     logging.getLogger("asyncua").setLevel(logging.ERROR)  # policy-None notices
     vm = VirtualMachine(VirtualMachineConfig())
     vm.step(vm.tick_s)  # the first step loads the compiled kernels (~0.5 s): not on the clock
-    server: OpcUaMachineServer | ModbusMachineServer | MTConnectAgent
+    server: OpcUaMachineServer | ModbusMachineServer | MTConnectAgent | AdsMachineServer
     if transport == "opcua":  # on loopback; the bench writes the feed override anonymously
         server = OpcUaMachineServer(vm, users=UserTable(anonymous="operator"))
     elif transport == "mtconnect":
         server = MTConnectAgent(vm)
+    elif transport == "ads":
+        server = AdsMachineServer(vm)
     else:
         server = ModbusMachineServer(vm)
     async with server:
@@ -71,7 +79,7 @@ async def virtual_machine_server(transport: str) -> AsyncIterator[str]:
     Parameters
     ----------
     transport
-        ``"opcua"``, ``"modbus"`` or ``"mtconnect"``.
+        ``"opcua"``, ``"modbus"``, ``"mtconnect"`` or ``"ads"``.
 
     Yields
     ------
