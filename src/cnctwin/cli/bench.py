@@ -102,7 +102,7 @@ def latency(
         str,
         typer.Option(
             "--transport",
-            help="Protocol: opcua, modbus, mtconnect (read only), ads or mqtt (publish to receive).",
+            help="Protocol: opcua, modbus, mtconnect (read only), ads, mqtt (publish to receive).",
         ),
     ] = "opcua",
     n: Annotated[int, typer.Option("--n", min=1, help="Round trips.")] = 500,
