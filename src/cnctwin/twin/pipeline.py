@@ -17,6 +17,7 @@ from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.program import ProgramMap
 from cnctwin.twin.recorder import Recorder
 from cnctwin.twin.runtime import TwinRuntime
+from cnctwin.twin.tool_wear import WearStage
 from cnctwin.twin.stages import (
     PREDICTIONS,
     CutStage,
@@ -157,6 +158,8 @@ def build_twin(
         stages.append(ForceBandStage(ForceBand(twin_cfg.force_band), physics))
     if twin_cfg.form_error.enabled:
         stages.append(FormErrorStage(twin_cfg.form_error, physics))
+    if twin_cfg.wear.enabled:
+        stages.append(WearStage(twin_cfg.wear, physics))
     stages += [RuleStage(engine), actions]
     runtime = TwinRuntime(
         stages,
