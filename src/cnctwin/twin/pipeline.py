@@ -17,7 +17,6 @@ from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.program import ProgramMap
 from cnctwin.twin.recorder import Recorder
 from cnctwin.twin.runtime import TwinRuntime
-from cnctwin.twin.tool_wear import WearStage
 from cnctwin.twin.stages import (
     PREDICTIONS,
     CutStage,
@@ -31,6 +30,7 @@ from cnctwin.twin.stages import (
     ReadStage,
     Stage,
 )
+from cnctwin.twin.tool_wear import WearStage
 
 __all__ = ["SHED_ORDER", "Twin", "build_twin", "shed_order", "signal_names"]
 

@@ -223,9 +223,9 @@ class WearConfig(Section):
         if not self.vb_max_mm < limit:
             raise PydanticCustomError(
                 "wear_domain",
-                "vb_max_mm = {top} mm must be below p2/p3 = {limit:.4g} mm, where the wear "
+                "vb_max_mm = {top} mm must be below p2/p3 = {limit} mm, where the wear "
                 "torque's logarithm ends",
-                {"top": self.vb_max_mm, "limit": limit},
+                {"top": self.vb_max_mm, "limit": f"{limit:.4g}"},
             )
         if self.signal == "spindle_current_a" and self.torque_constant_nm_a is None:
             raise PydanticCustomError(

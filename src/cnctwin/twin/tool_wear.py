@@ -201,9 +201,7 @@ class WearStage:
                 )
             )
         rate = tool.removed_mm3 / tool.cut_s if tool.cut_s > 0.0 else None
-        life = remaining_life(
-            self.law, vb, var, self.config.life_vb_mm, removal_rate_mm3_s=rate
-        )
+        life = remaining_life(self.law, vb, var, self.config.life_vb_mm, removal_rate_mm3_s=rate)
         p.update(
             wear_vb_mm=vb,
             wear_sd_mm=math.sqrt(max(var, 0.0)),
