@@ -61,7 +61,9 @@ def run(config: RunConfig, seed: int, fault: bool) -> dict[str, Any]:
     async def main() -> str:
         await conn.connect()
         try:
-            twin = build_twin(config, conn, program=virtual.program, realtime=False)
+            twin = build_twin(
+                config, conn, program=virtual.program, realtime=False, clock=lambda: vm.time_s
+            )
             twin.runtime.on_cycle = keep
             return (await twin.runtime.run(duration_s=120.0)).ended
         finally:

@@ -60,7 +60,12 @@ def _run(config: RunConfig, db: Path, *, fault: bool) -> tuple[RunSummary, Virtu
             with Historian.open(db) as historian:
                 recorder = Recorder(historian, {"test": "wear"}, 0.0)
                 twin = build_twin(
-                    config, conn, recorder=recorder, program=virtual.program, realtime=False
+                    config,
+                    conn,
+                    recorder=recorder,
+                    program=virtual.program,
+                    realtime=False,
+                    clock=lambda: vm.time_s,  # machine time: the 120 s limit is the machine's
                 )
                 twin.runtime.on_cycle = keep
                 return await twin.runtime.run(duration_s=120.0)
