@@ -89,13 +89,6 @@ class WearStage:
         self._steady_n = 0
         self._tools: dict[int, _ToolWear] = {}
 
-    def estimate_mm(self, tool: int) -> tuple[float, float]:
-        """Wear estimate of ``tool`` and its standard deviation, mm (``nan`` if never seen)."""
-        found = self._tools.get(tool)
-        if found is None:
-            return math.nan, math.nan
-        return found.ekf.vb_mm, math.sqrt(max(found.ekf.var_mm2, 0.0))
-
     def _tool(self, number: int) -> _ToolWear:
         """The state of tool ``number`` (a new tool at ``vb0_mm`` the first time)."""
         found = self._tools.get(number)
