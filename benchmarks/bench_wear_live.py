@@ -7,7 +7,9 @@ twin's EKF predicts with a normal tool's logistic law and the paper's logarithmi
 fitted to calibration pairs (docs/wear-ekf.md). For each seed of the machine's sensor noise:
 the error of the estimate while the tool cuts, the true wear when the twin saw each stage
 begin, and the run's end (stopped at stage IV by the example's rule). Then the same program
-without the fault (a tool that does not wear): the largest estimate and stage.
+without the fault (a tool that does not wear): the largest estimate and stage. Last, the
+faulty run once more on the wall clock, for each stage's median time per sample (the
+accuracy runs keep time by the machine's clock, so that they are deterministic).
 
 Usage::
 
@@ -19,7 +21,9 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import os
 import platform
+import time
 from pathlib import Path
 from typing import Any
 
@@ -32,8 +36,9 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "wear" / "wear_twin
 STEP_S = 0.025
 
 
-def run(config: RunConfig, seed: int, fault: bool) -> dict[str, Any]:
-    """One lockstep run; per new sample the machine time, true wear and the predictions."""
+def run(config: RunConfig, seed: int, fault: bool, wall_clock: bool = False) -> dict[str, Any]:
+    """One lockstep run; per new sample the machine time, true wear and the predictions
+    (the runtime's clock: the machine's, or with ``wall_clock`` the monotonic clock)."""
     assert config.virtual is not None
     virtual = config.virtual.model_copy(
         update={"seed": seed, "faults": config.virtual.faults if fault else []}
@@ -42,6 +47,7 @@ def run(config: RunConfig, seed: int, fault: bool) -> dict[str, Any]:
     conn = LocalConnection(vm, step_s=STEP_S, tick_s=vm.tick_s)
     rows: list[tuple[float, float, float, float, float, float]] = []
     messages: list[str] = []
+    stages: dict[str, float] = {}
 
     def keep(state: CycleState) -> None:
         p = state.predicted
@@ -61,11 +67,12 @@ def run(config: RunConfig, seed: int, fault: bool) -> dict[str, Any]:
     async def main() -> str:
         await conn.connect()
         try:
-            twin = build_twin(
-                config, conn, program=virtual.program, realtime=False, clock=lambda: vm.time_s
-            )
+            clock = time.monotonic if wall_clock else lambda: vm.time_s
+            twin = build_twin(config, conn, program=virtual.program, realtime=False, clock=clock)
             twin.runtime.on_cycle = keep
-            return (await twin.runtime.run(duration_s=120.0)).ended
+            summary = await twin.runtime.run(duration_s=120.0)
+            stages.update({k: v["p50_ms"] for k, v in summary.stages_ms.items()})
+            return summary.ended
         finally:
             await conn.close()
 
@@ -92,6 +99,7 @@ def run(config: RunConfig, seed: int, fault: bool) -> dict[str, Any]:
         "max_stage": int(np.max(a[:, 4])),
         "stage_entries": entries,
         "events": messages,
+        "stage_p50_ms": stages,
         "series": a,
     }
 
@@ -129,17 +137,25 @@ def main() -> None:
     config = load_run_config(EXAMPLE)
     runs = [run(config, seed, True) for seed in args.seeds]
     clean = [run(config, seed, False) for seed in args.seeds]
+    timed = run(config, args.seeds[0], True, wall_clock=True)
     if args.plot:
         plot(runs[0], config, args.plot)
     out = {
         "platform": f"{platform.machine()}, Python {platform.python_version()}",
-        "fault": [{k: v for k, v in r.items() if k != "series"} for r in runs],
-        "clean": [{k: v for k, v in r.items() if k not in ("series", "events")} for r in clean],
+        "load": " ".join(f"{x:.1f}" for x in os.getloadavg()),
+        "stage_p50_ms": timed["stage_p50_ms"],
+        "fault": [
+            {k: v for k, v in r.items() if k not in ("series", "stage_p50_ms")} for r in runs
+        ],
+        "clean": [
+            {k: v for k, v in r.items() if k not in ("series", "events", "stage_p50_ms")}
+            for r in clean
+        ],
     }
     if args.json:
         print(json.dumps(out, indent=1))
         return
-    print(out["platform"])
+    print(out["platform"], "load", out["load"])
     print(
         "| seed | ended | mean abs error mm | RMS mm | max mm | true VB at stage II / III / IV mm |"
     )
@@ -157,6 +173,8 @@ def main() -> None:
             f"{r['max_estimate_mm']:.3f} mm, largest stage {r['max_stage']}"
         )
     print(runs[0]["events"])
+    stages = ", ".join(f"{k} {v * 1e3:.0f}" for k, v in out["stage_p50_ms"].items())
+    print(f"stage medians, us per sample (load {out['load']}): {stages}")
 
 
 if __name__ == "__main__":
