@@ -7,7 +7,8 @@ anomalies.
 
 Two phases, the machine in a child process (:class:`cnctwin.twin.host.MachineProcess`) as a
 real control would be, the twin in this process with everything on (dexel cut, forces,
-filters, windows, force band, form error, rules, control, historian):
+filters, windows, force band, form error, the wear EKF with the ``[twin.wear]`` table and a
+stage-IV rule of ``examples/wear/wear_twin.toml``, rules, control, historian):
 
 1. *cycle*: a generated program of ``--minutes`` of continuous zig-zag milling (5 layers of
    1 mm over the demo's 100 x 60 mm block with its 6 mm end mill) at real time; the run's
@@ -18,8 +19,10 @@ filters, windows, force band, form error, rules, control, historian):
 Usage::
 
     python benchmarks/bench_twin_cycle.py [--quick] [--minutes M] [--trials N] [--out FILE]
+                                          [--without-wear]
 
 ``--quick`` (CI): 20 s of cycling, 3 stop trials. ``--out`` writes the figures as Markdown.
+``--without-wear``: the wear stage off, for comparison.
 """
 
 from __future__ import annotations
@@ -37,8 +40,11 @@ from typing import Any
 
 import numpy as np
 
+from cnctwin.control import RuleConfig
 from cnctwin.store import Historian
 from cnctwin.twin import MachineProcess, RunConfig, load_run_config, run_session
+
+WEAR_EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "wear" / "wear_twin.toml"
 
 HEADER = """G21 G17 G90 G94 G40 G49 G80
 G54
@@ -85,6 +91,19 @@ def _config(base: RunConfig, program: Path, *, hole: bool, speed: float) -> RunC
         }
     )
     return base.model_copy(update={"virtual": virtual})
+
+
+def _with_wear(base: RunConfig) -> RunConfig:
+    """The configuration with the wear example's ``[twin.wear]`` and a stage-IV rule
+    (a tool-change request: it must not stop the benchmark's programs)."""
+    wear = load_run_config(WEAR_EXAMPLE).twin.wear
+    rule = RuleConfig(name="tool_worn", condition="wear_stage >= 4", action="tool_change")
+    return base.model_copy(
+        update={
+            "twin": base.twin.model_copy(update={"wear": wear}),
+            "rules": [*base.rules, rule],
+        }
+    )
 
 
 def _with_endpoint(config: RunConfig, endpoint: str) -> RunConfig:
@@ -171,7 +190,8 @@ jobs (load average {result["load"]}). Command: `{command}`.
 
 The virtual machine runs in a child process and serves OPC UA on loopback; the twin (dexel cut
 of its own blank at {result["density"]} dexels/mm, forces, filters, windows, force band, form
-error, rules, control, historian) runs in the benchmark's process at a 12.5 ms cycle.
+error, {"wear EKF, " if result["wear_stage"] else ""}rules, control, historian) runs in the
+benchmark's process at a 12.5 ms cycle.
 
 ## Cycle ({c["seconds"]:.0f} s of continuous zig-zag milling, real time)
 
@@ -204,11 +224,14 @@ def main() -> None:
     parser.add_argument("--minutes", type=float, default=10.0)
     parser.add_argument("--trials", type=int, default=30)
     parser.add_argument("--out", type=Path, help="write the figures as Markdown here")
+    parser.add_argument("--without-wear", action="store_true", help="the wear stage off")
     args = parser.parse_args()
     seconds = 20.0 if args.quick else args.minutes * 60.0
     trials = 3 if args.quick else args.trials
     with as_file(files("cnctwin.examples")) as examples:
         base = load_run_config(Path(examples) / "demo_twin.toml")
+    if not args.without_wear:
+        base = _with_wear(base)
     started = time.time()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -220,6 +243,7 @@ def main() -> None:
         f"{platform.machine()}",
         "load": " ".join(f"{x:.1f}" for x in __import__("os").getloadavg()),
         "density": base.twin.density_per_mm or base.simulation.density_per_mm,
+        "wear_stage": base.twin.wear.enabled,
         "wall_s": time.time() - started,
         "cycle": cycle,
         "stop": stop,
@@ -229,6 +253,7 @@ def main() -> None:
         command = "python benchmarks/bench_twin_cycle.py" + (
             " --quick" if args.quick else f" --minutes {args.minutes:g} --trials {trials}"
         )
+        command += " --without-wear" if args.without_wear else ""
         args.out.write_text(markdown(result, command))
 
 

@@ -72,6 +72,8 @@ RUN_KEYS: list[tuple[Any, ...]] = [
     ("twin", "force_band", "k"),
     ("twin", "force_band", "scatter_window"),
     ("twin", "form_error", "overhang_mm"),
+    ("twin", "wear", "vb_max_mm"),
+    ("twin", "wear", "settle_samples"),
     ("connection", "timeout_s"),
     ("connection", "unit_id"),
     ("historian", "max_pending"),

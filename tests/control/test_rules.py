@@ -84,6 +84,7 @@ def test_example_file_loads(tmp_path: Path) -> None:
         ('action = "feed_override"', "needs exactly one of 'value'"),
         ('action = "feed_override"\nvalue = 50\nstep = -10', "needs exactly one of 'value'"),
         ('action = "stop"\nvalue = 1', "takes no 'value'"),
+        ('action = "tool_change"\nvalue = 1', "action 'tool_change' takes no 'value'"),
         ('action = "notify"\nstep = 5', "'step' applies to overrides only"),
         ('action = "feed_hold"\nvalue = 3', "give 1 \\(hold\\) or 0 \\(release\\)"),
         ('action = "explode"', r"rules\[0\].action: must be .stop."),
@@ -205,6 +206,7 @@ def test_decisions_come_most_conservative_first() -> None:
     engine = RuleEngine(
         [
             rule(name="note", condition="form_error_um > 0"),
+            rule(name="change", action="tool_change", condition="form_error_um > 0"),
             rule(name="fast", action="feed_override", value=90, condition="form_error_um > 0"),
             rule(name="slow", action="feed_override", value=50, condition="form_error_um > 0"),
             rule(name="spin", action="spindle_override", value=95, condition="form_error_um > 0"),
@@ -215,7 +217,7 @@ def test_decisions_come_most_conservative_first() -> None:
         NAMES,
     )
     order = [d.rule for d in engine.evaluate({"form_error_um": 1.0}, 0.0)]
-    assert order == ["halt", "hold", "release", "slow", "fast", "spin", "note"]
+    assert order == ["halt", "hold", "release", "slow", "fast", "spin", "change", "note"]
 
 
 def test_reset_forgets_hold_timers() -> None:

@@ -249,3 +249,15 @@ def test_after_reconnect_rebases_on_the_machine() -> None:
 def test_escalation_to_a_command_that_does_not_latch_is_an_input_error() -> None:
     with pytest.raises(InputError, match="escalation to 'feed_override'; valid: stop"):
         SafetyFilter(ON).escalate("feed_override", 0.0, "test")
+
+
+def test_a_tool_change_request_is_recorded_and_writes_nothing() -> None:
+    # enabled or not, a tool-change request is a record: no machine command carries it, and
+    # after a lost connection nothing is re-asserted for it
+    for config in (ControlConfig(), ON):
+        flt = SafetyFilter(config)
+        verdict = flt.check(decision("tool_change", None), 0.0)
+        assert (verdict.outcome, verdict.command, verdict.send) == ("recorded", None, False)
+        assert verdict.note == "tool change requested"
+        assert flt.commanded == {}
+        assert flt.after_reconnect({"feed_override_pct": 100.0, "stop": 0.0}, 1.0) == []

@@ -144,6 +144,34 @@ def test_accelerated_wear_scales_the_forces(make_vm: MakeVM) -> None:
         assert s["force_x_n"] == pytest.approx(full * (1 + 0.1 * cut_s), rel=0.01)
 
 
+def test_flank_wear_follows_its_law_and_adds_the_rubbing_torque(make_vm: MakeVM) -> None:
+    # VB = VBref tan(atan(VB0/VBref) + r t / VBref) over the minutes in contact t; the wear
+    # land's edge force k VB per mm of edge adds, in a full slot (contact angle pi at every
+    # height), the mean torque Z k VB ap R / 2 (Altintas' edge-force term, closed form).
+    wear = WearFault(kind="wear", vb_rate_mm_min=3.0, vb0_mm=0.05, edge_force_n_mm2=80.0)
+    vm = make_vm(SLOT, faults=[wear])
+    rows = []
+    cut_s = 0.0
+    while not vm.finished:
+        vm.step(vm.tick_s)
+        snap = vm.snapshot()
+        rows.append((snap, vm.tool_wear_mm, cut_s))
+        if abs(snap["force_x_n"]) > 0.0:
+            cut_s += vm.tick_s  # the wear of this tick counted the time before it
+    idle = [s["spindle_torque_nm"] for s, _, _ in rows if s["program_line"] == 5][-1]
+    steady = [r for r in rows if r[0]["program_line"] == SLOT_LINE and 10.0 <= r[0]["x_mm"] <= 50]
+    assert steady[-1][1] > 2 * steady[0][1]  # the tool wore during the slot
+    cutting = _slot_forces().torque_nm
+    for snap, vb, t_s in steady[::40]:
+        expected_vb = 0.3 * math.tan(math.atan(0.05 / 0.3) + 3.0 * t_s / 60.0 / 0.3)
+        assert vb == pytest.approx(expected_vb, rel=1e-9)
+        rubbing = 3 * 80.0 * vb * AP_MM * 5.0 / 2 * 1e-3
+        assert snap["spindle_torque_nm"] - idle == pytest.approx(cutting + rubbing, rel=0.01)
+    # a flank-wear fault grows no load of its own (growth_per_min unset): the forces are
+    # the clean tool's
+    assert all(s["force_x_n"] == pytest.approx(-_slot_forces().fx_n, rel=0.01) for s, *_ in steady)
+
+
 def test_chatter_adds_a_vibration(make_vm: MakeVM) -> None:
     chatter = ChatterFault(kind="chatter", frequency_hz=1237.0, amplitude_ratio=0.5)
     steady = _steady(run_to_end(make_vm(SLOT, faults=[chatter])), 10.0, 50.0)

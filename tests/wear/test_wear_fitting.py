@@ -96,3 +96,35 @@ def test_nasa_cases_follow_the_logistic_law_and_predict_their_twin_case(
     assert errors, "no two cases share a condition"
     # Tools differ: the twin case is predicted to within about 0.1-0.2 mm (median below).
     assert float(np.median(errors)) < 0.2
+
+
+def test_wear_torque_fit_recovers_the_papers_model() -> None:
+    # Christiand 2024, Eq. 8 with the preset's parameters: p1 and p3 only shift the offset,
+    # so the fit (p1 = p3 = 1 /mm) must give p0, the domain end p2/p3 and the same torques.
+    from cnctwin.wear import CHRISTIAND2024, fit_wear_torque
+
+    model = CHRISTIAND2024.wear_torque
+    vb = np.linspace(0.02, 0.6, 25)
+    torque = np.array([model.torque_nm(v) for v in vb])
+    fit = fit_wear_torque(vb, torque)
+    assert fit.p0_nm == pytest.approx(model.p0_nm, rel=1e-4)
+    assert fit.vb_limit_mm == pytest.approx(model.vb_limit_mm, rel=1e-4)
+    expected_offset = model.p4_nm + model.p0_nm * np.log(model.p1_per_mm / model.p3_per_mm)
+    assert fit.p4_nm == pytest.approx(expected_offset, rel=1e-4)
+    assert [fit.torque_nm(v) for v in vb] == pytest.approx(torque.tolist(), rel=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("vb", "torque", "message"),
+    [
+        ([0.1, 0.2], [1.0, 2.0], "at least 3 finite points"),
+        ([0.1, 0.0, 0.3], [1.0, 2.0, 3.0], "every VB must be > 0"),
+        ([0.1, 0.2, 0.3], [3.0, 2.0, 1.0], "does not rise with wear"),
+        ([0.1, 0.2, 0.3], [1.0, 2.0], "3 wear values but 2 torques"),
+    ],
+)
+def test_wear_torque_fit_refuses_bad_pairs(vb: list, torque: list, message: str) -> None:
+    from cnctwin.wear import fit_wear_torque
+
+    with pytest.raises(DataError, match=message):
+        fit_wear_torque(vb, torque)

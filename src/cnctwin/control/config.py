@@ -1,8 +1,9 @@
 """The ``[[rules]]`` and ``[control]`` tables of a twin configuration.
 
 A rule says *when* (a condition over signals and predictions, held for a duration) and *what*
-(stop, feed hold, a feed or spindle override, or a notification); ``[control]`` says whether
-the twin may command the machine at all and within which bounds and rates. See docs/control.md.
+(stop, feed hold, a feed or spindle override, a tool-change request or a notification);
+``[control]`` says whether the twin may command the machine at all and within which bounds and
+rates. See docs/control.md.
 
 Example::
 
@@ -47,15 +48,20 @@ __all__ = [
     "RuleConfig",
 ]
 
-RuleAction = Literal["stop", "feed_hold", "feed_override", "spindle_override", "notify"]
+RuleAction = Literal[
+    "stop", "feed_hold", "feed_override", "spindle_override", "tool_change", "notify"
+]
 
 #: The command (a name of :data:`cnctwin.thread.signals.COMMANDS`) each action writes;
-#: ``notify`` writes none.
+#: ``tool_change`` and ``notify`` write none: no machine interface of cnctwin carries a
+#: tool-change request, so the request is a decision record (the historian's, the log's)
+#: for the operator or a line controller to act on.
 ACTION_COMMANDS: dict[str, str | None] = {
     "stop": "stop",
     "feed_hold": "feed_hold",
     "feed_override": "feed_override_pct",
     "spindle_override": "spindle_override_pct",
+    "tool_change": None,
     "notify": None,
 }
 
@@ -75,11 +81,13 @@ class RuleConfig(Section):
         (0 to 3600; every numeric key's range is listed in docs/configuration.md).
     action
         ``"stop"`` (latched program stop), ``"feed_hold"``, ``"feed_override"``,
-        ``"spindle_override"`` or ``"notify"`` (record and log only).
+        ``"spindle_override"``, ``"tool_change"`` (a request for a tool change, recorded and
+        logged; nothing is written to the machine) or ``"notify"`` (record and log only).
     value
         The commanded value: for an override the absolute override in %, a number or an
         expression evaluated when the rule fires (``"feed_override_pct * 0.5"``); for
-        ``feed_hold`` 1 (hold, the default) or 0 (release). Not allowed for stop and notify.
+        ``feed_hold`` 1 (hold, the default) or 0 (release). Not allowed for stop, tool_change
+        and notify.
     step
         Instead of ``value``, for an override: a change in % relative to the override the
         machine reports (the ``feed_override_pct`` or ``spindle_override_pct`` reading), e.g.
@@ -125,7 +133,7 @@ class RuleConfig(Section):
             )
         if not override and self.step is not None:
             raise ConfigError(f"{origin}: 'step' applies to overrides only, not {self.action}")
-        if self.action in ("stop", "notify") and self.value is not None:
+        if self.action in ("stop", "tool_change", "notify") and self.value is not None:
             raise ConfigError(
                 f"{origin}: action {self.action!r} takes no 'value' (got {self.value!r})"
             )

@@ -13,9 +13,9 @@ the order of the configuration:
   values that caused it.
 
 Decisions of one cycle come out most conservative first (stop, feed hold, then overrides by
-increasing value, then notifications), so a safety filter that passes one command per target
-per interval passes the safest. Decisions are not commands yet: each passes
-:class:`~cnctwin.control.safety.SafetyFilter`.
+increasing value, then tool-change requests and notifications), so a safety filter that passes
+one command per target per interval passes the safest. Decisions are not commands yet: each
+passes :class:`~cnctwin.control.safety.SafetyFilter`.
 """
 
 from __future__ import annotations
@@ -37,7 +37,13 @@ logger = logging.getLogger(__name__)
 #: Fields a reason template may use besides the signal and prediction names.
 REASON_FIELDS = ("value", "rule", "held_s")
 
-_ACTION_ORDER = {"stop": 0, "feed_hold": 1, "feed_override": 2, "spindle_override": 3}
+_ACTION_ORDER = {
+    "stop": 0,
+    "feed_hold": 1,
+    "feed_override": 2,
+    "spindle_override": 3,
+    "tool_change": 4,
+}
 _TOLERANCE_S = 1e-9  # float slack when comparing held durations with for_s and cooldowns
 
 
@@ -52,10 +58,11 @@ class Decision:
     rule
         The rule's name.
     action
-        ``"stop"``, ``"feed_hold"``, ``"feed_override"``, ``"spindle_override"`` or
-        ``"notify"``.
+        ``"stop"``, ``"feed_hold"``, ``"feed_override"``, ``"spindle_override"``,
+        ``"tool_change"`` or ``"notify"``.
     value
-        The value to command: override in %, 1/0 for stop and feed hold, ``None`` for notify.
+        The value to command: override in %, 1/0 for stop and feed hold, ``None`` for a
+        tool-change request and notify.
     reason
         One line of text (the rule's template, or the condition with its values).
     values
@@ -71,7 +78,7 @@ class Decision:
 
     @property
     def command(self) -> str | None:
-        """The command signal the decision writes (``None`` for notify)."""
+        """The command signal the decision writes (``None`` for tool_change and notify)."""
         return ACTION_COMMANDS[self.action]
 
 

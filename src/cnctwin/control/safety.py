@@ -324,7 +324,8 @@ class SafetyFilter:
         if readback:
             self.observe(readback)
         if decision.command is None:
-            return self._count(Verdict(decision, "recorded", None, None, "notification"))
+            note = "tool change requested" if decision.action == "tool_change" else "notification"
+            return self._count(Verdict(decision, "recorded", None, None, note))
         # a new decision ends a ramp in progress toward an older one, whatever its outcome
         self._pending.pop(decision.command, None)
         return self._count(self._filter(decision, now_s, readback or {}))

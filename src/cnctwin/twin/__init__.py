@@ -26,6 +26,7 @@ from cnctwin.twin.settings import (
     ForceBandConfig,
     FormErrorConfig,
     TwinSettings,
+    WearConfig,
     WindowConfig,
 )
 from cnctwin.twin.state import CycleState, TwinEvent
@@ -47,6 +48,7 @@ __all__ = [
     "TwinPhysics",
     "TwinRuntime",
     "TwinSettings",
+    "WearConfig",
     "WindowConfig",
     "build_twin",
     "load_run_config",

@@ -32,6 +32,7 @@ from cnctwin.twin.stages import (
     ReadStage,
     Stage,
 )
+from cnctwin.twin.tool_wear import WearStage
 
 if TYPE_CHECKING:  # paho-mqtt loads only with an enabled [mqtt]
     from cnctwin.thread import MqttPublisher, MqttSource
@@ -175,6 +176,8 @@ def build_twin(
         stages.append(ForceBandStage(ForceBand(twin_cfg.force_band), physics))
     if twin_cfg.form_error.enabled:
         stages.append(FormErrorStage(twin_cfg.form_error, physics))
+    if twin_cfg.wear.enabled:
+        stages.append(WearStage(twin_cfg.wear, physics))
     stages += [RuleStage(engine), actions]
     outlets: list[MqttOutlet] = []
     if mqtt_source is not None or mqtt_publisher is not None:

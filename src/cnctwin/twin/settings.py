@@ -5,7 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-from pydantic import Field, ValidationInfo, field_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
+from pydantic_core import PydanticCustomError
 
 from cnctwin.config import Section, resolve_file
 
@@ -17,6 +18,7 @@ __all__ = [
     "PlausibilityConfig",
     "StopConfirmationConfig",
     "TwinSettings",
+    "WearConfig",
     "WindowConfig",
 ]
 
@@ -129,6 +131,107 @@ class FormErrorConfig(Section):
     stiffness_n_um: float | None = Field(default=None, gt=0.0, le=1e4)
     overhang_mm: float = Field(default=30.0, ge=0.1, le=2000.0)
     youngs_modulus_gpa: float = Field(default=600.0, ge=1.0, le=2000.0)
+
+
+class WearConfig(Section):
+    """Tool wear from the spindle torque (``[twin.wear]``; Christiand 2024's EKF,
+    :class:`cnctwin.wear.WearEKF`; docs/wear-ekf.md).
+
+    Every sample in contact, the measured spindle torque (or current times the torque
+    constant) less the torque without wear (the idle torque the twin learns in air plus the
+    predicted cutting torque) is the wear torque the filter explains with
+    ``Tw = p0 ln(p1 VB / (p2 - p3 VB)) + p4`` (Eq. 8); between samples the wear grows with
+    the material the twin's stock lost, ``VB += q dMR VB (1 - VB/VBmax)`` (Eq. 32). The
+    defaults are the paper's Table 5-6 values for its 1 mm micro-mill (as recovered in
+    docs/wear-ekf.md): calibrate them for another tool (``cnctwin.wear.fit_wear_torque``,
+    ``fit_logistic_wear``). The paper gives no wear values for the stages: ``stages_mm`` is
+    the user's "standard profile".
+
+    Attributes
+    ----------
+    enabled
+        Estimate the wear (off by default: the model needs a calibration).
+    signal
+        ``"spindle_torque_nm"`` or ``"spindle_current_a"`` (times ``torque_constant_nm_a``).
+    torque_constant_nm_a
+        Motor torque constant, N m/A, for the current signal.
+    vb0_mm, sd0_mm
+        Wear of the tool at the twin's start and its standard deviation, mm.
+    q_per_mm3, vb_max_mm
+        Logistic wear law: growth per mm^3 removed, 1/mm^3; saturation wear, mm.
+    p0_nm, p1_per_mm, p2, p3_per_mm, p4_nm
+        Wear-torque model (N m, 1/mm, 1, 1/mm, N m); ``VB < p2/p3``.
+    process_var_mm2
+        Prediction noise per sample that removes material, mm^2.
+    measurement_var_nm2
+        Torque measurement noise, (N m)^2 (sensor noise plus the cutting-torque model's error).
+    stages_mm
+        Wear at which stages II, III and IV begin, mm, increasing.
+    expected_entry_s
+        Cutting time at which a normal tool enters stages II, III and IV, s; an entry before
+        it is flagged early. ``None``: no flag.
+    life_vb_mm
+        Tool-life criterion: the wear at the end of the tool's life, mm (ISO 8688-2 gives
+        0.3 mm of uniform flank wear for end mills), below ``vb_max_mm``.
+    idle_samples
+        Samples over which the idle torque (spindle turning in air) is averaged.
+    settle_samples
+        Samples of a steady cut (spindle speed and predicted cutting torque held) before the
+        filter takes the torque: the wear-torque model holds for a steady cut, not for the
+        entry into the material, its exit, or a spindle that speeds up or brakes.
+    steady_fraction
+        Largest change of the predicted cutting torque between two samples of a steady cut,
+        as a fraction of it.
+    """
+
+    enabled: bool = False
+    signal: Literal["spindle_torque_nm", "spindle_current_a"] = "spindle_torque_nm"
+    torque_constant_nm_a: float | None = Field(default=None, gt=0.0, le=1e3)
+    vb0_mm: float = Field(default=0.02, gt=0.0, le=10.0)
+    sd0_mm: float = Field(default=0.01, ge=0.0, le=10.0)
+    q_per_mm3: float = Field(default=1.43, gt=0.0, le=1e6)
+    vb_max_mm: float = Field(default=0.663, gt=0.0, le=10.0)
+    p0_nm: float = Field(default=1.27e-4, gt=0.0, le=1e4)
+    p1_per_mm: float = Field(default=8.0e5, gt=0.0, le=1e12)
+    p2: float = Field(default=0.244, gt=0.0, le=1e6)
+    p3_per_mm: float = Field(default=0.366, gt=0.0, le=1e6)
+    p4_nm: float = Field(default=9.58e-4, ge=-1e4, le=1e4)
+    process_var_mm2: float = Field(default=4.34e-8, ge=0.0, le=1.0)
+    measurement_var_nm2: float = Field(default=1.6e-5, gt=0.0, le=1e6)
+    stages_mm: tuple[float, float, float] = (0.05, 0.2, 0.55)
+    expected_entry_s: tuple[float, float, float] | None = None
+    life_vb_mm: float = Field(default=0.3, gt=0.0, le=10.0)
+    idle_samples: int = Field(default=40, ge=1, le=100_000)
+    settle_samples: int = Field(default=8, ge=1, le=100_000)
+    steady_fraction: float = Field(default=0.05, gt=0.0, le=1.0)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> WearConfig:
+        a, b, c = self.stages_mm
+        if not 0.0 < a < b < c:
+            raise PydanticCustomError(
+                "wear_stages", "stages_mm must be three increasing wear values > 0 mm"
+            )
+        limit = self.p2 / self.p3_per_mm
+        for name, value in (("vb0_mm", self.vb0_mm), ("life_vb_mm", self.life_vb_mm)):
+            if not value < self.vb_max_mm:
+                raise PydanticCustomError(
+                    "wear_range",
+                    "{name} = {value} mm must be below vb_max_mm = {top} mm",
+                    {"name": name, "value": value, "top": self.vb_max_mm},
+                )
+        if not self.vb_max_mm < limit:
+            raise PydanticCustomError(
+                "wear_domain",
+                "vb_max_mm = {top} mm must be below p2/p3 = {limit} mm, where the wear "
+                "torque's logarithm ends",
+                {"top": self.vb_max_mm, "limit": f"{limit:.4g}"},
+            )
+        if self.signal == "spindle_current_a" and self.torque_constant_nm_a is None:
+            raise PydanticCustomError(
+                "wear_signal", "signal = 'spindle_current_a' needs torque_constant_nm_a (N m/A)"
+            )
+        return self
 
 
 class StopConfirmationConfig(Section):
@@ -264,6 +367,8 @@ class TwinSettings(Section):
         Force monitoring.
     form_error
         Form-error prediction.
+    wear
+        Tool wear from the spindle torque.
     stop_confirmation
         When a stop counts as done, and the escalation when it does not.
     overload
@@ -282,6 +387,7 @@ class TwinSettings(Section):
     windows: list[WindowConfig] = Field(default_factory=list)
     force_band: ForceBandConfig = Field(default_factory=ForceBandConfig)
     form_error: FormErrorConfig = Field(default_factory=FormErrorConfig)
+    wear: WearConfig = Field(default_factory=WearConfig)
     stop_confirmation: StopConfirmationConfig = Field(default_factory=StopConfirmationConfig)
     overload: OverloadConfig = Field(default_factory=OverloadConfig)
 

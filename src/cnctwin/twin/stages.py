@@ -17,7 +17,9 @@ Names a stage adds to :attr:`CycleState.predicted` (units in the names):
   ``predicted_torque_nm``, ``predicted_power_w``;
 - models: ``measured_force_xy_n``, ``force_band_low_n``, ``force_band_high_n``,
   ``force_residual_n``, ``force_scatter_n``, ``force_band_armed``, ``force_out_of_band``,
-  ``deflection_um``, ``form_error_um``, ``form_error_out``.
+  ``deflection_um``, ``form_error_um``, ``form_error_out``;
+- wear (:mod:`cnctwin.twin.tool_wear`): ``wear_vb_mm``, ``wear_sd_mm``, ``wear_stage``,
+  ``wear_torque_nm``, ``wear_life_mm3``, ``wear_life_s``.
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ from cnctwin.twin.plausibility import AXES, Plausibility
 from cnctwin.twin.program import ProgramMap
 from cnctwin.twin.settings import FilterConfig, FormErrorConfig, WindowConfig
 from cnctwin.twin.state import CycleState, TwinEvent
+from cnctwin.twin.tool_wear import WEAR_PREDICTIONS
 
 if TYPE_CHECKING:
     from cnctwin.twin.config import RunConfig
@@ -96,6 +99,7 @@ PREDICTIONS = (
     "form_error_um",
     "form_error_tolerance_um",
     "form_error_out",
+    *WEAR_PREDICTIONS,
 )
 
 

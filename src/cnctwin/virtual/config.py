@@ -154,24 +154,58 @@ class HoleFault(Section):
 
 
 class WearFault(_Trigger):
-    """Accelerated wear: forces and torque grow with cutting time (``kind="wear"``).
+    """Accelerated wear: the load grows with cutting time, or the tool's flank wears
+    (``kind="wear"``).
 
-    The cutting load is scaled by ``1 + growth_per_min * t_cut_min`` (at most ``max_scale``),
-    ``t_cut_min`` the time in contact since the fault started, min.
+    Two models, which may be combined:
+
+    - *load growth*: the cutting forces and torque are scaled by
+      ``1 + growth_per_min * t_cut_min`` (at most ``max_scale``), ``t_cut_min`` the time in
+      contact since the fault started, min;
+    - *flank wear* (with ``vb_rate_mm_min``): the tool in the spindle has a true flank wear
+      VB, mm, from ``vb0_mm`` at the fault's start, growing with the time in contact as
+      ``dVB/dt = vb_rate_mm_min (1 + (VB / vb_ref_mm)^2)`` (a rate that rises with the wear
+      land, so the tool fails in finite time: ``VB = vb_ref tan(atan(VB0/vb_ref) + rate t /
+      vb_ref)``, held at 2 mm). The wear land rubs the work: the tangential edge-force
+      coefficient grows by ``edge_force_n_mm2 * VB`` (N/mm), which adds its torque to the
+      spindle's (:meth:`cnctwin.virtual.faults.FaultInjector.rubbing_torque_nm`). Neither law
+      is the wear twin's (the EKF of :mod:`cnctwin.wear`: logistic growth in material
+      removed, a logarithmic wear torque), so the twin's estimate can be judged against it.
 
     Attributes
     ----------
     at_s, at_line
         Start (machine time, s, or program line); neither: from the start.
     growth_per_min
-        Relative growth of the load per minute of cutting, 1/min (> 0).
+        Relative growth of the load per minute of cutting, 1/min (> 0); ``None``: 0.5 without
+        a flank-wear rate, no load growth with one.
     max_scale
         Largest scale factor (>= 1).
+    vb_rate_mm_min
+        Flank-wear rate of the fresh edge per minute of cutting, mm/min; ``None``: no flank
+        wear.
+    vb0_mm
+        Flank wear when the fault starts, mm.
+    vb_ref_mm
+        Wear at which the wear rate has doubled, mm.
+    edge_force_n_mm2
+        Growth of the tangential edge-force coefficient per mm of flank wear, N/mm per mm.
     """
 
     kind: Literal["wear"]
-    growth_per_min: float = Field(default=0.5, gt=0, le=1000)
+    growth_per_min: float | None = Field(default=None, gt=0, le=1000)
     max_scale: float = Field(default=3.0, ge=1, le=1000)
+    vb_rate_mm_min: float | None = Field(default=None, gt=0, le=100)
+    vb0_mm: float = Field(default=0.02, ge=0, le=1)
+    vb_ref_mm: float = Field(default=0.3, gt=0, le=10)
+    edge_force_n_mm2: float = Field(default=100.0, ge=0, le=1e5)
+
+    @property
+    def load_growth_per_min(self) -> float:
+        """The load growth in effect, 1/min (see ``growth_per_min``)."""
+        if self.growth_per_min is not None:
+            return self.growth_per_min
+        return 0.5 if self.vb_rate_mm_min is None else 0.0
 
 
 class ChatterFault(_Trigger):

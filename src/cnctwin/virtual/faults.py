@@ -9,12 +9,14 @@
   the forces drop to zero where the tool crosses it (Heide 2025, use case 1).
 * **Accelerated wear** (:class:`~cnctwin.virtual.config.WearFault`): the cutting forces and
   torque are scaled by ``1 + g t_cut`` (``t_cut`` minutes of cutting since the start, ``g`` the
-  growth per minute, capped at ``max_scale``), the growth of the edge forces with flank wear.
+  growth per minute, capped at ``max_scale``); or, with a flank-wear rate, the tool carries a
+  true flank wear VB that grows with the time in contact, and its wear land adds a rubbing
+  torque to the spindle (:meth:`FaultInjector.rubbing_torque_nm`).
 * **Chatter** (:class:`~cnctwin.virtual.config.ChatterFault`): a force rotating in the XY
   plane at the chatter frequency, ``amplitude_ratio`` times the mean force magnitude, is added to
   the forces while the tool cuts.
 
-Units: mm, s, N (names say so).
+Units: mm, s, N (names say so); torque N m.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cnctwin.config import BoxStock
-from cnctwin.geometry import AXES, DexelGrid, DexelStock
+from cnctwin.geometry import AXES, DexelGrid, DexelStock, Engagement
 from cnctwin.virtual.config import (
     ChatterFault,
     FaultConfig,
@@ -42,6 +44,10 @@ logger = logging.getLogger(__name__)
 
 # Ray axis and transverse axes (x, y, z indices) of each dexel family (see geometry.dexel).
 _FAMILY_AXES = {"z": (2, 0, 1), "x": (0, 1, 2), "y": (1, 0, 2)}
+
+#: Flank wear at which the virtual tool's wear stops growing, mm (a land this wide is a
+#: broken edge; it keeps the tangent law finite).
+_VB_HELD_MM = 2.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -222,7 +228,11 @@ class FaultInjector:
             detail = f"tool T{tool} broke: lost {lost}"
         elif isinstance(fault, WearFault):
             self._wear.append((fault, [0.0]))
-            detail = f"accelerated wear: +{fault.growth_per_min:g}/min of cutting"
+            detail = f"accelerated wear: +{fault.load_growth_per_min:g}/min of cutting"
+            if fault.vb_rate_mm_min is not None:
+                detail += (
+                    f", flank wear from {fault.vb0_mm:g} mm at {fault.vb_rate_mm_min:g} mm/min"
+                )
         else:
             self._chatter.append(fault)
             detail = f"chatter at {fault.frequency_hz:g} Hz, {fault.amplitude_ratio:g} x force"
@@ -241,8 +251,45 @@ class FaultInjector:
         """Factor on the cutting forces and torque from accelerated wear (1: none)."""
         scale = 1.0
         for fault, cut_time in self._wear:
-            scale *= min(1.0 + fault.growth_per_min * cut_time[0] / 60.0, fault.max_scale)
+            scale *= min(1.0 + fault.load_growth_per_min * cut_time[0] / 60.0, fault.max_scale)
         return scale
+
+    def flank_wear_mm(self) -> float:
+        """The tool's true flank wear VB, mm (0 without a flank-wear fault; the largest of
+        several).
+
+        ``dVB/dt = r (1 + (VB/VBref)^2)`` over the minutes in contact ``t`` integrates to
+        ``VB = VBref tan(atan(VB0/VBref) + r t / VBref)``, held at 2 mm.
+        """
+        wear = 0.0
+        for fault, cut_time in self._wear:
+            if fault.vb_rate_mm_min is None:
+                continue
+            ref = fault.vb_ref_mm
+            angle = math.atan(fault.vb0_mm / ref) + fault.vb_rate_mm_min * cut_time[0] / 60.0 / ref
+            held = math.atan(_VB_HELD_MM / ref)
+            wear = max(wear, _VB_HELD_MM if angle >= held else ref * math.tan(angle))
+        return wear
+
+    def rubbing_torque_nm(self, engagement: Engagement, flutes: int) -> float:
+        """Mean spindle torque the flank wear land adds over a revolution, N m.
+
+        The tangential edge force per mm of engaged edge grows by ``k VB`` (N/mm,
+        ``k = edge_force_n_mm2``): the edge-force term of the mechanistic model (Altintas 2012,
+        ch. 2) with a worn edge. Over a revolution each of the ``flutes`` teeth spends the
+        contact angles ``phi`` of every slice (height ``dz``, radius ``r``) in the cut, so the
+        mean torque is ``flutes / (2 pi) * sum(k VB phi dz r)`` (N mm).
+        """
+        rubbing = 0.0
+        for fault, _ in self._wear:
+            if fault.vb_rate_mm_min is not None:
+                rubbing = max(rubbing, fault.edge_force_n_mm2)
+        if rubbing == 0.0 or not engagement.contact or engagement.interval_slice.size == 0:
+            return 0.0
+        k = engagement.interval_slice
+        angle = engagement.interval_end_rad - engagement.interval_start_rad
+        arm = float(np.sum(angle * engagement.slice_dz_mm[k] * engagement.slice_radius_mm[k]))
+        return flutes / (2.0 * math.pi) * rubbing * self.flank_wear_mm() * arm * 1e-3
 
     def vibration_n(self, t_s: float, force_n: float) -> tuple[float, float]:
         """Chatter force (x, y) in N at machine time ``t_s`` (s) for a mean force of ``force_n``."""

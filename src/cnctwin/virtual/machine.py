@@ -246,6 +246,12 @@ class VirtualMachine:
         return list(self._faults.events)
 
     @property
+    def tool_wear_mm(self) -> float:
+        """The tool's true flank wear VB, mm (ground truth of a flank-wear fault; 0 without
+        one). A real machine does not report it: it is not a signal."""
+        return self._faults.flank_wear_mm()
+
+    @property
     def tick_s(self) -> float:
         """The configured simulation step, s."""
         return self.config.tick_s
@@ -403,7 +409,9 @@ class VirtualMachine:
                         fy * scale + chatter[1],
                         fz_n * scale,
                     )
-                    torque *= scale
+                    torque = torque * scale + self._faults.rubbing_torque_nm(
+                        engagement, cutter.flutes
+                    )
             self._prev_tcp = cut_tcp
         self._cut_steps = self._cut_steps + 1 if contact else 0
 

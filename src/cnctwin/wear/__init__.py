@@ -26,7 +26,12 @@ from cnctwin.wear.ekf import (
     WearTorque,
     material_removed_mm3,
 )
-from cnctwin.wear.fitting import LogisticFit, fit_logistic_wear, logistic_wear_curve
+from cnctwin.wear.fitting import (
+    LogisticFit,
+    fit_logistic_wear,
+    fit_wear_torque,
+    logistic_wear_curve,
+)
 from cnctwin.wear.lathe_simulator import (
     DEFAULT_PARTS,
     TESTS,
@@ -69,6 +74,7 @@ __all__ = [
     "WearTorque",
     "drift_fit",
     "fit_logistic_wear",
+    "fit_wear_torque",
     "logistic_wear_curve",
     "material_removed_mm3",
     "remaining_life",

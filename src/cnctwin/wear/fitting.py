@@ -1,4 +1,5 @@
-"""Fitting the logistic wear law to measured wear progressions.
+"""Fitting the wear models of the torque EKF to measurements: the logistic wear law to
+measured wear progressions, the wear-torque model to measured (wear, torque) pairs.
 
 The discrete law of Christiand 2024 (Eq. 32) is, for small steps, the logistic equation
 ``dVB/dMR = q VB (1 - VB/VBmax)``, whose solution from ``VB0`` is
@@ -16,12 +17,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares, minimize_scalar
 
 from cnctwin.errors import DataError
-from cnctwin.wear.ekf import LogisticWear
+from cnctwin.wear.ekf import LogisticWear, WearTorque
 
-__all__ = ["LogisticFit", "fit_logistic_wear", "logistic_wear_curve"]
+__all__ = ["LogisticFit", "fit_logistic_wear", "fit_wear_torque", "logistic_wear_curve"]
 
 
 def logistic_wear_curve(
@@ -138,3 +139,63 @@ def fit_logistic_wear(
     v0 = min(v0, 0.999 * vmax)
     rmse = math.sqrt(2.0 * best.cost / mr_all.size)
     return LogisticFit(LogisticWear(q_per_mm3=q, vb_max_mm=vmax), v0, rmse, int(mr_all.size))
+
+
+def fit_wear_torque(vb_mm: ArrayLike, torque_nm: ArrayLike) -> WearTorque:
+    """Least-squares fit of the wear-torque model (Christiand 2024, Eq. 8) to calibration pairs.
+
+    The model ``Tw = p0 ln(p1 VB / (p2 - p3 VB)) + p4`` has three independent parameters:
+    with ``p1 = p3 = 1 /mm`` it is ``p0 ln(VB / (L - VB)) + p4``, ``L = p2`` the end of its
+    domain, mm. For each ``L`` the best ``p0`` and ``p4`` are a linear least-squares fit;
+    ``L`` is searched between 1.001 and 100 times the largest calibration wear.
+
+    Parameters
+    ----------
+    vb_mm
+        Flank wear of the calibration points (a tool measured under a microscope), mm, > 0.
+    torque_nm
+        The torque wear adds at each point (measured spindle torque minus the torque without
+        wear under the same cutting conditions), N m.
+
+    Returns
+    -------
+    WearTorque
+        The fitted model, ``p1_per_mm = p3_per_mm = 1``.
+
+    Raises
+    ------
+    cnctwin.errors.DataError
+        With fewer than three finite points, a wear that is not > 0, arrays of different
+        sizes, or torque that does not rise with wear (``p0 <= 0``).
+    """
+    vb = np.asarray(vb_mm, dtype=float).ravel()
+    torque = np.asarray(torque_nm, dtype=float).ravel()
+    if vb.shape != torque.shape:
+        raise DataError(f"wear-torque fit: {vb.size} wear values but {torque.size} torques")
+    keep = np.isfinite(vb) & np.isfinite(torque)
+    vb, torque = vb[keep], torque[keep]
+    if vb.size < 3:
+        raise DataError(f"a wear-torque fit needs at least 3 finite points; got {vb.size}")
+    if np.any(vb <= 0.0):
+        raise DataError(f"wear-torque fit: wear {float(vb.min())!r} mm; every VB must be > 0")
+    top = float(vb.max())
+
+    def solve(limit_mm: float) -> tuple[float, float, float]:
+        x = np.log(vb / (limit_mm - vb))
+        design = np.column_stack((x, np.ones_like(x)))
+        (p0, p4), *_ = np.linalg.lstsq(design, torque, rcond=None)
+        return float(np.sum((design @ (p0, p4) - torque) ** 2)), float(p0), float(p4)
+
+    found = minimize_scalar(
+        lambda log_l: solve(math.exp(log_l))[0],
+        bounds=(math.log(1.001 * top), math.log(100.0 * top)),
+        method="bounded",
+    )
+    limit = math.exp(float(found.x))
+    _, p0, p4 = solve(limit)
+    if not p0 > 0.0:
+        raise DataError(
+            f"wear-torque fit: torque does not rise with wear (p0 = {p0:.3g} N m); check the "
+            "calibration pairs"
+        )
+    return WearTorque(p0_nm=p0, p1_per_mm=1.0, p2=limit, p3_per_mm=1.0, p4_nm=p4)
