@@ -234,7 +234,17 @@ async def _serve(
         with contextlib.suppress(NotImplementedError, RuntimeError):
             loop.add_signal_handler(sig, stop.set)
     try:
-        machine = MachineServer(settings, transport, speed, host, port, security, users, insecure)
+        machine = MachineServer(
+            settings,
+            transport,
+            speed,
+            host,
+            port,
+            security,
+            users,
+            insecure,
+            machine_tool_model=True,  # OPC 40501's MachineTool object (docs/opcua.md)
+        )
         await machine.start()
     except OSError as err:
         raise InputError(f"cannot listen on {host}:{port}: {err.strerror or err}") from err

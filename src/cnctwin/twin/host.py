@@ -71,6 +71,9 @@ class MachineServer:
         OPC UA endpoint security, users and roles, and leave to serve without security on a
         non-loopback host (docs/security.md). Default: policy None, and an anonymous session
         may command the machine (the twin of ``cnctwin demo``, on loopback).
+    machine_tool_model
+        OPC UA: also serve the OPC 40501 MachineTool object (``cnctwin virtual serve`` does;
+        docs/opcua.md).
     """
 
     config: RunConfig
@@ -81,6 +84,7 @@ class MachineServer:
     security: OpcUaServerSecurity | None = None
     users: UserTable = field(default_factory=lambda: UserTable(anonymous="operator"))
     insecure: bool = False
+    machine_tool_model: bool = False
 
     def __post_init__(self) -> None:
         if self.config.virtual is None:
@@ -99,7 +103,13 @@ class MachineServer:
             from cnctwin.virtual import OpcUaMachineServer
 
             return OpcUaMachineServer(
-                self.vm, self.host, port, self.security, self.users, self.insecure
+                self.vm,
+                self.host,
+                port,
+                self.security,
+                self.users,
+                self.insecure,
+                machine_tool_model=self.machine_tool_model,
             )
         if self.transport == "modbus":
             from cnctwin.virtual import ModbusMachineServer
