@@ -13,6 +13,7 @@ import asyncio
 import math
 import tomllib
 from collections.abc import Iterator
+from importlib.resources import as_file
 from pathlib import Path
 
 import pytest
@@ -203,3 +204,48 @@ def test_server_killed_and_restarted_reconnects_and_no_command_is_repeated_or_lo
         first.close()
         if second is not None:
             second.close()
+
+
+@pytest.mark.parametrize("enabled", [False, True], ids=["control-off", "control-on"])
+def test_the_twin_commands_the_node_opcua_machine_only_with_control_enabled(
+    server: tuple[NodeProcess, int], enabled: bool
+) -> None:
+    """The whole twin (``run_session``) through the preset: a rule that fires once asks for
+    a feed override of 90 %; with ``[control] enabled = false`` nothing reaches the server,
+    with it enabled exactly one write does, and the read-back confirms it."""
+    from cnctwin.control import RuleConfig
+    from cnctwin.examples import example_file
+    from cnctwin.twin.config import load_run_config
+    from cnctwin.twin.session import run_session
+
+    process, port = server
+    with as_file(example_file("demo_twin.toml")) as path:
+        demo = load_run_config(path)
+    config = demo.model_copy(
+        update={
+            "connection": _config(port),
+            "rules": [
+                RuleConfig(
+                    name="slow_down",
+                    condition="spindle_rpm > 0",
+                    action="feed_override",
+                    value=90.0,
+                    cooldown_s=1000.0,
+                )
+            ],
+            "control": demo.control.model_copy(update={"enabled": enabled}),
+        }
+    )
+    before = len(process.writes())
+
+    async def body() -> None:
+        summary = await run_session(config, duration_s=3.0)
+        assert summary.cycles > 10
+        async with OpcUaConnection(_config(port)) as conn:
+            if enabled:
+                assert await conn.read_signal("feed_override_pct") == 90.0
+            await conn.write("feed_override_pct", 100.0)
+
+    _run(body)
+    applied = [w["value"] for w in process.writes()[before:]]
+    assert applied == ([90, 100] if enabled else [100])

@@ -24,7 +24,7 @@ from asyncua import Server, ua
 from asyncua.common.instantiate_util import instantiate
 from asyncua.server.address_space import AttributeValue
 
-from cnctwin.thread.signals import RunState
+from cnctwin.thread import RunState
 
 __all__ = [
     "MACHINERY_URI",
