@@ -14,6 +14,7 @@ under Monitoring. Their variables hold the machine's live values: the server's
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -126,9 +127,17 @@ async def add_machine_tool(
         Canonical signal -> the mirrors :meth:`publish` writes (value slots and conversions).
     """
     folder = resources.files("cnctwin.virtual") / "nodesets"
-    for name in NODESETS:
-        with resources.as_file(folder / name) as path:
-            await server.import_xml(str(path))
+    # asyncua warns that it cannot classify DI's UpdateBehavior (an OptionSet over UInt32,
+    # which no variable here uses); keep that out of the server's log
+    importer = logging.getLogger("asyncua.common.xmlimporter")
+    level = importer.level
+    importer.setLevel(logging.ERROR)
+    try:
+        for name in NODESETS:
+            with resources.as_file(folder / name) as path:
+                await server.import_xml(str(path))
+    finally:
+        importer.setLevel(level)
     mt = await server.get_namespace_index(MACHINE_TOOL_URI)
     machinery = await server.get_namespace_index(MACHINERY_URI)
     machines = server.get_node(ua.NodeId(1001, machinery))
