@@ -100,6 +100,10 @@ async function main() {
         serverCertificateManager: pki
             ? new OPCUACertificateManager({ rootFolder: pki, automaticallyAcceptUnknownCertificate: true })
             : undefined,
+        // user certificates too, so that nothing is written under $HOME
+        userCertificateManager: pki
+            ? new OPCUACertificateManager({ rootFolder: `${pki}/users`, automaticallyAcceptUnknownCertificate: true })
+            : undefined,
         buildInfo: { productName: "cnctwin interop: SINUMERIK-like test server" },
     });
     await server.initialize();
