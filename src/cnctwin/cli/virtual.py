@@ -283,7 +283,16 @@ async def _serve(
             loop.add_signal_handler(sig, stop.set)
     try:
         machine = MachineServer(
-            settings, transport, speed, host, port, security, users, insecure, replay
+            settings,
+            transport,
+            speed,
+            host,
+            port,
+            security,
+            users,
+            insecure,
+            replay,
+            machine_tool_model=True,  # OPC 40501's MachineTool object (docs/opcua.md)
         )
         await machine.start()
     except OSError as err:

@@ -75,9 +75,10 @@ class ConnectionConfig(Section):
         the IPv4 address this computer reaches the PLC from, plus ``.1.1``.
     mapping
         Canonical signal name -> protocol address, overriding the transport's default map
-        (the virtual machine's). OPC UA: a NodeId string (``"ns=2;s=Machine.X"``) or a browse
-        path; Modbus: ``"TABLE:ADDRESS:TYPE[:SCALE]"`` (see docs/modbus.md); MTConnect: a
-        data item selector, ``"TYPE[:SUBTYPE][@COMPONENT]"`` or ``"id=DATA_ITEM"`` (see
+        (the virtual machine's). OPC UA: a NodeId string (``"ns=2;s=Machine.X"``), a browse
+        path, or ``"none"`` (a machine without the signal; presets in examples/opcua/);
+        Modbus: ``"TABLE:ADDRESS:TYPE[:SCALE]"`` (see docs/modbus.md); MTConnect: a data
+        item selector, ``"TYPE[:SUBTYPE][@COMPONENT]"`` or ``"id=DATA_ITEM"`` (see
         docs/mtconnect.md).
     """
 

@@ -5,7 +5,7 @@ out after the OPC UA for Machine Tools companion specification, OPC 40501, with 
 nodes of OPC 40502 CNC Systems; table in docs/opcua.md). ``[connection] mapping`` overrides
 any entry with a NodeId string (``"ns=2;s=Machine.Monitoring.Axes.X.ActPos"``) or a browse
 path below the Objects folder (``"2:Machines/2:Machine/2:Monitoring/..."``), so the same
-twin runs against another server.
+twin runs against another server; ``"none"`` leaves a signal out (a machine without it).
 
 A cycle's :meth:`~OpcUaConnection.read` takes every mapped node from a subscription's cache
 (no request in the cycle), or with ``subscription_ms=None`` from one Read service call for all
@@ -382,7 +382,12 @@ class OpcUaConnection(MachineConnection):
         spec = COMMANDS.get(name)
         if spec is None:
             raise ConfigError(f"{name!r} is not a command; valid: {', '.join(COMMANDS)}")
-        target = self._targets[name]
+        target = self._targets.get(name)
+        if target is None:
+            raise CommandRejected(
+                f"{name} is not mapped at {self.endpoint} ([connection] mapping {name} = "
+                "'none'); valid: map it to a writable node"
+            )
         if spec.kind == "bool":
             variant = ua.Variant(bool(value), ua.VariantType.Boolean)
         else:
@@ -509,6 +514,8 @@ class OpcUaConnection(MachineConnection):
             ns = None
         targets: dict[str, _Target] = {}
         for name, address in self.addresses.items():
+            if address == "none":  # the machine has no such signal (docs/opcua.md, presets)
+                continue
             if name not in self.config.mapping:
                 if ns is None:
                     raise ConfigError(

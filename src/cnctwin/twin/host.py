@@ -74,6 +74,9 @@ class MachineServer:
     replay
         A recorded machine to serve instead of the simulated one (``config`` is then unused;
         ``speed`` ``None`` is real time): the same clock and servers.
+    machine_tool_model
+        OPC UA: also serve the OPC 40501 MachineTool object (``cnctwin virtual serve`` does;
+        docs/opcua.md).
     """
 
     config: RunConfig | None
@@ -85,6 +88,7 @@ class MachineServer:
     users: UserTable = field(default_factory=lambda: UserTable(anonymous="operator"))
     insecure: bool = False
     replay: ReplayMachine | None = None
+    machine_tool_model: bool = False
 
     def __post_init__(self) -> None:
         self.vm: VirtualMachine | ReplayMachine
@@ -108,7 +112,13 @@ class MachineServer:
             from cnctwin.virtual import OpcUaMachineServer
 
             return OpcUaMachineServer(
-                self.vm, self.host, port, self.security, self.users, self.insecure
+                self.vm,
+                self.host,
+                port,
+                self.security,
+                self.users,
+                self.insecure,
+                machine_tool_model=self.machine_tool_model,
             )
         if self.transport == "modbus":
             from cnctwin.virtual import ModbusMachineServer
