@@ -78,7 +78,9 @@ def test_batch_equals_the_twins_filter_and_feature_stages() -> None:
             if math.isfinite(value):
                 assert batch[i, names.index(signal)] == pytest.approx(value, rel=1e-12)
         for name, value in state.features.items():
-            assert batch[i, names.index(name)] == pytest.approx(value, rel=1e-9, abs=1e-9, nan_ok=True)
+            assert batch[i, names.index(name)] == pytest.approx(
+                value, rel=1e-9, abs=1e-9, nan_ok=True
+            )
             compared += 1
     assert compared > 2000
 

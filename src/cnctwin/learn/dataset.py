@@ -282,7 +282,9 @@ def _table_features(columns: Mapping[str, NDArray[Any]], schema: FeatureSchema) 
         try:
             out.append(np.asarray(columns[name], dtype=float))
         except (TypeError, ValueError):
-            raise DataError(f"column {name!r} holds text; give numbers or list it as a category")
+            raise DataError(
+                f"column {name!r} holds text; give numbers or list it as a category"
+            ) from None
     for name, values in spec.categories.items():
         for value in values:
             out.append((np.asarray(columns[name]).astype(str) == value).astype(float))

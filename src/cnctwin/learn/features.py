@@ -79,8 +79,7 @@ class FeaturePath:
         self._filters = {n: make_filter(f, self._period) for n, f in spec.filters.items()}
         self._held = dict.fromkeys(spec.signals, math.nan)
         self._windows = [
-            (w.signal, SlidingWindow(w.length, self._rate), tuple(w.features))
-            for w in spec.windows
+            (w.signal, SlidingWindow(w.length, self._rate), tuple(w.features)) for w in spec.windows
         ]
         self._window_values = [[math.nan] * len(w.features) for w in spec.windows]
 
@@ -194,7 +193,9 @@ def _numeric(column: NDArray[np.generic], name: str) -> NDArray[np.float64]:
     try:
         return np.array(column, dtype=float)
     except (TypeError, ValueError):
-        raise DataError(f"signal {name!r} holds text; give numbers (or list it as a category)")
+        raise DataError(
+            f"signal {name!r} holds text; give numbers (or list it as a category)"
+        ) from None
 
 
 def _hold(values: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -54,7 +54,6 @@ def export_onnx(result: TrainResult, schema: FeatureSchema, path: str | Path) ->
         The file written.
     """
     import onnx
-    from onnx import helper
     from skl2onnx import to_onnx
     from skl2onnx.common.data_types import DoubleTensorType, FloatTensorType
     from sklearn.gaussian_process import GaussianProcessRegressor
@@ -78,32 +77,8 @@ def export_onnx(result: TrainResult, schema: FeatureSchema, path: str | Path) ->
     outputs: dict[str, str] = {}
     if result.task == "classification":
         outputs = {"label": graph.output[0].name, "probabilities": graph.output[1].name}
-    elif kind == "gpr":
-        mean, scale = result.y_scale
-        mu, sd = graph.output[0].name, graph.output[1].name
-        graph.initializer.extend(
-            [
-                helper.make_tensor("cnctwin_y_scale", onnx.TensorProto.DOUBLE, [], [scale]),
-                helper.make_tensor("cnctwin_y_mean", onnx.TensorProto.DOUBLE, [], [mean]),
-            ]
-        )
-        graph.node.extend(
-            [
-                helper.make_node("Mul", [mu, "cnctwin_y_scale"], ["cnctwin_mu_scaled"]),
-                helper.make_node("Add", ["cnctwin_mu_scaled", "cnctwin_y_mean"], ["prediction"]),
-                helper.make_node("Mul", [sd, "cnctwin_y_scale"], ["std"]),
-            ]
-        )
-        del graph.output[:]
-        graph.output.extend(
-            [
-                helper.make_tensor_value_info("prediction", onnx.TensorProto.DOUBLE, [None, 1]),
-                helper.make_tensor_value_info("std", onnx.TensorProto.DOUBLE, [None]),
-            ]
-        )
-        outputs = {"prediction": "prediction", "std": "std"}
     else:
-        outputs = {"prediction": graph.output[0].name}
+        outputs = _unscale(graph, result.y_scale, with_std=kind == "gpr")
     description = {
         "kind": kind,
         "task": result.task,
@@ -128,6 +103,50 @@ def export_onnx(result: TrainResult, schema: FeatureSchema, path: str | Path) ->
     path = Path(path)
     path.write_bytes(proto.SerializeToString())
     return path
+
+
+def _unscale(graph: Any, y_scale: tuple[float, float], with_std: bool) -> dict[str, str]:
+    """Append ``prediction = mean + scale * output`` (and ``std = scale * std``) to a
+    regression graph fitted on a standardised target; returns the output names."""
+    from onnx import helper
+
+    mean, scale = y_scale
+    mu = graph.output[0].name
+    dtype = graph.output[0].type.tensor_type.elem_type
+    graph.initializer.extend(
+        [
+            helper.make_tensor("cnctwin_y_scale", dtype, [], [scale]),
+            helper.make_tensor("cnctwin_y_mean", dtype, [], [mean]),
+        ]
+    )
+    nodes = [
+        helper.make_node("Mul", [mu, "cnctwin_y_scale"], ["cnctwin_mu_scaled"]),
+        helper.make_node("Add", ["cnctwin_mu_scaled", "cnctwin_y_mean"], ["prediction"]),
+    ]
+    outputs = [_renamed(graph.output[0], "prediction")]
+    if with_std:
+        nodes.append(helper.make_node("Mul", [graph.output[1].name, "cnctwin_y_scale"], ["std"]))
+        outputs.append(_renamed(graph.output[1], "std"))
+    graph.node.extend(nodes)
+    del graph.output[:]
+    graph.output.extend(outputs)
+    names = {"prediction": "prediction"}
+    if with_std:
+        names["std"] = "std"
+    return names
+
+
+def _renamed(value_info: Any, name: str) -> Any:
+    """A graph output's type under another name (a column ``[N]`` where it has no shape)."""
+    from onnx import helper
+
+    tensor = value_info.type.tensor_type
+    if tensor.HasField("shape"):
+        copy = type(value_info)()
+        copy.CopyFrom(value_info)
+        copy.name = name
+        return copy
+    return helper.make_tensor_value_info(name, tensor.elem_type, [None])
 
 
 @dataclass
@@ -270,8 +289,8 @@ class Predictor:
             "model": self.model,
             "schema_sha256": self.schema.sha256,
             "features": [
-                {"name": n, "unit": u} for n, u in zip(self.schema.names, self.schema.units,
-                                                       strict=True)
+                {"name": n, "unit": u}
+                for n, u in zip(self.schema.names, self.schema.units, strict=True)
             ],
             "sources": list(self.schema.sources),
             "sample_period_s": spec.sample_period_s,

@@ -250,7 +250,9 @@ class FeatureSchema:
                 if isinstance(err, ValidationError)
                 else str(err).splitlines()[0]
             )
-            raise DataError(f"{where}: the stored feature schema is unreadable ({detail})") from None
+            raise DataError(
+                f"{where}: the stored feature schema is unreadable ({detail})"
+            ) from None
         schema = cls.from_spec(spec)
         if schema.sha256 != stored:
             raise DataError(
