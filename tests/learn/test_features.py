@@ -126,3 +126,8 @@ def test_hash_changes_with_any_setting() -> None:
     windows = [dict(SPEC["windows"][0], length=17), SPEC["windows"][1]]
     assert _schema(windows=windows).sha256 != base.sha256
     assert _schema(sample_period_s=0.01).sha256 != base.sha256
+    reordered = _schema(signals=dict(reversed(SPEC["signals"].items())))
+    assert reordered.sha256 != base.sha256
+    assert reordered.names[:3] == ("feed_mm_min", "force_x_n", "spindle_power_w")
+    # the stored form keeps the order
+    assert FeatureSchema.from_json(reordered.to_json(), "test").names == reordered.names

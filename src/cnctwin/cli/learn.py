@@ -39,7 +39,8 @@ def _dataset(data: list[str], schema: Any, labels: Path | None, label_key: str |
     from cnctwin.learn import build_dataset, read_runs, read_table
 
     table = read_table(labels) if labels is not None else None
-    return build_dataset(read_runs(data), schema, table, label_key)
+    runs = read_runs(data, exclude=[labels] if labels is not None else [])
+    return build_dataset(runs, schema, table, label_key)
 
 
 def _print(report: dict[str, Any]) -> None:
@@ -120,10 +121,9 @@ def train(
             f"balanced accuracy {metrics['balanced_accuracy']:.3f}, "
             f"ROC AUC {metrics['roc_auc']:.3f}"
         )
-    typer.echo(
-        f"{model} -> {target}: held-out {group_by} {', '.join(result.report['groups_holdout'])} "
-        f"({metrics['rows']} rows): {line}"
-    )
+    held = result.report["groups_holdout"]
+    shown = ", ".join(held) if len(held) <= 8 else f"{len(held)} groups"
+    typer.echo(f"{model} -> {target}: held-out {group_by} {shown} ({metrics['rows']} rows): {line}")
     typer.echo(f"wrote {out}, {report_path}, {figure}")
 
 

@@ -33,10 +33,13 @@ from cnctwin.errors import DataError, InputError
 from cnctwin.learn.features import FeaturePath
 from cnctwin.learn.schema import FeatureSchema
 
-__all__ = ["Dataset", "Run", "build_dataset", "read_runs", "read_table"]
+__all__ = ["Dataset", "Run", "build_dataset", "key_of", "read_runs", "read_table"]
 
 TIME_COLUMN = "time_s"
 RUN_COLUMN = "run"
+#: The row's index in the dataset: ``--group-by row`` is a random split of rows, for
+#: showing what leakage does (docs/learn.md), never for a figure of merit.
+ROW_COLUMN = "row"
 _SIBLINGS = (".predictions", ".events", ".decisions")
 HISTORIAN_PREFIX = "historian:"
 
@@ -71,7 +74,7 @@ class Dataset:
     features
         ``(rows, len(schema.names))`` float64.
     columns
-        Per row: ``run`` (key), every label, and every numeric column of the runs.
+        Per row: ``run`` (key), ``row`` (index), every label, and every column of the runs.
     """
 
     schema: FeatureSchema
@@ -131,7 +134,7 @@ def read_table(path: str | Path) -> dict[str, NDArray[Any]]:
     return columns
 
 
-def _key_of(value: object) -> str:
+def key_of(value: object) -> str:
     """A run key as text: ``7.0`` and ``7`` and ``"07"`` are all ``"7"``."""
     if isinstance(value, float | np.floating) and float(value).is_integer():
         return str(int(value))
@@ -158,8 +161,9 @@ def _files(source: str) -> list[Path]:
     return found
 
 
-def read_runs(sources: Sequence[str]) -> list[Run]:
-    """The runs of every source (see the module's description), in the order given.
+def read_runs(sources: Sequence[str], exclude: Sequence[str | Path] = ()) -> list[Run]:
+    """The runs of every source (see the module's description), in the order given; files
+    in ``exclude`` (a labels table in the runs' folder) are no runs.
 
     Raises
     ------
@@ -172,7 +176,10 @@ def read_runs(sources: Sequence[str]) -> list[Run]:
         if source.startswith(HISTORIAN_PREFIX):
             runs.extend(_historian_runs(source[len(HISTORIAN_PREFIX) :]))
             continue
+        skip = {Path(p).resolve() for p in exclude}
         for path in _files(source):
+            if path.resolve() in skip:
+                continue
             match = re.search(r"(\d+)$", path.stem)
             key = str(int(match.group(1))) if match else path.stem
             runs.append(Run(key, read_table(path)))
@@ -232,7 +239,7 @@ def build_dataset(
                 f"--label-key {label_key!r} is not a column of the labels (columns: "
                 f"{', '.join(labels)})"
             )
-        keys = [_key_of(v) for v in labels[label_key]]
+        keys = [key_of(v) for v in labels[label_key]]
         for i, key in enumerate(keys):
             by_key[key] = {name: column[i] for name, column in labels.items()}
     path = FeaturePath(schema)
@@ -266,6 +273,7 @@ def build_dataset(
         )
     names = set.intersection(*(set(p) for p in parts))
     columns = {name: _concat([p[name] for p in parts]) for name in sorted(names)}
+    columns.setdefault(ROW_COLUMN, np.arange(sum(len(b) for b in blocks)).astype(float))
     return Dataset(schema, np.concatenate(blocks), columns)
 
 

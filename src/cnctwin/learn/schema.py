@@ -178,7 +178,8 @@ class FeatureSchema:
     sources
         The signals read, sorted.
     sha256
-        Hex SHA-256 of the spec's canonical JSON (sorted keys, no spaces).
+        Hex SHA-256 of the spec's canonical JSON (in the order given: reordering the signals
+        reorders the features and changes the hash).
     """
 
     spec: FeatureSpec
@@ -219,6 +220,7 @@ class FeatureSchema:
 
     def to_json(self) -> str:
         """The schema as JSON (what a model file stores)."""
+        # not sorted: the order of the signals, windows and categories is the features' order
         return json.dumps(
             {
                 "spec": self.spec.model_dump(mode="json"),
@@ -226,8 +228,7 @@ class FeatureSchema:
                 "units": list(self.units),
                 "sources": list(self.sources),
                 "sha256": self.sha256,
-            },
-            sort_keys=True,
+            }
         )
 
     @classmethod
@@ -254,7 +255,7 @@ class FeatureSchema:
                 f"{where}: the stored feature schema is unreadable ({detail})"
             ) from None
         schema = cls.from_spec(spec)
-        if schema.sha256 != stored:
+        if schema.sha256 != stored or list(schema.names) != raw.get("names"):
             raise DataError(
                 f"{where}: the feature schema's hash {stored[:12]}... does not match its "
                 f"content ({schema.sha256[:12]}...); the file was altered"
@@ -278,4 +279,6 @@ class FeatureSchema:
 
 
 def _canonical(spec: FeatureSpec) -> str:
-    return json.dumps(spec.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+    """The spec's JSON: fields in declaration order, tables in the order given (the order of
+    the features), no spaces."""
+    return json.dumps(spec.model_dump(mode="json"), separators=(",", ":"))

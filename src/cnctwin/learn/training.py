@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cnctwin.errors import InputError
-from cnctwin.learn.dataset import Dataset
+from cnctwin.learn.dataset import Dataset, key_of
 from cnctwin.learn.splits import grouped_folds, holdout_groups
 
 __all__ = ["BAND_LEVEL", "MODELS", "TrainResult", "train"]
@@ -248,7 +248,7 @@ def train(
             f"--model gpr predicts numbers; --target {target!r} holds classes (use gbm, mlp "
             f"or linear)"
         )
-    groups_all = np.asarray(data.column(group_by, "--group-by")).astype(str)
+    groups_all = np.array([key_of(v) for v in data.column(group_by, "--group-by")], dtype=str)
     x_all = data.features
     x, y, groups = x_all[known], y_all[known], groups_all[known]
     held = holdout_groups(groups, holdout, seed, y if task == "classification" else None)
