@@ -12,6 +12,7 @@ from cnctwin.control import Expression, RuleEngine, SafetyFilter
 from cnctwin.thread import SIGNALS, MachineConnection
 from cnctwin.twin.actions import ActionStage, RuleStage
 from cnctwin.twin.config import RunConfig
+from cnctwin.twin.model_stage import LoadedModel, ModelStage, load_models
 from cnctwin.twin.monitoring import ForceBand
 from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.program import ProgramMap
@@ -87,12 +88,15 @@ class Twin:
         The action stage (decisions, writes, read-backs, stop reactions).
     safety
         The safety filter.
+    models
+        The learned models of ``[[twin.models]]``, loaded and checked.
     """
 
     runtime: TwinRuntime
     physics: TwinPhysics
     actions: ActionStage
     safety: SafetyFilter
+    models: tuple[LoadedModel, ...] = ()
 
 
 def build_twin(
@@ -129,7 +133,7 @@ def build_twin(
     ------
     cnctwin.errors.ConfigError
         For an unknown material, a tool without fluted length, a rule that reads an unknown
-        name, a bad filter or window.
+        name, a bad filter or window, a model whose features the twin cannot supply.
     cnctwin.errors.NCError
         For an error in the program.
     """
@@ -137,7 +141,9 @@ def build_twin(
     cycle_s = twin_cfg.cycle_s
     physics = TwinPhysics(config, density_per_mm=twin_cfg.density_per_mm, default_dt_s=cycle_s)
     physics.warm_up()
-    engine = RuleEngine(config.rules, valid_names=signal_names(config))
+    models = load_models(twin_cfg.models, [*SIGNALS, *PREDICTIONS], cycle_s)
+    model_outputs = [name for model in models for name in model.outputs]
+    engine = RuleEngine(config.rules, valid_names=signal_names(config) + model_outputs)
     safety = SafetyFilter(config.control)
     actions = ActionStage(
         connection, safety, recorder, stop_confirmation=twin_cfg.stop_confirmation
@@ -157,6 +163,7 @@ def build_twin(
         stages.append(ForceBandStage(ForceBand(twin_cfg.force_band), physics))
     if twin_cfg.form_error.enabled:
         stages.append(FormErrorStage(twin_cfg.form_error, physics))
+    stages += [ModelStage(model) for model in models]
     stages += [RuleStage(engine), actions]
     runtime = TwinRuntime(
         stages,
@@ -170,4 +177,4 @@ def build_twin(
         clock=clock,
         sleep=sleep,
     )
-    return Twin(runtime, physics, actions, safety)
+    return Twin(runtime, physics, actions, safety, tuple(models))

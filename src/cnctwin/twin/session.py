@@ -12,6 +12,7 @@ from cnctwin.errors import CnctwinError
 from cnctwin.store import Historian
 from cnctwin.thread import ConnectionConfig, ConnectionLost, MachineConnection
 from cnctwin.twin.config import RunConfig
+from cnctwin.twin.model_stage import model_meta
 from cnctwin.twin.pipeline import Twin, build_twin
 from cnctwin.twin.recorder import Recorder
 from cnctwin.twin.runtime import RunSummary
@@ -109,6 +110,7 @@ async def run_session(
                     "program": str(program) if program is not None else None,
                     "cycle_s": config.twin.cycle_s,
                     "control_enabled": config.control.enabled,
+                    "models": model_meta(config.twin.models),
                     **dict(meta or {}),
                 },
                 t0,
