@@ -242,9 +242,11 @@ def main() -> None:
     }
     print(json.dumps(result, indent=2))
     if args.out is not None:
-        command = "python benchmarks/bench_twin_cycle.py" + (
-            " --quick" if args.quick else f" --minutes {args.minutes:g} --trials {trials}"
-        ) + ("" if args.model is None else f" --model {args.model}")
+        command = (
+            "python benchmarks/bench_twin_cycle.py"
+            + (" --quick" if args.quick else f" --minutes {args.minutes:g} --trials {trials}")
+            + ("" if args.model is None else f" --model {args.model}")
+        )
         args.out.write_text(markdown(result, command))
 
 
