@@ -22,13 +22,15 @@ from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from cnctwin.errors import ConfigError, DataError, InputError
-from cnctwin.twin.settings import ModelConfig
+from cnctwin.thread import SIGNALS
+from cnctwin.twin.settings import ModelConfig, TwinSettings
+from cnctwin.twin.stages import PREDICTIONS
 from cnctwin.twin.state import CycleState
 
 if TYPE_CHECKING:
@@ -73,20 +75,12 @@ def _outputs(name: str, predictor: Predictor) -> tuple[str, ...]:
     return (name, f"{name}_band", f"{name}_low", f"{name}_high", *std, f"{name}_ready")
 
 
-def load_models(
-    configs: Sequence[ModelConfig], available: Iterable[str], cycle_s: float
-) -> list[LoadedModel]:
-    """Load every ``[[twin.models]]`` entry and check it against what the twin supplies.
-
-    Parameters
-    ----------
-    configs
-        The entries.
-    available
-        Every signal and prediction name the twin's stages before the models give.
-    cycle_s
-        The twin's cycle, s: the schema's ``sample_period_s`` must equal it (filters and
-        windows count samples).
+def load_models(settings: TwinSettings) -> list[LoadedModel]:
+    """Load every ``[[twin.models]]`` entry of ``settings`` and check it against what the twin
+    supplies: the canonical signals (:data:`cnctwin.thread.SIGNALS`), the predictions of the
+    stages before the models (:data:`~cnctwin.twin.stages.PREDICTIONS`) and the models before
+    it; its schema's ``sample_period_s`` must equal ``cycle_s`` (filters and windows count
+    samples).
 
     Raises
     ------
@@ -96,9 +90,10 @@ def load_models(
     """
     from cnctwin.learn import Predictor
 
-    names = set(available)
+    cycle_s = settings.cycle_s
+    names = {*SIGNALS, *PREDICTIONS}
     loaded: list[LoadedModel] = []
-    for k, cfg in enumerate(configs):
+    for k, cfg in enumerate(settings.models):
         where = f"twin.models[{k}] ({cfg.path})"
         if cfg.name in names:
             raise ConfigError(

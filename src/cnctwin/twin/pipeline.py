@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 import os
 import time
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
 
 from cnctwin.control import Expression, RuleEngine, SafetyFilter
@@ -109,6 +109,7 @@ def build_twin(
     realtime: bool = True,
     clock: Callable[[], float] = time.monotonic,
     sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
+    models: Sequence[LoadedModel] | None = None,
 ) -> Twin:
     """The twin cycle's stages (docs/twin.md) for ``config``, reading and writing ``connection``.
 
@@ -128,6 +129,9 @@ def build_twin(
     clock, sleep
         The runtime's clock (s) and wait (s); tests give a fake clock (see
         :class:`~cnctwin.twin.runtime.TwinRuntime`).
+    models
+        The ``[[twin.models]]`` already loaded (:func:`~cnctwin.twin.model_stage.load_models`);
+        ``None`` loads them.
 
     Raises
     ------
@@ -141,7 +145,7 @@ def build_twin(
     cycle_s = twin_cfg.cycle_s
     physics = TwinPhysics(config, density_per_mm=twin_cfg.density_per_mm, default_dt_s=cycle_s)
     physics.warm_up()
-    models = load_models(twin_cfg.models, [*SIGNALS, *PREDICTIONS], cycle_s)
+    models = load_models(twin_cfg) if models is None else models
     model_outputs = [name for model in models for name in model.outputs]
     engine = RuleEngine(config.rules, valid_names=signal_names(config) + model_outputs)
     safety = SafetyFilter(config.control)

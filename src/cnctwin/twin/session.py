@@ -12,7 +12,7 @@ from cnctwin.errors import CnctwinError
 from cnctwin.store import Historian
 from cnctwin.thread import ConnectionConfig, ConnectionLost, MachineConnection
 from cnctwin.twin.config import RunConfig
-from cnctwin.twin.model_stage import model_meta
+from cnctwin.twin.model_stage import load_models, model_meta
 from cnctwin.twin.pipeline import Twin, build_twin
 from cnctwin.twin.recorder import Recorder
 from cnctwin.twin.runtime import RunSummary
@@ -91,7 +91,10 @@ async def run_session(
     ------
     CnctwinError
         If the machine cannot be reached within ``connect_timeout_s``.
+    cnctwin.errors.ConfigError
+        Before connecting, for a ``[[twin.models]]`` entry the twin cannot feed.
     """
+    models = load_models(config.twin)  # a model the twin cannot feed is refused before connecting
     conn = connection if connection is not None else open_connection(config.connection, base_dir)
     endpoint = getattr(conn, "endpoint", config.connection.endpoint)
     await _connect(conn, endpoint, connect_timeout_s, stop_event)
@@ -115,7 +118,9 @@ async def run_session(
                 },
                 t0,
             )
-        twin = build_twin(config, conn, recorder=recorder, program=program, realtime=realtime)
+        twin = build_twin(
+            config, conn, recorder=recorder, program=program, realtime=realtime, models=models
+        )
         twin.runtime.on_cycle = on_cycle
         twin.runtime.prepare()
         if on_start is not None:
