@@ -91,6 +91,7 @@ def main() -> None:
     """Train, export, load and time each model kind; print the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small GPR, fewer repetitions")
+    parser.add_argument("--models", default="linear,gbm,mlp,gpr", help="comma-separated kinds")
     args = parser.parse_args()
     repeats = 500 if args.quick else 5000
     gpr_points = 300 if args.quick else 2000
@@ -101,7 +102,7 @@ def main() -> None:
           "feature update p99 ms |")
     print("|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as folder:
-        for kind, rows in cases:
+        for kind, rows in [c for c in cases if c[0] in args.models.split(",")]:
             data = dataset(rows)
             t0 = time.perf_counter()
             result = train(
