@@ -66,7 +66,9 @@ def export_onnx(result: TrainResult, schema: FeatureSchema, path: str | Path) ->
     if result.task == "classification":
         options[id(final)] = {"zipmap": False}
     if kind == "gpr":
-        options[GaussianProcessRegressor] = {"return_std": True}
+        # CDist (onnxruntime's contrib operator) instead of a Scan over the training rows:
+        # the same numbers, a fraction of the time per window
+        options[GaussianProcessRegressor] = {"return_std": True, "optim": "cdist"}
     proto = to_onnx(
         result.estimator,
         initial_types=[("features", tensor([None, len(schema.names)]))],

@@ -24,6 +24,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -268,9 +269,16 @@ def train(
     folds_list = list(grouped_folds(gt.astype(object), folds))
     n_features = x.shape[1]
 
+    notes: set[str] = set()
+
     def fit(params: dict[str, Any], rows: NDArray[np.intp]) -> Any:
         est = _make(model, task, params, n_features, seed)
-        return est.fit(_cast(model, xt[rows]), fit_y[rows])
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            est.fit(_cast(model, xt[rows]), fit_y[rows])
+        # convergence notes go to the report, not to the user's terminal once per fold
+        notes.update(str(w.message).splitlines()[0] for w in caught)
+        return est
 
     tuning = []
     best: tuple[float, dict[str, Any]] | None = None
@@ -361,6 +369,7 @@ def train(
             }
             for g in sorted(set(gh.tolist()))
         }
+    report["fit_warnings"] = sorted(notes)
     report["train_wall_s"] = time.perf_counter() - started
     result.report = report
     return result
