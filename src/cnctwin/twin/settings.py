@@ -296,7 +296,7 @@ class TwinSettings(Section):
     overload
         Overload detection and shedding.
     models
-        Learned models run every sample, in order, after the monitoring models.
+        Learned models run every sample, in order, after the monitoring models (at most 16).
     """
 
     cycle_s: float = Field(default=0.0125, ge=0.001, le=1.0)
@@ -313,7 +313,7 @@ class TwinSettings(Section):
     form_error: FormErrorConfig = Field(default_factory=FormErrorConfig)
     stop_confirmation: StopConfirmationConfig = Field(default_factory=StopConfirmationConfig)
     overload: OverloadConfig = Field(default_factory=OverloadConfig)
-    models: list[ModelConfig] = Field(default_factory=list)
+    models: list[ModelConfig] = Field(default_factory=list, max_length=16)
 
     @field_validator("program")
     @classmethod
