@@ -130,6 +130,7 @@ def judge(run: dict[str, np.ndarray]) -> dict[str, Any]:
     armed = run["force_band_armed"] == 1.0
     hybrid_ok = armed & (run["residual_ready"] == 1.0)
     measured = run["measured_force_xy_n"]
+    physics_error = np.abs(measured - run["predicted_force_xy_n"])
     physics_half = (run["force_band_high_n"] - run["force_band_low_n"]) / 2
     physics_out = armed & (run["force_out_of_band"] == 1.0)
     hybrid_center = run["predicted_force_xy_n"] + run["residual"]
@@ -140,7 +141,7 @@ def judge(run: dict[str, np.ndarray]) -> dict[str, Any]:
         "armed_cycles": int(armed.sum()),
         "physics_half_width_n": float(np.median(physics_half[armed])),
         "hybrid_half_width_n": float(np.median(hybrid_half[hybrid_ok])),
-        "physics_center_error_n": float(np.median(np.abs(measured - run["predicted_force_xy_n"])[armed])),
+        "physics_center_error_n": float(np.median(physics_error[armed])),
         "hybrid_center_error_n": float(np.median(np.abs(measured - hybrid_center)[hybrid_ok])),
         "physics_out_cycles": int(physics_out.sum()),
         "hybrid_out_cycles": int(hybrid_out.sum()),
