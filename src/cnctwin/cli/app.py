@@ -118,6 +118,11 @@ COMMANDS: dict[str, _Lazy] = {
     "vibration": _Lazy("vibration", "app", "Milling vibration over time (time-domain model)."),
     "modal": _Lazy("modal", "app", "Modal parameters from tap tests."),
     "runs": _Lazy("runs", "app", "Recorded runs of the twin: list, show, export."),
+    "learn": _Lazy(
+        "learn",
+        "app",
+        "Learned models: train on recorded runs with grouped splits, evaluate, inspect.",
+    ),
     "web": _Lazy(
         "web",
         "web",

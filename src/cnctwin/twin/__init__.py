@@ -16,6 +16,7 @@ See docs/twin.md.
 from cnctwin.twin.config import RunConfig, load_run_config
 from cnctwin.twin.host import MachineProcess, MachineServer
 from cnctwin.twin.local import LocalConnection
+from cnctwin.twin.model_stage import ModelStage, load_models
 from cnctwin.twin.monitoring import BandResult, ForceBand
 from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.pipeline import Twin, build_twin, signal_names
@@ -25,6 +26,7 @@ from cnctwin.twin.settings import (
     FilterConfig,
     ForceBandConfig,
     FormErrorConfig,
+    ModelConfig,
     TwinSettings,
     WearConfig,
     WindowConfig,
@@ -41,6 +43,8 @@ __all__ = [
     "LocalConnection",
     "MachineProcess",
     "MachineServer",
+    "ModelConfig",
+    "ModelStage",
     "RunConfig",
     "RunSummary",
     "Twin",
@@ -51,6 +55,7 @@ __all__ = [
     "WearConfig",
     "WindowConfig",
     "build_twin",
+    "load_models",
     "load_run_config",
     "open_connection",
     "run_session",

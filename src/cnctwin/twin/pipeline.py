@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 import os
 import time
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -13,6 +13,7 @@ from cnctwin.control import Expression, RuleEngine, SafetyFilter
 from cnctwin.thread import SIGNALS, MachineConnection
 from cnctwin.twin.actions import ActionStage, RuleStage
 from cnctwin.twin.config import RunConfig
+from cnctwin.twin.model_stage import LoadedModel, ModelStage, load_models
 from cnctwin.twin.monitoring import ForceBand
 from cnctwin.twin.mqtt import MqttOutlet, MqttSignalStage
 from cnctwin.twin.physics import TwinPhysics
@@ -95,12 +96,15 @@ class Twin:
         The action stage (decisions, writes, read-backs, stop reactions).
     safety
         The safety filter.
+    models
+        The learned models of ``[[twin.models]]``, loaded and checked.
     """
 
     runtime: TwinRuntime
     physics: TwinPhysics
     actions: ActionStage
     safety: SafetyFilter
+    models: tuple[LoadedModel, ...] = ()
 
 
 def build_twin(
@@ -116,6 +120,7 @@ def build_twin(
     mqtt_source: MqttSource | None = None,
     mqtt_publisher: MqttPublisher | None = None,
     t0_s: float | None = None,
+    models: Sequence[LoadedModel] | None = None,
 ) -> Twin:
     """The twin cycle's stages (docs/twin.md) for ``config``, reading and writing ``connection``.
 
@@ -141,12 +146,15 @@ def build_twin(
         every cycle after the watchdog.
     t0_s
         ``time.monotonic()`` of the run's start, for the published times (default: now).
+    models
+        The ``[[twin.models]]`` already loaded (:func:`~cnctwin.twin.model_stage.load_models`);
+        ``None`` loads them.
 
     Raises
     ------
     cnctwin.errors.ConfigError
         For an unknown material, a tool without fluted length, a rule that reads an unknown
-        name, a bad filter or window.
+        name, a bad filter or window, a model whose features the twin cannot supply.
     cnctwin.errors.NCError
         For an error in the program.
     """
@@ -154,7 +162,9 @@ def build_twin(
     cycle_s = twin_cfg.cycle_s
     physics = TwinPhysics(config, density_per_mm=twin_cfg.density_per_mm, default_dt_s=cycle_s)
     physics.warm_up()
-    engine = RuleEngine(config.rules, valid_names=signal_names(config))
+    models = load_models(twin_cfg) if models is None else models
+    model_outputs = [name for model in models for name in model.outputs]
+    engine = RuleEngine(config.rules, valid_names=signal_names(config) + model_outputs)
     safety = SafetyFilter(config.control)
     actions = ActionStage(
         connection, safety, recorder, stop_confirmation=twin_cfg.stop_confirmation
@@ -178,6 +188,7 @@ def build_twin(
         stages.append(FormErrorStage(twin_cfg.form_error, physics))
     if twin_cfg.wear.enabled:
         stages.append(WearStage(twin_cfg.wear, physics))
+    stages += [ModelStage(model) for model in models]
     stages += [RuleStage(engine), actions]
     outlets: list[MqttOutlet] = []
     if mqtt_source is not None or mqtt_publisher is not None:
@@ -202,4 +213,4 @@ def build_twin(
         sleep=sleep,
         outlets=outlets,
     )
-    return Twin(runtime, physics, actions, safety)
+    return Twin(runtime, physics, actions, safety, tuple(models))

@@ -13,6 +13,7 @@ from cnctwin.errors import CnctwinError
 from cnctwin.store import Historian
 from cnctwin.thread import ConnectionConfig, ConnectionLost, MachineConnection
 from cnctwin.twin.config import RunConfig
+from cnctwin.twin.model_stage import load_models, model_meta
 from cnctwin.twin.pipeline import Twin, build_twin
 from cnctwin.twin.recorder import Recorder
 from cnctwin.twin.runtime import RunSummary
@@ -98,7 +99,10 @@ async def run_session(
     ------
     CnctwinError
         If the machine cannot be reached within ``connect_timeout_s``.
+    cnctwin.errors.ConfigError
+        Before connecting, for a ``[[twin.models]]`` entry the twin cannot feed.
     """
+    models = load_models(config.twin)  # a model the twin cannot feed is refused before connecting
     conn = connection if connection is not None else open_connection(config.connection, base_dir)
     endpoint = getattr(conn, "endpoint", config.connection.endpoint)
     await _connect(conn, endpoint, connect_timeout_s, stop_event)
@@ -117,6 +121,7 @@ async def run_session(
                     "program": str(program) if program is not None else None,
                     "cycle_s": config.twin.cycle_s,
                     "control_enabled": config.control.enabled,
+                    "models": model_meta(config.twin.models),
                     **dict(meta or {}),
                 },
                 t0,
@@ -131,6 +136,7 @@ async def run_session(
                 mqtt_source=link.source,
                 mqtt_publisher=link.publisher,
                 t0_s=t0,
+                models=models,
             )
             twin.runtime.on_cycle = on_cycle
             twin.runtime.prepare()

@@ -14,6 +14,7 @@ __all__ = [
     "FilterConfig",
     "ForceBandConfig",
     "FormErrorConfig",
+    "ModelConfig",
     "OverloadConfig",
     "PlausibilityConfig",
     "StopConfirmationConfig",
@@ -325,6 +326,32 @@ class PlausibilityConfig(Section):
     spindle_override_max_pct: float = Field(default=120.0, gt=0.0, le=120.0)
 
 
+class ModelConfig(Section):
+    """A learned model the twin runs every sample (``[[twin.models]]``; see
+    :mod:`cnctwin.twin.model_stage` and docs/twin.md).
+
+    Attributes
+    ----------
+    name
+        The model's prediction name (lower-case letters, digits, ``_``): the twin adds
+        ``NAME`` (the prediction, in the target's unit), ``NAME_band``, ``NAME_low``,
+        ``NAME_high`` (the stated band's half-width and edges), ``NAME_std`` (GPR) and
+        ``NAME_ready`` (1 once every feature is known) for rules and the historian.
+    path
+        The ONNX model file (``cnctwin learn train``), relative to the configuration file.
+    """
+
+    name: str = Field(pattern=r"^[a-z][a-z0-9_]{0,39}$")
+    path: Path
+
+    @field_validator("path")
+    @classmethod
+    def _relative_to_file(cls, value: Path, info: ValidationInfo) -> Path:
+        resolved = resolve_file(value, info)
+        assert resolved is not None
+        return resolved
+
+
 class TwinSettings(Section):
     """The twin's runtime (``[twin]``).
 
@@ -373,6 +400,8 @@ class TwinSettings(Section):
         When a stop counts as done, and the escalation when it does not.
     overload
         Overload detection and shedding.
+    models
+        Learned models run every sample, in order, after the monitoring models (at most 16).
     """
 
     cycle_s: float = Field(default=0.0125, ge=0.001, le=1.0)
@@ -390,6 +419,7 @@ class TwinSettings(Section):
     wear: WearConfig = Field(default_factory=WearConfig)
     stop_confirmation: StopConfirmationConfig = Field(default_factory=StopConfirmationConfig)
     overload: OverloadConfig = Field(default_factory=OverloadConfig)
+    models: list[ModelConfig] = Field(default_factory=list, max_length=16)
 
     @field_validator("program")
     @classmethod

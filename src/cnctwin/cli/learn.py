@@ -1,0 +1,183 @@
+"""``cnctwin learn train|evaluate|inspect``: models trained on recorded runs, as ONNX files."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from cnctwin import finite_json
+
+__all__ = ["app", "evaluate", "inspect", "train"]
+
+app = typer.Typer(
+    help="Learned models: train on recorded runs with grouped splits, evaluate, inspect.",
+    no_args_is_help=True,
+)
+
+DataOpt = Annotated[
+    list[str],
+    typer.Option(
+        "--data",
+        help="Runs: a CSV/Parquet file, a folder or glob of them (one run per file: a "
+        "historian export or a replay log), or historian:DB. Repeatable.",
+    ),
+]
+LabelsOpt = Annotated[
+    Path | None,
+    typer.Option("--labels", help="Table (CSV/Parquet) of per-run labels, joined on --label-key."),
+]
+LabelKeyOpt = Annotated[
+    str | None, typer.Option("--label-key", help="Column of --labels holding the run key.")
+]
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object.")]
+
+
+def _dataset(data: list[str], schema: Any, labels: Path | None, label_key: str | None) -> Any:
+    from cnctwin.learn import build_dataset, read_runs, read_table
+
+    table = read_table(labels) if labels is not None else None
+    runs = read_runs(data, exclude=[labels] if labels is not None else [])
+    return build_dataset(runs, schema, table, label_key)
+
+
+def _print(report: dict[str, Any]) -> None:
+    sys.stdout.write(finite_json.dumps(report) + "\n")
+
+
+def train(
+    data: DataOpt,
+    features: Annotated[
+        Path, typer.Option("--features", help="Feature spec (TOML, see examples/learn/).")
+    ],
+    target: Annotated[str, typer.Option("--target", help="Column to predict.")],
+    group_by: Annotated[
+        str, typer.Option("--group-by", help="Column of groups (run, experiment, case).")
+    ],
+    model: Annotated[str, typer.Option("--model", help="gpr, gbm, mlp or linear.")] = "gbm",
+    out: Annotated[
+        Path, typer.Option("--out", help="Model file; the report goes beside it.")
+    ] = Path("model.onnx"),
+    labels: LabelsOpt = None,
+    label_key: LabelKeyOpt = None,
+    holdout: Annotated[
+        float, typer.Option("--holdout", help="Fraction of groups held out.", min=0.0, max=1.0)
+    ] = 0.25,
+    folds: Annotated[int, typer.Option("--folds", help="Grouped tuning folds.", min=2, max=50)] = 3,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the hold-out draw.", min=0)] = 0,
+    quick: Annotated[bool, typer.Option("--quick", help="A smaller tuning grid.")] = False,
+    max_gpr_points: Annotated[
+        int, typer.Option("--max-gpr-points", help="Most GPR training rows.", min=10, max=20000)
+    ] = 2000,
+    as_json: JsonOpt = False,
+) -> None:
+    """Train a model on grouped data; write MODEL.onnx, MODEL.report.json and .png."""
+    from cnctwin.learn import (
+        FeatureSchema,
+        export_onnx,
+        load_feature_spec,
+        plot_report,
+    )
+    from cnctwin.learn import train as fit
+
+    schema = FeatureSchema.from_spec(load_feature_spec(features))
+    dataset = _dataset(data, schema, labels, label_key)
+    result = fit(
+        dataset,
+        target,
+        model,
+        group_by,
+        holdout=holdout,
+        folds=folds,
+        seed=seed,
+        quick=quick,
+        max_gpr_points=max_gpr_points,
+    )
+    export_onnx(result, schema, out)
+    report_path = out.with_suffix(".report.json")
+    figure = plot_report(result, out.with_suffix(".report.png"))
+    report_path.write_text(finite_json.dumps(result.report, indent=1) + "\n")
+    summary = {
+        "model": str(out),
+        "report": str(report_path),
+        "figure": str(figure),
+        "schema_sha256": schema.sha256,
+        "groups_holdout": result.report["groups_holdout"],
+        "holdout": result.report["holdout"],
+    }
+    if as_json:
+        _print(summary)
+        return
+    metrics = result.report["holdout"]
+    if result.task == "regression":
+        line = (
+            f"MAE {metrics['mae']:.4g}, RMSE {metrics['rmse']:.4g}, R2 {metrics['r2']:.3f}, "
+            f"90% band coverage {metrics['band_coverage']:.2f}"
+        )
+    else:
+        line = (
+            f"balanced accuracy {metrics['balanced_accuracy']:.3f}, "
+            f"ROC AUC {metrics['roc_auc']:.3f}"
+        )
+    held = result.report["groups_holdout"]
+    shown = ", ".join(held) if len(held) <= 8 else f"{len(held)} groups"
+    typer.echo(f"{model} -> {target}: held-out {group_by} {shown} ({metrics['rows']} rows): {line}")
+    typer.echo(f"wrote {out}, {report_path}, {figure}")
+
+
+def evaluate(
+    model_file: Annotated[Path, typer.Argument(help="A model written by `cnctwin learn train`.")],
+    data: DataOpt,
+    labels: LabelsOpt = None,
+    label_key: LabelKeyOpt = None,
+    features: Annotated[
+        Path | None,
+        typer.Option("--features", help="Check that this spec is the model's (refused if not)."),
+    ] = None,
+    group_by: Annotated[
+        str | None, typer.Option("--group-by", help="Column of groups for per-group figures.")
+    ] = None,
+    as_json: JsonOpt = False,
+) -> None:
+    """Score a model on data, built with the schema stored in the model."""
+    from cnctwin.learn import FeatureSchema, Predictor, evaluate_model, load_feature_spec
+
+    predictor = Predictor.load(model_file)
+    if features is not None:
+        predictor.check_schema(
+            FeatureSchema.from_spec(load_feature_spec(features)), f"--features {features}"
+        )
+    dataset = _dataset(data, predictor.schema, labels, label_key)
+    report = evaluate_model(predictor, dataset, group_by)
+    if as_json:
+        _print(report)
+        return
+    typer.echo(finite_json.dumps(report, indent=1))
+
+
+def inspect(
+    model_file: Annotated[Path, typer.Argument(help="A model written by `cnctwin learn train`.")],
+    as_json: JsonOpt = False,
+) -> None:
+    """Show a model's target, features (names, units, filters, windows) and hold-out score."""
+    from cnctwin.learn import Predictor
+
+    info = Predictor.load(model_file).describe()
+    if as_json:
+        _print(info)
+        return
+    model = info["model"]
+    typer.echo(f"{info['file']}: {model['kind']} {model['task']} of {model['target']}")
+    typer.echo(f"schema sha256 {info['schema_sha256']}, sample period {info['sample_period_s']} s")
+    typer.echo(f"sources: {', '.join(info['sources'])}")
+    for feature in info["features"]:
+        typer.echo(f"  {feature['name']} [{feature['unit']}]")
+    typer.echo(f"held out: {', '.join(map(str, info['groups_holdout'] or []))}")
+    typer.echo(f"hold-out metrics: {finite_json.dumps(info['holdout'])}")
+
+
+app.command("train")(train)
+app.command("evaluate")(evaluate)
+app.command("inspect")(inspect)

@@ -1,0 +1,88 @@
+"""Learned models for the twin: a feature schema, the one feature path, datasets, grouped
+training, ONNX model files.
+
+Public API::
+
+    from cnctwin.learn import (FeatureSchema, load_feature_spec, FeaturePath, read_runs,
+                               read_table, build_dataset, train, export_onnx, Predictor)
+
+    schema = FeatureSchema.from_spec(load_feature_spec("examples/learn/umich_power.toml"))
+    data = build_dataset(read_runs(["experiments/"]), schema, read_table("labels.csv"), "No")
+    result = train(data, "S1_OutputPower", "gbm", "run")   # grouped tuning and hold-out
+    export_onnx(result, schema, "power.onnx")
+    model = Predictor.load("power.onnx", available=signal_names)   # schema checked
+    path = FeaturePath(model.schema)
+    model.predict_window(path.update(sample))                       # one window
+
+The schema, the feature path and the datasets need numpy and scipy; training imports
+scikit-learn, model files skl2onnx, onnx and onnxruntime, each on first use. See docs/learn.md.
+"""
+
+from typing import TYPE_CHECKING, Any
+
+from cnctwin.learn.dataset import Dataset, Run, build_dataset, read_runs, read_table
+from cnctwin.learn.features import FeaturePath, make_filter
+from cnctwin.learn.schema import (
+    WINDOW_FEATURES,
+    FeatureSchema,
+    FeatureSpec,
+    FilterSpec,
+    InvalidWhen,
+    WindowSpec,
+    load_feature_spec,
+)
+from cnctwin.learn.splits import grouped_folds, holdout_groups
+
+if TYPE_CHECKING:
+    from cnctwin.learn.figures import plot_report
+    from cnctwin.learn.onnx_model import Predictor, evaluate_model, export_onnx
+    from cnctwin.learn.training import BAND_LEVEL, MODELS, TrainResult, train
+
+__all__ = [
+    "BAND_LEVEL",
+    "MODELS",
+    "WINDOW_FEATURES",
+    "Dataset",
+    "FeaturePath",
+    "FeatureSchema",
+    "FeatureSpec",
+    "FilterSpec",
+    "InvalidWhen",
+    "Predictor",
+    "Run",
+    "TrainResult",
+    "WindowSpec",
+    "build_dataset",
+    "evaluate_model",
+    "export_onnx",
+    "grouped_folds",
+    "holdout_groups",
+    "load_feature_spec",
+    "make_filter",
+    "plot_report",
+    "read_runs",
+    "read_table",
+    "train",
+]
+
+_LAZY = {
+    "BAND_LEVEL": "training",
+    "MODELS": "training",
+    "TrainResult": "training",
+    "train": "training",
+    "Predictor": "onnx_model",
+    "export_onnx": "onnx_model",
+    "evaluate_model": "onnx_model",
+    "plot_report": "figures",
+}
+
+
+def __getattr__(name: str) -> Any:
+    # scikit-learn, skl2onnx, onnxruntime and matplotlib load only when a model is trained,
+    # written, run or drawn.
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    return getattr(importlib.import_module(f"cnctwin.learn.{module}"), name)
