@@ -21,7 +21,6 @@ answered read counts as a new sample at its receive time.
 from __future__ import annotations
 
 import logging
-import math
 from urllib.parse import urlsplit
 
 from pymodbus.client import AsyncModbusTcpClient
@@ -46,7 +45,7 @@ from cnctwin.thread.modbus_map import (
     parse_address,
     plan_reads,
 )
-from cnctwin.thread.signals import COMMANDS, SIGNALS
+from cnctwin.thread.signals import COMMANDS, SIGNALS, implausible
 
 __all__ = ["ModbusConnection", "modbus_maps", "parse_endpoint"]
 
@@ -120,20 +119,6 @@ def modbus_maps(
             write_map[name] = addr
         read_map[name] = addr
     return read_map, write_map
-
-
-def _plausible(name: str, value: float | None) -> str | None:
-    """Why ``value`` of signal ``name`` is garbage, or ``None`` when it is usable."""
-    if value is None:
-        return "device marked the value invalid"
-    if not math.isfinite(value):
-        return f"not a finite number ({value!r})"
-    spec = SIGNALS[name]
-    if (spec.low is not None and value < spec.low) or (spec.high is not None and value > spec.high):
-        low = "-inf" if spec.low is None else f"{spec.low:g}"
-        high = "inf" if spec.high is None else f"{spec.high:g}"
-        return f"{value:g} outside the plausible range {low}..{high}"
-    return None
 
 
 class ModbusConnection(MachineConnection):
@@ -304,7 +289,7 @@ def _decode_block(
     for name, addr in block.signals.items():
         offset = addr.address - block.start
         value = addr.decode(list(raw[offset : offset + addr.width]))
-        why = _plausible(name, value)
+        why = implausible(name, value)
         if why is None and value is not None:
             values[name] = value
         else:

@@ -9,9 +9,10 @@ them (mm, mm/min, rpm, %), SI elsewhere (N, N m, A, W, s).
 from __future__ import annotations
 
 import enum
+import math
 from dataclasses import dataclass
 
-__all__ = ["COMMANDS", "SIGNALS", "RunState", "SignalSpec"]
+__all__ = ["COMMANDS", "SIGNALS", "RunState", "SignalSpec", "implausible"]
 
 
 class RunState(enum.IntEnum):
@@ -93,3 +94,22 @@ SIGNALS: dict[str, SignalSpec] = {spec.name: spec for spec in _SPECS}
 
 #: The signals a twin may write (commands), by name; each is also read back.
 COMMANDS: dict[str, SignalSpec] = {spec.name: spec for spec in _SPECS if spec.writable}
+
+
+def implausible(name: str, value: float | None) -> str | None:
+    """Why ``value`` of signal ``name`` (in the signal's unit) is garbage, or ``None``.
+
+    Garbage is ``None`` (the device marked the value invalid), a value that is not a finite
+    number, or one outside the signal's plausible range (:attr:`SignalSpec.low` ..
+    :attr:`SignalSpec.high`).
+    """
+    if value is None:
+        return "device marked the value invalid"
+    if not math.isfinite(value):
+        return f"not a finite number ({value!r})"
+    spec = SIGNALS[name]
+    if (spec.low is not None and value < spec.low) or (spec.high is not None and value > spec.high):
+        low = "-inf" if spec.low is None else f"{spec.low:g}"
+        high = "inf" if spec.high is None else f"{spec.high:g}"
+        return f"{value:g} outside the plausible range {low}..{high}"
+    return None
