@@ -1,8 +1,9 @@
 """``cnctwin run``: the running twin against a machine, with a live terminal view.
 
-Connects to the machine of the configuration's ``[connection]`` (OPC UA or Modbus TCP), runs
-the twin cycle until the program ends, the machine stops, ``--duration`` is up or Ctrl-C,
-records the run in the historian, and prints a summary (``--json``: one object).
+Connects to the machine of the configuration's ``[connection]`` (OPC UA, Modbus TCP,
+MTConnect or LinuxCNC), runs the twin cycle until the program ends, the machine stops,
+``--duration`` is up or Ctrl-C, records the run in the historian, and prints a summary
+(``--json``: one object).
 """
 
 from __future__ import annotations
@@ -83,8 +84,8 @@ def run(
         str | None,
         typer.Option(
             "--endpoint",
-            help="Machine address (opc.tcp://..., modbus://... or an MTConnect agent's "
-            "http://...), overriding [connection].",
+            help="Machine address (opc.tcp://..., modbus://..., an MTConnect agent's "
+            "http://... or LinuxCNC's linuxcncrsh://...), overriding [connection].",
         ),
     ] = None,
     connect_timeout: Annotated[
@@ -139,10 +140,12 @@ def run(
             update["transport"] = "opcua"
         elif endpoint.startswith("http://"):
             update["transport"] = "mtconnect"
+        elif endpoint.startswith("linuxcncrsh://"):
+            update["transport"] = "linuxcnc"
         else:
             raise InputError(
-                f"--endpoint {endpoint!r}; give opc.tcp://HOST:PORT/PATH, modbus://HOST:PORT "
-                "or http://HOST:PORT (MTConnect)"
+                f"--endpoint {endpoint!r}; give opc.tcp://HOST:PORT/PATH, modbus://HOST:PORT, "
+                "http://HOST:PORT (MTConnect) or linuxcncrsh://HOST:PORT (LinuxCNC)"
             )
         settings = settings.model_copy(
             update={"connection": settings.connection.model_copy(update=update)}

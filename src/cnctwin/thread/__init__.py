@@ -1,7 +1,8 @@
 """The digital thread: one :class:`MachineConnection` interface over industrial protocols.
 
-The transports (:class:`OpcUaConnection`, :class:`ModbusConnection`, and the read-only
-:class:`MTConnectConnection`) load asyncua and pymodbus;
+The transports (:class:`OpcUaConnection`, :class:`ModbusConnection`, the read-only
+:class:`MTConnectConnection` and LinuxCNC's :class:`LinuxCncConnection`) load asyncua and
+pymodbus;
 they are imported on first use so that the signal catalogue and the connection interface stay
 light for the modules that only need those.
 """
@@ -29,6 +30,7 @@ if TYPE_CHECKING:
         measure_latency,
         measure_read_latency,
     )
+    from cnctwin.thread.linuxcnc import LinuxCncConnection
     from cnctwin.thread.modbus import ModbusConnection
     from cnctwin.thread.modbus_map import READ_MAP, STATUS_MAP, WRITE_MAP, RegisterAddress
     from cnctwin.thread.mtconnect import MTConnectConnection, SequenceGap
@@ -65,6 +67,7 @@ _LAZY = {
     "LatencyStats": "cnctwin.thread.latency",
     "measure_endpoint_latency": "cnctwin.thread.latency",
     "ModbusConnection": "cnctwin.thread.modbus",
+    "LinuxCncConnection": "cnctwin.thread.linuxcnc",
     "MTConnectConnection": "cnctwin.thread.mtconnect",
     "SequenceGap": "cnctwin.thread.mtconnect",
     "AgentError": "cnctwin.thread.mtconnect_documents",
@@ -98,6 +101,7 @@ __all__ = [
     "ConnectionLost",
     "ConnectionState",
     "MachineConnection",
+    "LinuxCncConnection",
     "ModbusConnection",
     "MTConnectConnection",
     "OpcUaConnection",

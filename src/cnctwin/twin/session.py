@@ -23,7 +23,8 @@ logger = logging.getLogger(__name__)
 
 
 def open_connection(config: ConnectionConfig, base_dir: Path | None = None) -> MachineConnection:
-    """The client of ``[connection]``: OPC UA, Modbus TCP or MTConnect (not yet connected).
+    """The client of ``[connection]``: OPC UA, Modbus TCP, MTConnect or LinuxCNC (not yet
+    connected).
 
     Parameters
     ----------
@@ -40,6 +41,10 @@ def open_connection(config: ConnectionConfig, base_dir: Path | None = None) -> M
         from cnctwin.thread import MTConnectConnection
 
         return MTConnectConnection(config)
+    if config.transport == "linuxcnc":
+        from cnctwin.thread import LinuxCncConnection
+
+        return LinuxCncConnection(config)
     from cnctwin.thread import OpcUaConnection
 
     return OpcUaConnection(config, base_dir=base_dir)
