@@ -3,10 +3,12 @@
 linuxcncrsh (``man linuxcncrsh``; LinuxCNC's ``[DISPLAY] DISPLAY = linuxcncrsh`` or a
 ``loadusr linuxcncrsh`` beside a GUI) answers one line per request. A session says
 ``hello <connect password> <client> 1.1``, turns the echo off and the acknowledgement of
-``set`` requests on (``set verbose on``: every ``set`` answers ``SET <WHAT> ACK`` or ``NAK``)
-and, only when an enable password is configured, asks to command the machine with
-``set enable <password>``. Without it the session only reads, and every write is refused
-with :class:`~cnctwin.thread.connection.CommandRejected` before anything is sent.
+``set`` requests on (``set verbose on``: every ``set`` answers ``SET <WHAT> ACK`` or ``NAK``).
+It reads without asking for control. linuxcncrsh lets one session at a time command (the
+last to send ``set enable <password>``; the session that had it is refused from then on), so
+the twin asks for control right before each command, and only with an enable password
+configured. Without one every write is refused with
+:class:`~cnctwin.thread.connection.CommandRejected` before anything is sent.
 
 One :meth:`~MachineConnection.read` asks the ``get`` requests of :data:`READ_REQUESTS` one
 after the other, each answer awaited before the next request: linuxcncrsh writes each answer
@@ -23,14 +25,15 @@ linuxcncrsh answer            signal                       conversion
 ``FEED_OVERRIDE p``           ``feed_override_pct``        %, whole percent
 ``SPINDLE_OVERRIDE n p``      ``spindle_override_pct``     %, whole percent
 ``PROGRAM_LINE n``            ``program_line``             line of the file, from 1
-``PROGRAM_STATUS s``          ``run_state``, ``feed_hold``  below
+``PROGRAM_STATUS s``, ``MODE``  ``run_state``, ``feed_hold``  below
 ``ESTOP ON|OFF``              ``emergency_stop``           1, 0
 ``TOOL n``                    ``tool_number``              count
 ``TIME t``                    :attr:`Reading.source_time_s` POSIX s of the control's host
 ============================  ===========================  ================================
 
-``run_state``: ``RUNNING`` 1 (running), ``PAUSED`` 2 (feed hold); ``IDLE`` is 0 (idle) until
-the session has seen the program run, then 4 (finished) when it ended on its own, or 3
+``run_state``: in ``AUTO`` mode ``RUNNING`` 1 (running), ``PAUSED`` 2 (feed hold); otherwise
+(idle, or an MDI command or jog running in ``MDI`` or ``MANUAL`` mode) 0 (idle) until the
+session has seen a program run, then 4 (finished) when it ended on its own, or 3
 (stopped) when this session aborted it, the E-stop is on, or the connection was lost while it
 ran (a restarted control has lost the program). linuxcncrsh serves neither the actual path
 speed, the spindle speed, loads nor forces: those signals are absent.
@@ -102,6 +105,7 @@ READ_REQUESTS = (
     "spindle_override",
     "program_line",
     "program_status",
+    "mode",
     "estop",
     "tool",
     "time",
@@ -149,13 +153,14 @@ class LinuxCncConnection(MachineConnection):
     ----------
     host, port
         linuxcncrsh's address.
-    enabled
-        Whether this session may command the machine (linuxcncrsh acknowledged the enable
-        password).
+    may_command
+        Whether an enable password is configured (the session asks for control with it
+        before each command).
     unit_factor
         mm per LinuxCNC user length unit, read at connection.
     sent
-        Every command line sent to the control, in order (for the record; bounded).
+        The command lines sent to the control, in order (the newest 1000; the request for
+        control before each is not listed).
     """
 
     def __init__(self, config: ConnectionConfig) -> None:
@@ -177,7 +182,7 @@ class LinuxCncConnection(MachineConnection):
         self.endpoint = f"linuxcncrsh://{self.host}:{self.port}"
         self.settings = config.linuxcnc
         self._enable_password = self.settings.enable_password or os.environ.get(ENABLE_PASSWORD_ENV)
-        self.enabled = False
+        self.may_command = self._enable_password is not None
         self.unit_factor = 1.0
         self.sent: list[str] = []
         self._reader: asyncio.StreamReader | None = None
@@ -213,17 +218,6 @@ class LinuxCncConnection(MachineConnection):
                 "valid: MM, CM, INCH ([TRAJ] LINEAR_UNITS)"
             )
         self.unit_factor = factor
-        self.enabled = False
-        if self._enable_password is not None:
-            answer = await self._ask_one(f"set enable {self._enable_password}")
-            if answer.upper() != "SET ENABLE ACK":
-                await self._close()
-                raise ConfigError(
-                    f"linuxcncrsh at {self.host}:{self.port} refused the enable password "
-                    f"({answer!r}): check [connection.linuxcnc] enable_password or "
-                    f"{ENABLE_PASSWORD_ENV} (linuxcncrsh --enablepw)"
-                )
-            self.enabled = True
 
     async def _close(self) -> None:
         writer = self._writer
@@ -266,7 +260,8 @@ class LinuxCncConnection(MachineConnection):
         else:
             rejected["emergency_stop"] = f"ESTOP {estop!r} is neither ON nor OFF"
         status = by_name["program_status"].split()[-1].upper()
-        run_state = self._run_state(status, values.get("emergency_stop") == 1.0)
+        auto = by_name["mode"].split()[-1].upper() == "AUTO"
+        run_state = self._run_state(status, auto, values.get("emergency_stop") == 1.0)
         if run_state is None:
             rejected["run_state"] = f"PROGRAM_STATUS {status!r}; valid: IDLE, RUNNING, PAUSED"
         else:
@@ -289,7 +284,7 @@ class LinuxCncConnection(MachineConnection):
                 f"command {name}={value!r} refused before sending: valid {spec.low:g}.."
                 f"{spec.high:g} {spec.unit}"
             )
-        if not self.enabled:
+        if self._enable_password is None:
             raise CommandRejected(
                 f"command {name}={value:g} refused: this LinuxCNC session is not enabled to "
                 f"command (set [connection.linuxcnc] enable_password or {ENABLE_PASSWORD_ENV})"
@@ -297,7 +292,18 @@ class LinuxCncConnection(MachineConnection):
         if spec.kind == "bool" and value not in (0.0, 1.0):
             raise CommandRejected(f"command {name}={value!r} refused: valid 0 or 1")
         lines = self._command_lines(name, value)
+        if not lines:
+            return
+        answer = await self._ask_one(f"set enable {self._enable_password}")
+        if answer.upper() != "SET ENABLE ACK":
+            raise CommandRejected(
+                f"command {name}={value:g} not sent: linuxcncrsh at {self.host}:{self.port} "
+                f"refused the enable password ({answer!r}); check [connection.linuxcnc] "
+                f"enable_password or {ENABLE_PASSWORD_ENV} (linuxcncrsh --enablepw)"
+            )
         for i, line in enumerate(lines):
+            self.sent.append(line)
+            del self.sent[:-1000]
             answer = await self._ask_one(line)
             if answer.upper().endswith(" ACK"):
                 if name == "stop":
@@ -334,15 +340,16 @@ class LinuxCncConnection(MachineConnection):
             )
         raise CommandRejected(f"command {name} refused: linuxcncrsh has no request for it")
 
-    def _run_state(self, status: str, estop: bool) -> RunState | None:
-        if status == "RUNNING":
+    def _run_state(self, status: str, auto: bool, estop: bool) -> RunState | None:
+        if status not in ("IDLE", "RUNNING", "PAUSED"):
+            return None
+        if auto and status == "RUNNING":
             self._ran, self._stop_sent, self._interrupted = True, False, False
             return RunState.RUNNING
-        if status == "PAUSED":
+        if auto and status == "PAUSED":
             self._ran = True
             return RunState.FEED_HOLD
-        if status != "IDLE":
-            return None
+        # idle, or an MDI command or a jog (running outside AUTO mode): no program runs
         if not self._ran:
             return RunState.IDLE
         if self._stop_sent or estop or self._interrupted:
@@ -377,9 +384,6 @@ class LinuxCncConnection(MachineConnection):
                 writer = self._writer
                 if writer is None:
                     raise ConnectionLost(f"linuxcncrsh at {self.host}:{self.port} closed")
-                if line.startswith("set "):
-                    self.sent.append("set enable" if line.startswith("set enable") else line)
-                    del self.sent[:-1000]
                 writer.write(f"{line}\r\n".encode())
                 await writer.drain()
                 answers.append(await self._answer(line))
