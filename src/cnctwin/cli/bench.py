@@ -54,8 +54,13 @@ async def run_latency(
     """
     from cnctwin.virtual import TRANSPORTS, virtual_machine_server
 
-    if transport not in TRANSPORTS:
-        raise InputError(f"--transport {transport!r}; valid: {', '.join(TRANSPORTS)}")
+    if transport == "linuxcnc" and endpoint is None:
+        raise InputError(
+            "--transport linuxcnc needs --endpoint linuxcncrsh://HOST:PORT (a running LinuxCNC; "
+            "the virtual machine does not serve linuxcncrsh)"
+        )
+    if transport not in (*TRANSPORTS, "linuxcnc"):
+        raise InputError(f"--transport {transport!r}; valid: {', '.join(TRANSPORTS)}, linuxcnc")
     interval_s = interval_ms / 1e3
     if endpoint is None:
         async with virtual_machine_server(transport) as url:
@@ -75,7 +80,10 @@ async def run_latency(
 def latency(
     transport: Annotated[
         str,
-        typer.Option("--transport", help="Protocol: opcua, modbus or mtconnect (read only)."),
+        typer.Option(
+            "--transport",
+            help="Protocol: opcua, modbus, mtconnect (read only) or linuxcnc (with --endpoint).",
+        ),
     ] = "opcua",
     n: Annotated[int, typer.Option("--n", min=1, help="Round trips.")] = 500,
     interval_ms: Annotated[

@@ -427,8 +427,8 @@ class JitterProxy:
 
 
 def _polling_connection(transport: str, endpoint: str, timeout_s: float) -> MachineConnection:
-    """A connection of ``transport`` (``"opcua"``, ``"modbus"`` or ``"mtconnect"``) that
-    reads by request."""
+    """A connection of ``transport`` (``"opcua"``, ``"modbus"``, ``"mtconnect"`` or
+    ``"linuxcnc"``) that reads by request."""
     config = ConnectionConfig(
         transport=transport,  # type: ignore[arg-type]
         endpoint=endpoint,
@@ -443,6 +443,10 @@ def _polling_connection(transport: str, endpoint: str, timeout_s: float) -> Mach
         from cnctwin.thread.mtconnect import MTConnectConnection
 
         return MTConnectConnection(config)
+    if transport == "linuxcnc":
+        from cnctwin.thread.linuxcnc import LinuxCncConnection
+
+        return LinuxCncConnection(config)  # commands with $CNCTWIN_LINUXCNC_ENABLE
     from cnctwin.thread.modbus import ModbusConnection
 
     return ModbusConnection(config)
@@ -483,8 +487,8 @@ async def measure_endpoint_latency(
         For a transport other than ``"opcua"``, ``"modbus"`` and ``"mtconnect"``, or jitter
         on an endpoint without ``HOST:PORT``.
     """
-    if transport not in ("opcua", "modbus", "mtconnect"):
-        raise InputError(f"transport {transport!r}; valid: opcua, modbus, mtconnect")
+    if transport not in ("opcua", "modbus", "mtconnect", "linuxcnc"):
+        raise InputError(f"transport {transport!r}; valid: opcua, modbus, mtconnect, linuxcnc")
     timeout_s = 2.0 + 4.0 * jitter_ms / 1e3
 
     async def once(url: str) -> LatencyResult:
