@@ -258,8 +258,14 @@ class Operator:
         assert answer.endswith(" ACK"), f"set {what}: {answer}"
 
     def get(self, what: str) -> list[str]:
-        """The answer's words after the name, e.g. ``get("feed_override") == ["100"]``."""
-        return self.ask(f"get {what}").split()[1:]
+        """The answer's words after the name, e.g. ``get("feed_override") == ["100"]``;
+        asked again when linuxcncrsh answers ``GET NAK`` (now and then, on a loaded machine)."""
+        for _ in range(20):
+            answer = self.ask(f"get {what}")
+            if not answer.upper().startswith("GET"):
+                return answer.split()[1:]
+            time.sleep(0.01)
+        raise AssertionError(f"get {what}: {answer}")
 
     def position(self) -> tuple[float, float, float]:
         x, y, z = (float(v) for v in self.get("abs_act_pos")[:3])

@@ -53,8 +53,9 @@ Tool wear offsets are refused (linuxcncrsh has no request for them). Nothing is 
 twice: a write whose answer is lost raises :class:`ConnectionLost` and is not repeated on the
 new connection.
 
-Robustness: an answer that is not a number (``nan``, ``inf``, ``abc``), a count that is not
-whole, or a value outside the signal's plausible range goes to :attr:`Reading.rejected`;
+Robustness: an answer that is not a number (``nan``, ``inf``, ``abc``; a ``GET NAK``, which
+linuxcncrsh answers now and then on a loaded machine), a count that is not whole, or a value
+outside the signal's plausible range goes to :attr:`Reading.rejected`;
 an answer line over :data:`MAX_LINE_BYTES`, or answers out of step with the requests, fail the
 read like a lost connection (the connection closes and reconnects). Requests that make
 linuxcncrsh 2.9 crash (``get spindle`` and ``get spindle_override`` without a spindle number)
@@ -401,9 +402,7 @@ class LinuxCncConnection(MachineConnection):
             if verb == "HELLO" and upper.startswith("HELLO"):
                 return answer
             if verb == "GET" and (upper.split()[0] == what or upper.startswith("GET")):
-                if upper.endswith("NAK"):
-                    raise ConnectionLost(f"linuxcncrsh refused {request!r}: {answer!r}")
-                return answer
+                return answer  # a refusal (GET NAK) reads as garbage: the signal is rejected
             if verb == "SET" and upper.startswith(("SET ", "SET\t")):
                 return answer
             logger.debug("linuxcncrsh line %r answers no request (%r)", answer, request)
