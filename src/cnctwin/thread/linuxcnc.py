@@ -29,13 +29,18 @@ linuxcncrsh answer            signal                       conversion
 ``ESTOP ON|OFF``              ``emergency_stop``           1, 0
 ``TOOL n``                    ``tool_number``              count
 ``TIME t``                    :attr:`Reading.source_time_s` POSIX s of the control's host
+(answers whose ``TIME``       ``heartbeat``                count
+advanced)
 ============================  ===========================  ================================
 
 ``run_state``: in ``AUTO`` mode ``RUNNING`` 1 (running), ``PAUSED`` 2 (feed hold); otherwise
 (idle, or an MDI command or jog running in ``MDI`` or ``MANUAL`` mode) 0 (idle) until the
 session has seen a program run, then 4 (finished) when it ended on its own, or 3
 (stopped) when this session aborted it, the E-stop is on, or the connection was lost while it
-ran (a restarted control has lost the program). linuxcncrsh serves neither the actual path
+ran (a restarted control has lost the program). LinuxCNC has no heartbeat: ``heartbeat``
+counts this session's answered reads whose ``TIME`` (the control's clock) advanced; it stops,
+and the twin's watchdog trips, when the control stops answering. linuxcncrsh serves neither
+the actual path
 speed, the spindle speed, loads nor forces: those signals are absent.
 
 Commands (each checked against :data:`~cnctwin.thread.signals.COMMANDS` before it is sent,
@@ -193,6 +198,8 @@ class LinuxCncConnection(MachineConnection):
         self._ran = False  # the program was seen running since it was last idle
         self._stop_sent = False  # this session aborted it
         self._interrupted = False  # the connection was lost while it ran
+        self._beats = 0  # answers whose control clock advanced (the heartbeat)
+        self._last_stamp = -math.inf
 
     # Transport hooks ------------------------------------------------------------------
     async def _open(self) -> None:
@@ -269,6 +276,10 @@ class LinuxCncConnection(MachineConnection):
             values["run_state"] = float(run_state)
             values["feed_hold"] = float(status == "PAUSED")
         stamp = _number(by_name["time"].split()[-1])
+        if math.isfinite(stamp) and stamp > self._last_stamp:
+            self._last_stamp = stamp
+            self._beats += 1
+        values["heartbeat"] = float(self._beats)
         return Reading(
             values=values,
             received_s=received,
