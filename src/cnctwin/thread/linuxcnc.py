@@ -24,7 +24,10 @@ linuxcncrsh answer            signal                       conversion
                                                            cm 10, inch 25.4)
 ``FEED_OVERRIDE p``           ``feed_override_pct``        %, whole percent
 ``SPINDLE_OVERRIDE n p``      ``spindle_override_pct``     %, whole percent
-``PROGRAM_LINE n``            ``program_line``             line of the file, from 1
+``PROGRAM_LINE n``            ``program_line``             line of the file, from 1 (the
+                                                           first line a run shows is
+                                                           rejected until it changes: it
+                                                           may be the last run's)
 ``PROGRAM_STATUS s``, ``MODE``  ``run_state``, ``feed_hold``  below
 ``ESTOP ON|OFF``              ``emergency_stop``           1, 0
 ``TOOL n``                    ``tool_number``              count
@@ -198,6 +201,8 @@ class LinuxCncConnection(MachineConnection):
         self._ran = False  # the program was seen running since it was last idle
         self._stop_sent = False  # this session aborted it
         self._interrupted = False  # the connection was lost while it ran
+        self._running = False  # the last reading showed a program running or held
+        self._stale_line: float | None = None  # first line of a run, while it still shows
         self._beats = 0  # answers whose control clock advanced (the heartbeat)
         self._last_stamp = -math.inf
 
@@ -275,6 +280,7 @@ class LinuxCncConnection(MachineConnection):
         else:
             values["run_state"] = float(run_state)
             values["feed_hold"] = float(status == "PAUSED")
+        self._drop_stale_line(run_state in (RunState.RUNNING, RunState.FEED_HOLD), values, rejected)
         stamp = _number(by_name["time"].split()[-1])
         if math.isfinite(stamp) and stamp > self._last_stamp:
             self._last_stamp = stamp
@@ -351,6 +357,25 @@ class LinuxCncConnection(MachineConnection):
                 "emergency_stop=0 refused: LinuxCNC's E-stop is reset at the machine"
             )
         raise CommandRejected(f"command {name} refused: linuxcncrsh has no request for it")
+
+    def _drop_stale_line(
+        self, running: bool, values: dict[str, float], rejected: dict[str, str]
+    ) -> None:
+        """At the start of a run LinuxCNC may report a line of the last run (where it ended,
+        or where its interpreter had read to) until the new run reaches its first line: the
+        first line a run shows is rejected until it changes."""
+        line = values.get("program_line")
+        if not running:
+            self._stale_line = None
+        elif not self._running:
+            self._stale_line = line
+        if running and self._stale_line is not None:
+            if line == self._stale_line:
+                del values["program_line"]
+                rejected["program_line"] = f"line {line:g}, shown since the run began, may be stale"
+            else:
+                self._stale_line = None
+        self._running = running
 
     def _run_state(self, status: str, auto: bool, estop: bool) -> RunState | None:
         if status not in ("IDLE", "RUNNING", "PAUSED"):
