@@ -13,28 +13,19 @@ configured. Without one every write is refused with
 One :meth:`~MachineConnection.read` asks the ``get`` requests of :data:`READ_REQUESTS` one
 after the other, each answer awaited before the next request: linuxcncrsh writes each answer
 on its own, and answers to requests sent together wait on the client's delayed TCP
-acknowledgement (8 pipelined requests took 48 ms where 8 in turn took 11 ms, docs/linuxcnc.md).
+acknowledgement (8 requests sent together took 48 ms, 8 in turn 11 ms: docs/linuxcnc.md).
 Mapping to the canonical signals (:data:`cnctwin.thread.signals.SIGNALS`):
 
-============================  ===========================  ================================
-linuxcncrsh answer            signal                       conversion
-============================  ===========================  ================================
-``ABS_ACT_POS x y z ...``     ``x_mm``, ``y_mm``, ``z_mm``  x the unit factor of
-                                                           ``USER_LINEAR_UNITS`` (mm 1,
-                                                           cm 10, inch 25.4)
-``FEED_OVERRIDE p``           ``feed_override_pct``        %, whole percent
-``SPINDLE_OVERRIDE n p``      ``spindle_override_pct``     %, whole percent
-``PROGRAM_LINE n``            ``program_line``             line of the file, from 1 (the
-                                                           first line a run shows is
-                                                           rejected until it changes: it
-                                                           may be the last run's)
-``PROGRAM_STATUS s``, ``MODE``  ``run_state``, ``feed_hold``  below
-``ESTOP ON|OFF``              ``emergency_stop``           1, 0
-``TOOL n``                    ``tool_number``              count
-``TIME t``                    :attr:`Reading.source_time_s` POSIX s of the control's host
-(answers whose ``TIME``       ``heartbeat``                count
-advanced)
-============================  ===========================  ================================
+- ``ABS_ACT_POS x y z ...`` -> ``x_mm``, ``y_mm``, ``z_mm``, times mm per user unit
+  (``USER_LINEAR_UNITS`` read at connection: MM 1, CM 10, INCH 25.4);
+- ``FEED_OVERRIDE p`` -> ``feed_override_pct``; ``SPINDLE_OVERRIDE n p`` ->
+  ``spindle_override_pct`` (whole percent);
+- ``PROGRAM_LINE n`` -> ``program_line``, the line of the file from 1; the first line a run
+  shows is rejected until it changes (LinuxCNC may still show a line of the last run);
+- ``PROGRAM_STATUS s`` and ``MODE m`` -> ``run_state`` and ``feed_hold`` (below);
+- ``ESTOP ON|OFF`` -> ``emergency_stop`` 1, 0; ``TOOL n`` -> ``tool_number``;
+- ``TIME t`` -> :attr:`Reading.source_time_s` (the control's clock, POSIX s), and
+  ``heartbeat``, the count of answered reads whose ``TIME`` advanced.
 
 ``run_state``: in ``AUTO`` mode ``RUNNING`` 1 (running), ``PAUSED`` 2 (feed hold); otherwise
 (idle, or an MDI command or jog running in ``MDI`` or ``MANUAL`` mode) 0 (idle) until the
@@ -43,8 +34,7 @@ session has seen a program run, then 4 (finished) when it ended on its own, or 3
 ran (a restarted control has lost the program). LinuxCNC has no heartbeat: ``heartbeat``
 counts this session's answered reads whose ``TIME`` (the control's clock) advanced; it stops,
 and the twin's watchdog trips, when the control stops answering. linuxcncrsh serves neither
-the actual path
-speed, the spindle speed, loads nor forces: those signals are absent.
+the actual path speed, the spindle speed, loads nor forces: those signals are absent.
 
 Commands (each checked against :data:`~cnctwin.thread.signals.COMMANDS` before it is sent,
 then answered by the control's ACK or NAK):
