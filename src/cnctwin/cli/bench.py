@@ -55,8 +55,15 @@ async def run_latency(
     """
     from cnctwin.virtual import TRANSPORTS, virtual_machine_server
 
-    if transport not in (*TRANSPORTS, "mqtt"):
-        raise InputError(f"--transport {transport!r}; valid: {', '.join(TRANSPORTS)}, mqtt")
+    if transport == "linuxcnc" and endpoint is None:
+        raise InputError(
+            "--transport linuxcnc needs --endpoint linuxcncrsh://HOST:PORT (a running LinuxCNC; "
+            "the virtual machine does not serve linuxcncrsh)"
+        )
+    if transport not in (*TRANSPORTS, "linuxcnc", "mqtt"):
+        raise InputError(
+            f"--transport {transport!r}; valid: {', '.join(TRANSPORTS)}, linuxcnc, mqtt"
+        )
     interval_s = interval_ms / 1e3
     if transport == "mqtt":
         return await _mqtt_latency(endpoint, n, interval_s, jitter_ms, seed)
@@ -102,7 +109,8 @@ def latency(
         str,
         typer.Option(
             "--transport",
-            help="Protocol: opcua, modbus, mtconnect (read only), ads, mqtt (publish to receive).",
+            help="Protocol: opcua, modbus, mtconnect (read only), ads, linuxcnc (with --endpoint),"
+            " mqtt (publish to receive).",
         ),
     ] = "opcua",
     n: Annotated[int, typer.Option("--n", min=1, help="Round trips.")] = 500,

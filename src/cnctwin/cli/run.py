@@ -1,9 +1,9 @@
 """``cnctwin run``: the running twin against a machine, with a live terminal view.
 
 Connects to the machine of the configuration's ``[connection]`` (OPC UA, Modbus TCP,
-MTConnect or ADS), runs
-the twin cycle until the program ends, the machine stops, ``--duration`` is up or Ctrl-C,
-records the run in the historian, and prints a summary (``--json``: one object).
+MTConnect, ADS or LinuxCNC), runs the twin cycle until the program ends, the machine stops,
+``--duration`` is up or Ctrl-C, records the run in the historian, and prints a summary
+(``--json``: one object).
 """
 
 from __future__ import annotations
@@ -85,7 +85,8 @@ def run(
         typer.Option(
             "--endpoint",
             help="Machine address (opc.tcp://..., modbus://..., an MTConnect agent's "
-            "http://... or ads://AMSNETID:AMSPORT@HOST), overriding [connection].",
+            "http://..., ads://AMSNETID:AMSPORT@HOST or LinuxCNC's linuxcncrsh://...), "
+            "overriding [connection].",
         ),
     ] = None,
     connect_timeout: Annotated[
@@ -142,10 +143,13 @@ def run(
             update["transport"] = "mtconnect"
         elif endpoint.startswith("ads://"):
             update["transport"] = "ads"
+        elif endpoint.startswith("linuxcncrsh://"):
+            update["transport"] = "linuxcnc"
         else:
             raise InputError(
                 f"--endpoint {endpoint!r}; give opc.tcp://HOST:PORT/PATH, modbus://HOST:PORT, "
-                "http://HOST:PORT (MTConnect) or ads://AMSNETID:AMSPORT@HOST[:PORT]"
+                "http://HOST:PORT (MTConnect), ads://AMSNETID:AMSPORT@HOST[:PORT] or "
+                "linuxcncrsh://HOST:PORT (LinuxCNC)"
             )
         settings = settings.model_copy(
             update={"connection": settings.connection.model_copy(update=update)}

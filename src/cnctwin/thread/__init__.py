@@ -1,8 +1,9 @@
 """The digital thread: one :class:`MachineConnection` interface over industrial protocols.
 
-The transports (:class:`OpcUaConnection`, :class:`ModbusConnection`, :class:`AdsConnection`
-and the read-only :class:`MTConnectConnection`) load asyncua, pymodbus and pyads, the MQTT
-publisher and sensor source (:class:`MqttPublisher`, :class:`MqttSource`) paho-mqtt;
+The transports (:class:`OpcUaConnection`, :class:`ModbusConnection`, :class:`AdsConnection`,
+the read-only :class:`MTConnectConnection` and LinuxCNC's :class:`LinuxCncConnection`) load
+asyncua, pymodbus and pyads, the MQTT publisher and sensor source (:class:`MqttPublisher`,
+:class:`MqttSource`) paho-mqtt;
 they are imported on first use so that the signal catalogue and the connection interface stay
 light for the modules that only need those.
 """
@@ -32,6 +33,7 @@ if TYPE_CHECKING:
         measure_latency,
         measure_read_latency,
     )
+    from cnctwin.thread.linuxcnc import LinuxCncConnection
     from cnctwin.thread.modbus import ModbusConnection
     from cnctwin.thread.modbus_map import READ_MAP, STATUS_MAP, WRITE_MAP, RegisterAddress
     from cnctwin.thread.mosquitto import Mosquitto
@@ -101,6 +103,7 @@ _LAZY = {
     "MqttPublishConfig": "cnctwin.thread.mqtt_config",
     "MqttSignalConfig": "cnctwin.thread.mqtt_config",
     "broker_address": "cnctwin.thread.mqtt_config",
+    "LinuxCncConnection": "cnctwin.thread.linuxcnc",
     "MTConnectConnection": "cnctwin.thread.mtconnect",
     "SequenceGap": "cnctwin.thread.mtconnect",
     "AgentError": "cnctwin.thread.mtconnect_documents",
@@ -139,6 +142,7 @@ __all__ = [
     "ConnectionLost",
     "ConnectionState",
     "MachineConnection",
+    "LinuxCncConnection",
     "ModbusConnection",
     "Mosquitto",
     "LinkEvent",

@@ -8,7 +8,7 @@ from pydantic import Field
 
 from cnctwin.config import Section
 
-__all__ = ["ConnectionConfig", "OpcUaSecurityConfig"]
+__all__ = ["ConnectionConfig", "LinuxCncConfig", "OpcUaSecurityConfig"]
 
 
 class OpcUaSecurityConfig(Section):
@@ -46,17 +46,42 @@ class OpcUaSecurityConfig(Section):
     password: str | None = None
 
 
+class LinuxCncConfig(Section):
+    """LinuxCNC's linuxcncrsh session (``[connection.linuxcnc]``; docs/linuxcnc.md).
+
+    Attributes
+    ----------
+    connect_password
+        linuxcncrsh's connect password (its ``--connectpw``; LinuxCNC's default ``"EMC"``).
+    enable_password
+        linuxcncrsh's enable password (its ``--enablepw``), which lets this session command
+        the machine. ``None`` (the default): the session never asks to command, and every
+        command is refused; the environment variable ``CNCTWIN_LINUXCNC_ENABLE`` gives it
+        when the file does not.
+    client_name
+        The name this client gives in its ``hello`` (no whitespace).
+    spindle
+        The spindle whose override is read and commanded (LinuxCNC numbers them from 0).
+    """
+
+    connect_password: str = Field(default="EMC", pattern=r"^\S{1,64}$")
+    enable_password: str | None = Field(default=None, pattern=r"^\S{1,64}$")
+    client_name: str = Field(default="cnctwin", pattern=r"^\S{1,64}$")
+    spindle: int = Field(default=0, ge=0, le=7)
+
+
 class ConnectionConfig(Section):
     """How the twin reaches the machine (``[connection]``).
 
     Attributes
     ----------
     transport
-        ``"opcua"``, ``"modbus"``, ``"mtconnect"`` (read-only: docs/mtconnect.md) or ``"ads"``
-        (Beckhoff TwinCAT: docs/ads.md).
+        ``"opcua"``, ``"modbus"``, ``"mtconnect"`` (read-only: docs/mtconnect.md), ``"ads"``
+        (Beckhoff TwinCAT: docs/ads.md) or ``"linuxcnc"`` (docs/linuxcnc.md).
     endpoint
         ``opc.tcp://HOST:PORT/PATH``, ``modbus://HOST:PORT``, for an MTConnect agent
-        ``http://HOST:PORT[/DEVICE]``, for ADS ``ads://AMSNETID[:AMSPORT]@HOST[:PORT]``.
+        ``http://HOST:PORT[/DEVICE]``, for ADS ``ads://AMSNETID[:AMSPORT]@HOST[:PORT]``, for
+        LinuxCNC ``linuxcncrsh://HOST[:PORT]``.
     timeout_s
         Timeout of one request, s.
     reconnect_initial_s, reconnect_max_s
@@ -73,6 +98,8 @@ class ConnectionConfig(Section):
     local_net_id
         ADS: this computer's AMS Net ID, as the PLC's static route names it; ``None`` takes
         the IPv4 address this computer reaches the PLC from, plus ``.1.1``.
+    linuxcnc
+        LinuxCNC's session: passwords, client name, spindle.
     mapping
         Canonical signal name -> protocol address, overriding the transport's default map
         (the virtual machine's). OPC UA: a NodeId string (``"ns=2;s=Machine.X"``), a browse
@@ -82,7 +109,7 @@ class ConnectionConfig(Section):
         docs/mtconnect.md).
     """
 
-    transport: Literal["opcua", "modbus", "mtconnect", "ads"] = "opcua"
+    transport: Literal["opcua", "modbus", "mtconnect", "ads", "linuxcnc"] = "opcua"
     endpoint: str = "opc.tcp://127.0.0.1:4840/cnctwin"
     timeout_s: float = Field(default=2.0, ge=0.001, le=600.0)
     reconnect_initial_s: float = Field(default=0.1, ge=0.001, le=3600.0)
@@ -92,4 +119,5 @@ class ConnectionConfig(Section):
     security: OpcUaSecurityConfig = Field(default_factory=OpcUaSecurityConfig)
     symbol_map: str | None = None
     local_net_id: str | None = None
+    linuxcnc: LinuxCncConfig = Field(default_factory=LinuxCncConfig)
     mapping: dict[str, str] = Field(default_factory=dict)

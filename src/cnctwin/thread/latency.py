@@ -427,8 +427,8 @@ class JitterProxy:
 
 
 def _polling_connection(transport: str, endpoint: str, timeout_s: float) -> MachineConnection:
-    """A connection of ``transport`` (``"opcua"``, ``"modbus"``, ``"mtconnect"`` or ``"ads"``)
-    that reads by request (ADS: the packaged symbol map, GVL_Twin)."""
+    """A connection of ``transport`` (``"opcua"``, ``"modbus"``, ``"mtconnect"``, ``"ads"`` or
+    ``"linuxcnc"``) that reads by request (ADS: the packaged symbol map, GVL_Twin)."""
     config = ConnectionConfig(
         transport=transport,  # type: ignore[arg-type]
         endpoint=endpoint,
@@ -447,6 +447,10 @@ def _polling_connection(transport: str, endpoint: str, timeout_s: float) -> Mach
         from cnctwin.thread.ads import AdsConnection
 
         return AdsConnection(config)
+    if transport == "linuxcnc":
+        from cnctwin.thread.linuxcnc import LinuxCncConnection
+
+        return LinuxCncConnection(config)  # commands with $CNCTWIN_LINUXCNC_ENABLE
     from cnctwin.thread.modbus import ModbusConnection
 
     return ModbusConnection(config)
@@ -489,8 +493,8 @@ async def measure_endpoint_latency(
         For a transport other than ``"opcua"``, ``"modbus"``, ``"mtconnect"`` and ``"ads"``,
         or jitter on an endpoint without ``HOST:PORT``.
     """
-    if transport not in ("opcua", "modbus", "mtconnect", "ads"):
-        raise InputError(f"transport {transport!r}; valid: opcua, modbus, mtconnect, ads")
+    if transport not in ("opcua", "modbus", "mtconnect", "ads", "linuxcnc"):
+        raise InputError(f"transport {transport!r}; valid: opcua, modbus, mtconnect, ads, linuxcnc")
     timeout_s = 2.0 + 4.0 * jitter_ms / 1e3
 
     async def once(url: str) -> LatencyResult:

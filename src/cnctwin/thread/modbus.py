@@ -289,7 +289,7 @@ def _decode_block(
     for name, addr in block.signals.items():
         offset = addr.address - block.start
         value = addr.decode(list(raw[offset : offset + addr.width]))
-        why = "device marked the value invalid" if value is None else implausible(name, value)
+        why = implausible(name, value)
         if why is None and value is not None:
             values[name] = value
         else:

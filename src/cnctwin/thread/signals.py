@@ -96,12 +96,15 @@ SIGNALS: dict[str, SignalSpec] = {spec.name: spec for spec in _SPECS}
 COMMANDS: dict[str, SignalSpec] = {spec.name: spec for spec in _SPECS if spec.writable}
 
 
-def implausible(name: str, value: float) -> str | None:
-    """Why ``value`` (in the signal's unit) of signal ``name`` is garbage, or ``None``.
+def implausible(name: str, value: float | None) -> str | None:
+    """Why ``value`` of signal ``name`` (in the signal's unit) is garbage, or ``None``.
 
-    Garbage: not a finite number, or outside the signal's plausible range
-    (:attr:`SignalSpec.low` .. :attr:`SignalSpec.high`).
+    Garbage is ``None`` (the device marked the value invalid), a value that is not a finite
+    number, or one outside the signal's plausible range (:attr:`SignalSpec.low` ..
+    :attr:`SignalSpec.high`).
     """
+    if value is None:
+        return "device marked the value invalid"
     if not math.isfinite(value):
         return f"not a finite number ({value!r})"
     spec = SIGNALS[name]

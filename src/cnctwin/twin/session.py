@@ -28,7 +28,8 @@ logger = logging.getLogger(__name__)
 
 
 def open_connection(config: ConnectionConfig, base_dir: Path | None = None) -> MachineConnection:
-    """The client of ``[connection]``: OPC UA, Modbus TCP, MTConnect or ADS (not yet connected).
+    """The client of ``[connection]``: OPC UA, Modbus TCP, MTConnect, ADS or LinuxCNC (not yet
+    connected).
 
     Parameters
     ----------
@@ -49,6 +50,10 @@ def open_connection(config: ConnectionConfig, base_dir: Path | None = None) -> M
         from cnctwin.thread import AdsConnection
 
         return AdsConnection(config, base_dir=base_dir)
+    if config.transport == "linuxcnc":
+        from cnctwin.thread import LinuxCncConnection
+
+        return LinuxCncConnection(config)
     from cnctwin.thread import OpcUaConnection
 
     return OpcUaConnection(config, base_dir=base_dir)
