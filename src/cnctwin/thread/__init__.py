@@ -20,7 +20,7 @@ from cnctwin.thread.connection import (
 from cnctwin.thread.signals import COMMANDS, SIGNALS, RunState, SignalSpec
 
 if TYPE_CHECKING:
-    from cnctwin.thread.config import ConnectionConfig
+    from cnctwin.thread.config import ConnectionConfig, OpcUaSecurityConfig
     from cnctwin.thread.latency import (
         JitterProxy,
         LatencyResult,
@@ -57,6 +57,7 @@ if TYPE_CHECKING:
 # pydantic, asyncio, asyncua, pymodbus and cryptography load with these: imported on first use.
 _LAZY = {
     "ConnectionConfig": "cnctwin.thread.config",
+    "OpcUaSecurityConfig": "cnctwin.thread.config",
     "JitterProxy": "cnctwin.thread.latency",
     "LatencyResult": "cnctwin.thread.latency",
     "measure_latency": "cnctwin.thread.latency",
@@ -106,6 +107,7 @@ __all__ = [
     "SignalSpec",
     "now_s",
     "ConnectionConfig",
+    "OpcUaSecurityConfig",
     "LatencyResult",
     "LatencyStats",
     "measure_endpoint_latency",
