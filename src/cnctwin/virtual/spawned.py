@@ -2,9 +2,10 @@
 
 :func:`virtual_machine_server` starts the virtual machine (the packaged demo program, in real
 time on its :class:`~cnctwin.virtual.MachineClock`, stepped in a thread beside the server's
-event loop) behind an OPC UA, Modbus TCP or MTConnect server in a spawned child process and yields the server's endpoint on loopback; leaving the
-context stops the child. Used to measure the digital thread (``cnctwin bench latency``,
-benchmarks/bench_opcua_latency.py) without the client and the machine sharing a process.
+event loop) behind an OPC UA, Modbus TCP or MTConnect server in a spawned child process and
+yields the server's endpoint on loopback; leaving the context stops the child. Used to
+measure the digital thread (``cnctwin bench latency``, benchmarks/bench_opcua_latency.py)
+without the client and the machine sharing a process.
 """
 
 from __future__ import annotations
