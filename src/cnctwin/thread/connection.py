@@ -103,9 +103,6 @@ class Backoff:
 class MachineConnection(ABC):
     """A connection to one machine. Use as ``async with``; every call has a timeout.
 
-    The timeout runs in the caller's task (``asyncio.timeout``): a request costs no extra task
-    and no extra turn of the event loop (docs/latency.md).
-
     Parameters
     ----------
     timeout_s
@@ -173,8 +170,7 @@ class MachineConnection(ABC):
         """Read every mapped signal; :class:`ConnectionLost` (and a reconnect) on failure."""
         self._require_connected()
         try:
-            async with asyncio.timeout(self.timeout_s):
-                return await self._read()
+            return await asyncio.wait_for(self._read(), self.timeout_s)
         except (OSError, TimeoutError, ConnectionLost) as err:
             self._lost(err)
             raise ConnectionLost(f"read failed: {err or type(err).__name__}") from err
@@ -188,8 +184,7 @@ class MachineConnection(ABC):
         """
         self._require_connected()
         try:
-            async with asyncio.timeout(self.timeout_s):
-                return await self._read_signal(name)
+            return await asyncio.wait_for(self._read_signal(name), self.timeout_s)
         except (OSError, TimeoutError, ConnectionLost) as err:
             self._lost(err)
             raise ConnectionLost(f"read of {name} failed: {err or type(err).__name__}") from err
@@ -206,8 +201,7 @@ class MachineConnection(ABC):
         """Write one command; :class:`ConnectionLost` (and a reconnect) on failure."""
         self._require_connected()
         try:
-            async with asyncio.timeout(self.timeout_s):
-                await self._write(name, value)
+            await asyncio.wait_for(self._write(name, value), self.timeout_s)
         except (OSError, TimeoutError, ConnectionLost) as err:
             self._lost(err)
             raise ConnectionLost(f"write of {name}={value!r} failed: {err}") from err

@@ -360,20 +360,14 @@ class OpcUaConnection(MachineConnection):
         target = self._targets.get(name)
         if target is None:
             raise ConfigError(f"signal {name!r} is not mapped; valid: {', '.join(self._targets)}")
-        value, reason = _checked(name, await self._read_node(client, name, target, stamped=False))
+        value, reason = _checked(name, await self._read_node(client, name, target))
         if reason is not None:
             raise DataError(f"machine signal {name!r} at {target.address} unusable: {reason}")
         return value
 
-    async def _read_node(
-        self, client: Client, name: str, target: _Target, *, stamped: bool = True
-    ) -> ua.DataValue:
-        """One Read request for one node; without ``stamped`` the server sends no time stamps
-        (a read-back needs the value only: a shorter answer to encode and decode)."""
+    async def _read_node(self, client: Client, name: str, target: _Target) -> ua.DataValue:
         params = ua.ReadParameters()
-        params.TimestampsToReturn = (
-            ua.TimestampsToReturn.Both if stamped else ua.TimestampsToReturn.Neither
-        )
+        params.TimestampsToReturn = ua.TimestampsToReturn.Both
         params.NodesToRead = [ua.ReadValueId(NodeId=target.node_id, AttributeId=AttributeIds.Value)]
         try:
             (result,) = await client.uaclient.read(params)
