@@ -31,7 +31,10 @@ from __future__ import annotations
 import argparse
 import asyncio
 import platform
+import sys
+import tempfile
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -44,11 +47,14 @@ from cnctwin.thread import (
     LatencyResult,
     LatencyStats,
     OpcUaConnection,
+    OpcUaSecurityConfig,
     measure_latency,
 )
 from cnctwin.virtual import (
     MachineClock,
     OpcUaMachineServer,
+    OpcUaServerSecurity,
+    SecurityMode,
     UserTable,
     VirtualMachine,
     VirtualMachineConfig,
@@ -71,8 +77,16 @@ def _rows(setup: str, result: LatencyResult) -> list[str]:
     ]
 
 
-async def _measure(endpoint: str, n: int, interval_s: float, jitter_ms: float) -> LatencyResult:
-    config = ConnectionConfig(endpoint=endpoint, timeout_s=5.0)
+async def _measure(
+    endpoint: str,
+    n: int,
+    interval_s: float,
+    jitter_ms: float,
+    security: OpcUaSecurityConfig | None = None,
+) -> LatencyResult:
+    config = ConnectionConfig(
+        endpoint=endpoint, timeout_s=5.0, security=security or OpcUaSecurityConfig()
+    )
     async with OpcUaConnection(config, subscription_ms=None) as conn:
         await measure_latency(conn, n=5, interval_s=interval_s)  # warm-up, not counted
         return await measure_latency(
@@ -145,17 +159,56 @@ async def _separate(n: int, interval_s: float, jitters: list[float]) -> list[str
     return rows
 
 
-async def _same_process(n: int, interval_s: float) -> tuple[list[str], str]:
+async def _same_process(
+    n: int, interval_s: float, mode: SecurityMode = "None", pki: Path | None = None
+) -> tuple[list[str], str]:
     vm = VirtualMachine(VirtualMachineConfig())
     vm.step(vm.tick_s)  # load the compiled kernels before the clock runs
+    server_security, client_security = None, None
+    if mode != "None":
+        assert pki is not None
+        server_security = OpcUaServerSecurity(
+            mode, pki / "server-cert.pem", pki / "server-key.pem", pki / "trusted"
+        )
+        client_security = OpcUaSecurityConfig(
+            policy="Basic256Sha256",
+            mode=mode,
+            certificate=str(pki / "trusted" / "client-cert.pem"),
+            private_key=str(pki / "client-key.pem"),
+            server_certificate=str(pki / "server-cert.pem"),
+        )
     # the bench writes the feed override anonymously, on loopback
-    async with OpcUaMachineServer(vm, users=UserTable(anonymous="operator")) as server:
+    async with OpcUaMachineServer(
+        vm, users=UserTable(anonymous="operator"), security=server_security
+    ) as server:
         clock = MachineClock(vm, vm.tick_s, speed=1.0)
         clock.add_listener(server.publish)
         async with clock:
-            result = await _measure(server.endpoint, n, interval_s, 0.0)
+            result = await _measure(server.endpoint, n, interval_s, 0.0, client_security)
         stats = clock.stats
-    return _rows("same process", result), f"{stats.ticks} ticks, {stats.late_ticks} late"
+    setup = "same process" if mode == "None" else f"same process, Basic256Sha256 {mode}"
+    return _rows(setup, result), f"{stats.ticks} ticks, {stats.late_ticks} late"
+
+
+def _security(n: int, interval_s: float, repeats: int) -> list[str]:
+    """The same-process set-up with message security None, Sign and SignAndEncrypt
+    (Basic256Sha256), interleaved ``repeats`` times; certificates made by the tests' helper."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from pki import certificate  # tests/pki.py: cnctwin's application certificates
+
+    rows: list[str] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        pki = Path(tmp)
+        (pki / "trusted").mkdir()
+        certificate(pki, "server", "server")
+        cert, key = certificate(pki, "client", "client")
+        cert.rename(pki / "trusted" / cert.name)
+        key.rename(pki / key.name)
+        modes: tuple[SecurityMode, ...] = ("None", "Sign", "SignAndEncrypt")
+        for _ in range(repeats):
+            for mode in modes:
+                rows += asyncio.run(_same_process(n, interval_s, mode, pki))[0]
+    return rows
 
 
 def main() -> None:
@@ -163,10 +216,26 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="20 round trips, no jitter")
     parser.add_argument("--n", type=int, default=500, help="round trips per set-up")
     parser.add_argument("--interval-ms", type=float, default=20.0, help="pause between trips")
+    parser.add_argument(
+        "--security",
+        type=int,
+        default=0,
+        metavar="REPEATS",
+        help="only compare message security None, Sign, SignAndEncrypt (same process), "
+        "interleaved REPEATS times",
+    )
     args = parser.parse_args()
     n = 20 if args.quick else args.n
     interval_s = args.interval_ms / 1e3
     jitters = [] if args.quick else [5.0, 10.0, 20.0]
+    header = "| set-up | time (ms) | n | mean | std | min | median | p99 | max |"
+    if args.security:
+        print(f"OPC UA message security, {n} round trips {args.interval_ms:g} ms apart")
+        print()
+        print(header)
+        print("|---|---|---|---|---|---|---|---|---|")
+        print("\n".join(_security(n, interval_s, args.security)))
+        return
 
     rows = asyncio.run(_separate(n, interval_s, jitters))
     same, clock_note = asyncio.run(_same_process(n, interval_s))
@@ -177,7 +246,7 @@ def main() -> None:
         f"numpy {np.__version__}; same-process clock: {clock_note}"
     )
     print()
-    print("| set-up | time (ms) | n | mean | std | min | median | p99 | max |")
+    print(header)
     print("|---|---|---|---|---|---|---|---|---|")
     print("\n".join(rows))
 

@@ -11,14 +11,16 @@ import asyncio
 import math
 import random
 import time
+from typing import Any
 
 import pytest
+from asyncua import ua
 from timeouts import BODY_S
 
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.thread.config import ConnectionConfig
 from cnctwin.thread.latency import JitterProxy, LatencyStats, measure_latency
-from cnctwin.thread.opcua import OpcUaConnection
+from cnctwin.thread.opcua import NODE_MAP, OpcUaConnection
 from cnctwin.thread.signals import SIGNALS
 from cnctwin.virtual.opcua_server import OpcUaMachineServer
 from cnctwin.virtual.users import UserTable
@@ -86,6 +88,57 @@ def test_round_trips_against_a_real_server_restore_the_override() -> None:
         assert 0 < rt.min <= rt.median <= rt.p99 <= rt.max
         assert rt.mean == pytest.approx(w.mean + r.mean, rel=0.5)
         assert rt.min >= w.min
+
+    run(body())
+
+
+def test_a_round_trip_is_one_write_and_one_read_request() -> None:
+    """The cost guard of docs/latency.md: node ids are resolved once at connect, so a round
+    trip sends exactly one Write and one one-node Read of the feed override and nothing that
+    looks a node up (Browse, TranslateBrowsePaths, RegisterNodes). Counted, not timed."""
+
+    async def body() -> None:
+        machine = Machine()
+        async with OpcUaMachineServer(machine, users=UserTable(anonymous="operator")) as server:
+            cfg = ConnectionConfig(endpoint=server.endpoint)
+            async with OpcUaConnection(cfg, subscription_ms=None) as conn:
+                assert conn._client is not None
+                protocol = conn._client.uaclient.protocol
+                assert protocol is not None
+                sent: list[tuple[str, list[str]]] = []
+                send = protocol.send_request
+
+                async def counted(request: Any, *args: Any, **kwargs: Any) -> Any:
+                    params = getattr(request, "Parameters", None)
+                    items = getattr(params, "NodesToRead", None) or getattr(
+                        params, "NodesToWrite", None
+                    )
+                    nodes = [item.NodeId.Identifier for item in items or ()]
+                    sent.append((type(request).__name__, nodes))
+                    return await send(request, *args, **kwargs)
+
+                protocol.send_request = counted  # type: ignore[method-assign]
+                await measure_latency(conn, n=5, interval_s=0.0)
+                protocol.send_request = send  # type: ignore[method-assign]  # not the close
+        override = NODE_MAP["feed_override_pct"]
+        on_override = [kind for kind, nodes in sent if nodes == [override]]
+        assert on_override == [
+            "ReadRequest",
+            *["WriteRequest", "ReadRequest"] * 5,
+            "WriteRequest",  # the override set back
+        ]
+        lookups = {"BrowseRequest", "TranslateBrowsePathsToNodeIdsRequest", "RegisterNodesRequest"}
+        assert not lookups & {kind for kind, _ in sent}
+        # asyncua's watchdog may read the server status on a slow machine; nothing else passes
+        status = {
+            ua.ObjectIds.Server_ServerStatus,
+            ua.ObjectIds.Server_ServerStatus_CurrentTime,
+            ua.ObjectIds.Server_ServerStatus_State,
+        }
+        assert all(
+            nodes == [override] or (kind == "ReadRequest" and set(nodes) <= status)
+            for kind, nodes in sent
+        )
 
     run(body())
 

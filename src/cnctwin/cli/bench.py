@@ -161,8 +161,10 @@ def latency(
     kind = {"mqtt": "publish-to-receive"}.get(
         transport, "read" if result.write_ms is None else "write-to-read-back"
     )
+    security = "" if result.security is None else f", security {result.security}"
     table = Table(
-        title=f"{transport} {kind} latency, {result.n} round trips ({url}, jitter {jitter_ms:g} ms)"
+        title=f"{transport} {kind} latency, {result.n} round trips "
+        f"({url}, jitter {jitter_ms:g} ms{security})"
     )
     table.add_column("ms")
     for name in ("mean", "std", "min", "median", "p99", "max"):

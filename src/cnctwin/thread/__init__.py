@@ -24,7 +24,7 @@ from cnctwin.thread.signals import COMMANDS, SIGNALS, RunState, SignalSpec
 if TYPE_CHECKING:
     from cnctwin.thread.ads import AdsConnection, default_symbol_map
     from cnctwin.thread.ads_map import Symbol, SymbolMap, load_symbol_map
-    from cnctwin.thread.config import ConnectionConfig
+    from cnctwin.thread.config import ConnectionConfig, OpcUaSecurityConfig
     from cnctwin.thread.latency import (
         JitterProxy,
         LatencyResult,
@@ -83,6 +83,7 @@ _LAZY = {
     "SymbolMap": "cnctwin.thread.ads_map",
     "load_symbol_map": "cnctwin.thread.ads_map",
     "ConnectionConfig": "cnctwin.thread.config",
+    "OpcUaSecurityConfig": "cnctwin.thread.config",
     "JitterProxy": "cnctwin.thread.latency",
     "LatencyResult": "cnctwin.thread.latency",
     "measure_latency": "cnctwin.thread.latency",
@@ -163,6 +164,7 @@ __all__ = [
     "SignalSpec",
     "now_s",
     "ConnectionConfig",
+    "OpcUaSecurityConfig",
     "LatencyResult",
     "LatencyStats",
     "measure_endpoint_latency",

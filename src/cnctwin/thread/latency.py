@@ -30,7 +30,7 @@ import math
 import random
 import time
 from collections.abc import Callable, Coroutine, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from types import TracebackType
 from typing import Any
 from urllib.parse import urlsplit, urlunsplit
@@ -113,6 +113,10 @@ class LatencyResult:
         Pause between round trips, ms.
     jitter_ms
         Injected one-way jitter J (delays uniform in [0, 2 J] ms), 0 for none.
+    security
+        OPC UA message security of the measured session (``"None"``, or
+        ``"Basic256Sha256 Sign"`` / ``"Basic256Sha256 SignAndEncrypt"``); ``None`` for
+        transports without it and where the caller did not say.
     """
 
     n: int
@@ -123,6 +127,7 @@ class LatencyResult:
     signal: str
     interval_ms: float
     jitter_ms: float
+    security: str | None = None
 
     def to_dict(self) -> dict[str, object]:
         """Plain dict for JSON; durations rounded to 1 us."""
@@ -139,6 +144,7 @@ class LatencyResult:
             "signal": self.signal,
             "interval_ms": self.interval_ms,
             "jitter_ms": self.jitter_ms,
+            "security": self.security,
         }
 
 
@@ -503,13 +509,16 @@ async def measure_endpoint_latency(
                 return await measure_read_latency(
                     connection, n=n, interval_s=interval_s, jitter_ms=jitter_ms
                 )
-            return await measure_latency(
+            result = await measure_latency(
                 connection,
                 n=n,
                 interval_s=interval_s,
                 timeout_s=timeout_s,
                 jitter_ms=jitter_ms,
             )
+            # the bench's session is anonymous with the default [connection.security]: no
+            # message security (docs/latency.md compares Sign and SignAndEncrypt)
+            return replace(result, security="None") if transport == "opcua" else result
 
     if jitter_ms <= 0:
         return await once(endpoint)

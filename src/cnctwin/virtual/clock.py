@@ -32,8 +32,9 @@ Listener = Callable[[dict[str, float]], Awaitable[None] | None]
 class Steppable(Protocol):
     """What the clock drives: a :class:`~cnctwin.virtual.machine.VirtualMachine`."""
 
-    def step(self, dt_s: float) -> None:
-        """Advance by ``dt_s`` seconds of machine time."""
+    def step(self, dt_s: float) -> Awaitable[None] | None:
+        """Advance by ``dt_s`` seconds of machine time; a machine stepped in a worker thread
+        returns an awaitable that the clock awaits before the next tick."""
 
     def snapshot(self) -> dict[str, float]:
         """Every signal's current value."""
@@ -186,7 +187,9 @@ class MachineClock:
                 self._max_lag = max(self._max_lag, lag)
                 if lag > 0.5 * wall_tick:
                     self._late += 1
-                self.vm.step(self.tick_s)
+                stepped = self.vm.step(self.tick_s)
+                if stepped is not None:
+                    await stepped
                 self._ticks += 1
                 k += 1
                 self._loop_time = now

@@ -1,10 +1,11 @@
 """The virtual machine and its server in a child process, as a separate machine would be.
 
 :func:`virtual_machine_server` starts the virtual machine (the packaged demo program, in real
-time on its :class:`~cnctwin.virtual.MachineClock`) behind an OPC UA, Modbus TCP, MTConnect
-or ADS server in a spawned child process and yields the server's endpoint on loopback; leaving the
-context stops the child. Used to measure the digital thread (``cnctwin bench latency``,
-benchmarks/bench_opcua_latency.py) without the client and the machine sharing a process.
+time on its :class:`~cnctwin.virtual.MachineClock`, stepped in a thread beside the server's
+event loop) behind an OPC UA, Modbus TCP, MTConnect or ADS server in a spawned child process and
+yields the server's endpoint on loopback; leaving the context stops the child. Used to measure
+the digital thread (``cnctwin bench latency``, benchmarks/bench_opcua_latency.py) without the
+client and the machine sharing a process.
 """
 
 from __future__ import annotations
@@ -12,17 +13,31 @@ from __future__ import annotations
 import asyncio
 import logging
 import multiprocessing
+import sys
+import threading
 from collections.abc import AsyncIterator
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import asynccontextmanager
 from multiprocessing.connection import Connection
+from typing import TYPE_CHECKING
 
 from cnctwin.errors import CnctwinError, InputError
+
+if TYPE_CHECKING:
+    from cnctwin.virtual.machine import VirtualMachine
 
 __all__ = ["TRANSPORTS", "virtual_machine_server"]
 
 #: The protocols the virtual machine serves.
 TRANSPORTS = ("opcua", "modbus", "mtconnect", "ads")
-_START_TIMEOUT_S = 120.0
+#: Longest wait for the child to report ready, s: on a cold numba cache the warm-up compiles the
+#: cutting kernels, which took 179 s on the 2-core sandbox at load 20-40 (17 s at load 1.5).
+_START_TIMEOUT_S = 300.0
+#: Machine time a throwaway machine runs before the server starts, s: past the demo program's
+#: first cut (4.1 s), so every kernel the measurement meets is compiled.
+_WARM_UP_S = 6.0
+#: GIL switch interval of the server's process, s (CPython's default: 5 ms).
+_SWITCH_S = 0.0005
 
 
 def _serve_child(transport: str, pipe: Connection) -> None:
@@ -46,23 +61,68 @@ async def _serve(transport: str, pipe: Connection) -> None:
     from cnctwin.virtual.users import UserTable
 
     logging.getLogger("asyncua").setLevel(logging.ERROR)  # policy-None notices
+    _warm_up(VirtualMachine(VirtualMachineConfig()))
     vm = VirtualMachine(VirtualMachineConfig())
-    vm.step(vm.tick_s)  # the first step loads the compiled kernels (~0.5 s): not on the clock
-    server: OpcUaMachineServer | ModbusMachineServer | MTConnectAgent | AdsMachineServer
-    if transport == "opcua":  # on loopback; the bench writes the feed override anonymously
-        server = OpcUaMachineServer(vm, users=UserTable(anonymous="operator"))
-    elif transport == "mtconnect":
-        server = MTConnectAgent(vm)
-    elif transport == "ads":
-        server = AdsMachineServer(vm)
-    else:
-        server = ModbusMachineServer(vm)
-    async with server:
-        clock = MachineClock(vm, vm.tick_s)
-        clock.add_listener(server.publish)
-        async with clock:
-            pipe.send(("ready", server.endpoint))
-            await asyncio.get_running_loop().run_in_executor(None, _wait_for_parent, pipe)
+    vm.step(vm.tick_s)
+    # a thread that waits for the GIL gets it after 0.5 ms, not CPython's 5 ms: a request
+    # arriving during a step of the machine's thread is answered within that
+    sys.setswitchinterval(_SWITCH_S)
+    with ThreadPoolExecutor(1, thread_name_prefix="cnctwin-vm-step") as pool:
+        machine = _SteppedOffLoop(vm, pool)
+        server: OpcUaMachineServer | ModbusMachineServer | MTConnectAgent | AdsMachineServer
+        if transport == "opcua":  # on loopback; the bench writes the feed override anonymously
+            server = OpcUaMachineServer(machine, users=UserTable(anonymous="operator"))
+        elif transport == "mtconnect":
+            server = MTConnectAgent(machine)
+        elif transport == "ads":
+            server = AdsMachineServer(machine)
+        else:
+            server = ModbusMachineServer(machine)
+        async with server:
+            clock = MachineClock(machine, vm.tick_s)
+            clock.add_listener(server.publish)
+            async with clock:
+                pipe.send(("ready", server.endpoint))
+                await asyncio.get_running_loop().run_in_executor(None, _wait_for_parent, pipe)
+
+
+class _SteppedOffLoop:
+    """The machine stepped in a worker thread, as a machine's controller runs beside its
+    server: the server's event loop answers requests while a step runs (a read no longer
+    waits for the step, only for the GIL). Commands and snapshots wait for the step to end
+    (a lock): the machine never changes in the middle of a step."""
+
+    def __init__(self, vm: VirtualMachine, pool: ThreadPoolExecutor) -> None:
+        self._vm = vm
+        self._pool = pool
+        self._lock = threading.Lock()
+
+    def step(self, dt_s: float) -> asyncio.Future[None]:
+        """Advance by ``dt_s`` s of machine time in the worker thread."""
+        return asyncio.get_running_loop().run_in_executor(self._pool, self._step, dt_s)
+
+    def _step(self, dt_s: float) -> None:
+        with self._lock:
+            self._vm.step(dt_s)
+
+    def snapshot(self) -> dict[str, float]:
+        """The machine's signals after the last whole step."""
+        with self._lock:
+            return self._vm.snapshot()
+
+    def command(self, name: str, value: float) -> None:
+        """Apply a command between two steps."""
+        with self._lock:
+            self._vm.command(name, value)
+
+
+def _warm_up(vm: VirtualMachine) -> None:
+    """Run a throwaway machine through the demo program's first :data:`_WARM_UP_S` s, off the
+    clock: numba compiles (or loads from its cache) the cutting kernels at the first cut, which
+    on a cold cache took 17 s on the loaded 2-core sandbox and stalled the server mid-run (the
+    bench's writes timed out)."""
+    for _ in range(round(_WARM_UP_S / vm.tick_s)):
+        vm.step(vm.tick_s)
 
 
 def _wait_for_parent(pipe: Connection) -> None:
@@ -91,7 +151,7 @@ async def virtual_machine_server(transport: str) -> AsyncIterator[str]:
     InputError
         For a transport other than those of :data:`TRANSPORTS`.
     CnctwinError
-        When the server does not start within 120 s, or fails.
+        When the server does not start within 300 s, or fails.
     """
     if transport not in TRANSPORTS:
         raise InputError(f"transport {transport!r}; valid: {', '.join(TRANSPORTS)}")
