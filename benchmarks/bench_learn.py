@@ -31,6 +31,7 @@ from cnctwin.learn import (
     FeatureSchema,
     FeatureSpec,
     Predictor,
+    TrainResult,
     export_onnx,
     train,
 )
@@ -97,11 +98,35 @@ def time_windows(model: Predictor, repeats: int) -> tuple[float, float, float, f
     )
 
 
+def fixed_kernel_gpr(points: int) -> TrainResult:
+    """A GPR on ``points`` rows with a fixed RBF + white kernel (no marginal-likelihood fit,
+    which takes minutes at 2,000 points), in the form :func:`train` gives, for timing."""
+    from sklearn.gaussian_process import GaussianProcessRegressor
+    from sklearn.gaussian_process.kernels import RBF, WhiteKernel
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    data = dataset(points)
+    y = data.columns["torque_nm"]
+    kernel = RBF(np.ones(data.features.shape[1])) + WhiteKernel(0.1)
+    gpr = GaussianProcessRegressor(kernel, optimizer=None, normalize_y=False)
+    estimator = make_pipeline(StandardScaler(), gpr).fit(data.features, (y - y.mean()) / y.std())
+    report = {"model": "gpr", "target": "torque_nm", "training_rows": points}
+    return TrainResult(estimator, "regression", [], (y.mean(), y.std()), 1.645, report, {})
+
+
 def main() -> None:
     """Train, export, load and time each model kind; print the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small GPR, fewer repetitions")
     parser.add_argument("--models", default="linear,gbm,mlp,gpr", help="comma-separated kinds")
+    parser.add_argument(
+        "--gpr-fixed",
+        type=int,
+        default=0,
+        metavar="POINTS",
+        help="also time a GPR of POINTS rows with a fixed kernel (2000 for the target)",
+    )
     args = parser.parse_args()
     repeats = 500 if args.quick else 5000
     gpr_points = 150 if args.quick else 2000
@@ -125,6 +150,17 @@ def main() -> None:
             median, p99, cpu_p99, update = time_windows(model, repeats)
             print(
                 f"| {kind} | {result.report['training_rows']} | {trained_s:.1f} | "
+                f"{median:.3f} | {p99:.3f} | {cpu_p99:.3f} | {update:.3f} |"
+            )
+        if args.gpr_fixed:
+            t0 = time.perf_counter()
+            result = fixed_kernel_gpr(args.gpr_fixed)
+            trained_s = time.perf_counter() - t0
+            schema = FeatureSchema.from_spec(SPEC)
+            model = Predictor.load(export_onnx(result, schema, Path(folder) / "fixed.onnx"))
+            median, p99, cpu_p99, update = time_windows(model, repeats)
+            print(
+                f"| gpr, fixed kernel | {args.gpr_fixed} | {trained_s:.1f} | "
                 f"{median:.3f} | {p99:.3f} | {cpu_p99:.3f} | {update:.3f} |"
             )
 

@@ -129,3 +129,16 @@ def test_bad_requests_are_input_errors() -> None:
     one = Dataset(data.schema, data.features, {**data.columns, "one": np.full(len(data), "a")})
     with pytest.raises(InputError, match="1 group"):
         train(one, "power_w", "linear", "one")
+
+
+def test_leave_one_group_out_scores_every_group_with_a_model_that_never_saw_it() -> None:
+    from cnctwin.learn import leave_one_group_out
+
+    data = _data(rows_per_group=10, groups=5)
+    loo = leave_one_group_out(data, "power_w", "linear", "run", quick=True)
+    assert sorted(loo["per_group"]) == [f"e{g}" for g in range(5)]
+    assert loo["pooled"]["rows"] == len(data)
+    # each group's score equals a train() that holds out exactly that group
+    alone = train(data, "power_w", "linear", "run", quick=True, holdout_names=["e3"])
+    assert alone.report["groups_holdout"] == ["e3"]
+    assert loo["per_group"]["e3"]["mae"] == pytest.approx(alone.report["holdout"]["mae"])

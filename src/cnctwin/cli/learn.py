@@ -71,12 +71,20 @@ def train(
     max_gpr_points: Annotated[
         int, typer.Option("--max-gpr-points", help="Most GPR training rows.", min=10, max=20000)
     ] = 2000,
+    leave_one_out: Annotated[
+        bool,
+        typer.Option(
+            "--leave-one-out",
+            help="Also hold out each group in turn (a model per group); MODEL.loo.json.",
+        ),
+    ] = False,
     as_json: JsonOpt = False,
 ) -> None:
     """Train a model on grouped data; write MODEL.onnx, MODEL.report.json and .png."""
     from cnctwin.learn import (
         FeatureSchema,
         export_onnx,
+        leave_one_group_out,
         load_feature_spec,
         plot_report,
     )
@@ -107,6 +115,20 @@ def train(
         "groups_holdout": result.report["groups_holdout"],
         "holdout": result.report["holdout"],
     }
+    if leave_one_out:
+        loo = leave_one_group_out(
+            dataset,
+            target,
+            model,
+            group_by,
+            folds=folds,
+            seed=seed,
+            quick=quick,
+            max_gpr_points=max_gpr_points,
+        )
+        loo_path = out.with_suffix(".loo.json")
+        loo_path.write_text(finite_json.dumps(loo, indent=1) + "\n")
+        summary["leave_one_out"] = {"file": str(loo_path), "pooled": loo["pooled"]}
     if as_json:
         _print(summary)
         return
@@ -124,6 +146,8 @@ def train(
     held = result.report["groups_holdout"]
     shown = ", ".join(held) if len(held) <= 8 else f"{len(held)} groups"
     typer.echo(f"{model} -> {target}: held-out {group_by} {shown} ({metrics['rows']} rows): {line}")
+    if leave_one_out:
+        typer.echo(f"leave-one-{group_by}-out, pooled: {finite_json.dumps(loo['pooled'])}")
     typer.echo(f"wrote {out}, {report_path}, {figure}")
 
 

@@ -36,7 +36,13 @@ from cnctwin.learn.splits import grouped_folds, holdout_groups
 if TYPE_CHECKING:
     from cnctwin.learn.figures import plot_report
     from cnctwin.learn.onnx_model import Predictor, evaluate_model, export_onnx
-    from cnctwin.learn.training import BAND_LEVEL, MODELS, TrainResult, train
+    from cnctwin.learn.training import (
+        BAND_LEVEL,
+        MODELS,
+        TrainResult,
+        leave_one_group_out,
+        train,
+    )
 
 __all__ = [
     "BAND_LEVEL",
@@ -57,6 +63,7 @@ __all__ = [
     "export_onnx",
     "grouped_folds",
     "holdout_groups",
+    "leave_one_group_out",
     "load_feature_spec",
     "make_filter",
     "plot_report",
@@ -70,6 +77,7 @@ _LAZY = {
     "MODELS": "training",
     "TrainResult": "training",
     "train": "training",
+    "leave_one_group_out": "training",
     "Predictor": "onnx_model",
     "export_onnx": "onnx_model",
     "evaluate_model": "onnx_model",
