@@ -269,3 +269,34 @@ def test_signals_of_a_slot_cut_by_a_rapid_warn() -> None:
     summary = signals.summary()
     assert summary["process_time_s"] == pytest.approx(duration)
     assert summary["cutting_time_s"] <= summary["process_time_s"]
+
+
+def test_a_later_layer_along_a_cornered_wall_cuts_only_its_own_layer() -> None:
+    # Two 1 mm layers of an L-shaped slot (a 90 degree corner between two G1s), the second at
+    # another feed, so its positions do not fall where the first layer's did. A step that
+    # spanned the corner would cut the chord, leave a sliver of the corner's material on the
+    # wall above the second layer, and the second layer would read that sliver as a cut of the
+    # whole wall: ap 2 mm and twice the force for one step (issue 16, cnctwin optimize). With
+    # the corner sampled, every step of the second layer cuts its own 1 mm: ap within a pitch
+    # of 1 mm.
+    program = (
+        "G21 G90 G17\nT1 M6\nS10000 M3\nG0 X-5 Y5 Z5\nG0 Z-1\nG1 X20 F610\nG1 Y30\nG0 Z5\n"
+        "G0 X-5 Y5\nG0 Z-2\nG1 X20 F467\nG1 Y30\nG0 Z5\nM30\n"
+    )
+    cutter = Cutter.flat(diameter_mm=6.0, flute_length_mm=15.0, flutes=2, helix_rad=0.5)
+    stock = DexelStock.box((0.0, 0.0, -10.0), (30.0, 30.0, 0.0), density_per_mm=10.0)
+    table = StepTable()
+    for rows in simulate_cut(
+        Interpreter(NCSetup()).run_text(program), stock, {1: cutter}, rapid_mm_min=6000.0
+    ):
+        table.append(rows)
+    line = table.column("line").astype(int)
+    contact = table.column("contact") > 0
+    ap = table.column("ap_mm")
+    second = contact & ((line == 11) | (line == 12))
+    assert second.sum() > 100
+    assert ap[second].max() <= 1.0 + 0.1 + 1e-6
+    # The first layer's corner is a step's end of its own.
+    x, y = table.column("x_mm"), table.column("y_mm")
+    at_corner = (np.abs(x - 20.0) < 1e-9) & (np.abs(y - 5.0) < 1e-9)
+    assert at_corner.sum() == 2
