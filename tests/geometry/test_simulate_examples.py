@@ -49,10 +49,10 @@ def test_fusion_block_contour(shared_data: Path) -> None:
         (cut.table.column("contact") > 0) & (cut.table.column("path_speed_mm_min") > 999.0)
     ]
     # Each layer cuts 1 mm along the walls the layer above left: ap is the layer's 1 mm, not
-    # the wall's height (only the steps at the corners, where the positions leave deeper
-    # cusps than along the sides, see more).
+    # the wall's height (only the short first steps after a corner, where the layer above
+    # left a cusp deeper than such a step's thin-material threshold, see more: 2 of 1242).
     assert np.median(cutting) == pytest.approx(1.0, abs=1e-4)
-    assert np.mean(np.abs(cutting - 1.0) < 1e-4) > 0.98
+    assert np.mean(np.abs(cutting - 1.0) < 1e-4) > 0.99
 
 
 def _swept_area_mm2(points: np.ndarray, radius: float, pixel: float) -> float:

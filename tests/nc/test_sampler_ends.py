@@ -96,16 +96,33 @@ def test_ends_are_sampled_at_their_time_and_point(chunk: int) -> None:
     assert np.all(np.diff(both.t_s) > 0.0)
 
 
-def test_kind_samples_every_end_but_the_junctions_of_feed_moves() -> None:
-    # Rapid -> line -> line -> arc -> dwell -> rapid: the rapid's end, the arc's (before the
-    # dwell), the dwell's and the program's; not those between the feed moves.
+def test_kind_samples_every_end_but_the_tangent_junctions_of_feed_moves() -> None:
+    # Rapid -> line -> line -> arc -> dwell -> rapid: the feed moves meet at corners (down,
+    # then along x, then the arc starting along y), so every end is sampled, as with "all".
     both = _sample("kind")
     ends = [float(t) for t in both.t_s if not np.isclose(t / CYCLE, round(t / CYCLE))]
-    all_ends = _end_times()
-    assert ends == pytest.approx([all_ends[0], *all_ends[3:]], abs=1e-9)
+    assert ends == pytest.approx(_end_times(), abs=1e-9)
     grid = _sample("none")
     on_grid = np.isclose(both.t_s / CYCLE, np.round(both.t_s / CYCLE))
     np.testing.assert_allclose(both.tcp_mm[on_grid], grid.tcp_mm)
+    # A line, a line on from it, and an arc leaving along the same direction (centre below
+    # the line: G2 from +x tangent), then a corner: only the corner and the program's end are
+    # sampled; the tangent junctions (at 1.025 s and 2.05 s) are spanned.
+    arc = Segment(
+        MotionKind.ARC, 3, (20.5, 0.0, 0.0), (25.5, -5.0, 0.0), 600.0, 1000.0, STATE,
+        center_mm=(20.5, -5.0, 0.0), turns=-1,
+    )  # fmt: skip
+    segments = [
+        _line((0.0, 0.0, 0.0), (10.25, 0.0, 0.0), 600.0, 1),
+        _line((10.25, 0.0, 0.0), (20.5, 0.0, 0.0), 600.0, 2),
+        arc,
+        _line((25.5, -5.0, 0.0), (25.5, -5.0, 1.0), 600.0, 4),
+    ]
+    t_arc = 2.05 + 0.25 * math.pi
+    out = list(TrajectorySampler(segments, rapid_mm_min=RAPID, cycle_s=CYCLE, segment_ends="kind"))
+    t = np.concatenate([c.t_s for c in out])
+    off = [float(v) for v in t if not np.isclose(v / CYCLE, round(v / CYCLE))]
+    assert off == pytest.approx([t_arc, t_arc + 0.1], abs=1e-9)
     # Two rapids in a row: the first one's end is sampled too.
     segments = [
         Segment(MotionKind.RAPID, 1, (0.0, 0.0, 0.0), (0.0, 0.0, 5.5), 0.0, 0.0, STATE),

@@ -21,13 +21,15 @@ import pytest
 from cnctwin.config import load_config
 from cnctwin.drives import RAD_S_PER_RPM, spindle_preset
 from cnctwin.geometry import Cutter, DexelStock
-from cnctwin.mechanics import flat_end_mill_mean_forces
+from cnctwin.mechanics import flat_end_mill_mean_forces, mean_forces
 from cnctwin.mechanics.materials import milling_material
 from cnctwin.nc.interpreter import Interpreter
 from cnctwin.nc.setup import NCSetup
 from cnctwin.simulation import (
     COLUMNS,
+    CutStep,
     StepTable,
+    immersion_intervals,
     predict_program_signals,
     simulate_cut,
     simulate_program,
@@ -269,3 +271,53 @@ def test_signals_of_a_slot_cut_by_a_rapid_warn() -> None:
     summary = signals.summary()
     assert summary["process_time_s"] == pytest.approx(duration)
     assert summary["cutting_time_s"] <= summary["process_time_s"]
+
+
+def test_a_later_layer_along_a_cornered_wall_cuts_only_its_own_layer() -> None:
+    # Two 1 mm layers of an L-shaped slot (a 90 degree corner between two G1s), the second at
+    # another feed, so its positions do not fall where the first layer's did. A step that
+    # spanned the corner would cut the chord, leave a sliver of the corner's material on the
+    # wall above the second layer, and the second layer would read that sliver as a cut of the
+    # whole wall: ap 2 mm and up to twice the force for one step (issue 16, cnctwin optimize).
+    # With the corner sampled, every step of the second layer cuts its own 1 mm: ap within a
+    # pitch of 1 mm, and no step's mean force above Altintas' full-slot mean force at 1 mm.
+    program = (
+        "G21 G90 G17\nT1 M6\nS10000 M3\nG0 X-5 Y5 Z5\nG0 Z-1\nG1 X20 F610\nG1 Y30\nG0 Z5\n"
+        "G0 X-5 Y5\nG0 Z-2\nG1 X20 F467\nG1 Y30\nG0 Z5\nM30\n"
+    )
+    cutter = Cutter.flat(diameter_mm=6.0, flute_length_mm=15.0, flutes=2, helix_rad=0.5)
+    stock = DexelStock.box((0.0, 0.0, -10.0), (30.0, 30.0, 0.0), density_per_mm=10.0)
+    coefficients = milling_material("AA6060-T6").coefficients
+    omega = 10000.0 * RAD_S_PER_RPM
+    means: list[float] = []
+
+    def observe(step: CutStep) -> None:
+        if step.line in (11, 12):
+            cut = immersion_intervals(step.engagement, stock.grid.pitch_mm[2])
+            if cut is not None:
+                f = mean_forces(cutter, coefficients, cut, step.feed_per_tooth_mm * 1e-3, omega)
+                means.append(math.hypot(f.fx_n, f.fy_n))
+
+    table = StepTable()
+    for rows in simulate_cut(
+        Interpreter(NCSetup()).run_text(program),
+        stock,
+        {1: cutter},
+        rapid_mm_min=6000.0,
+        on_step=observe,
+    ):
+        table.append(rows)
+    line = table.column("line").astype(int)
+    contact = table.column("contact") > 0
+    ap = table.column("ap_mm")
+    second = contact & ((line == 11) | (line == 12))
+    assert second.sum() > 100
+    assert ap[second].max() <= 1.0 + 0.1 + 1e-6
+    slot = flat_end_mill_mean_forces(
+        coefficients, 2, 3e-3, 0.0, math.pi, 1e-3, 467.0 / (10000.0 * 2) * 1e-3, omega
+    )
+    assert max(means) <= 1.02 * math.hypot(slot.fx_n, slot.fy_n)
+    # The first layer's corner is a step's end of its own.
+    x, y = table.column("x_mm"), table.column("y_mm")
+    at_corner = (np.abs(x - 20.0) < 1e-9) & (np.abs(y - 5.0) < 1e-9)
+    assert at_corner.sum() == 2

@@ -104,10 +104,15 @@ I_PLAN_FEED = 7  # feed-override index the plan used
 I_PLAN_RAPID = 8  # rapid-override index the plan used
 N_ISTATE = 9
 
-# Segment-end samples of run(): none; all but the junctions of two feed moves; every segment.
+# Segment-end samples of run(): none; all but the tangent junctions of two feed moves; every
+# segment.
 ENDS_NONE = 0
 ENDS_KIND = 1
 ENDS_ALL = 2
+#: ENDS_KIND samples the junction of two feed moves whose direction turns by more than this
+#: (rad): a step spanning such a corner cuts the chord, not the corner (see _end_sampled).
+CORNER_RAD = 1e-3
+CORNER_COS = math.cos(CORNER_RAD)
 #: A segment end this close to a sample time (in cycles) falls on it (segment-end samples).
 END_TOLERANCE = 1e-9
 #: Segments shorter than this (mm) and without dwell take no time.
@@ -540,11 +545,11 @@ def run(
 ) -> int:
     """Sample segments up to n_exec (exclusive) or until the output is full; returns n_out.
 
-    With ``ends`` (``ENDS_ALL``: every segment; ``ENDS_KIND``: all but a feed move followed by
-    a feed move of the same tool, see :func:`_end_sampled`) a segment also gives a sample at its end
-    time, labelled with it: the grid sample there when the end falls on the grid (within
-    ``END_TOLERANCE * dt``), else an extra one; none when a grid sample of the segment already
-    lies that close before its end.
+    With ``ends`` (``ENDS_ALL``: every segment; ``ENDS_KIND``: all but a feed move followed
+    tangentially by a feed move of the same tool, see :func:`_end_sampled`) a segment also
+    gives a sample at its end time, labelled with it: the grid sample there when the end falls
+    on the grid (within ``END_TOLERANCE * dt``), else an extra one; none when a grid sample of
+    the segment already lies that close before its end.
     """
     cap = out_t.shape[0]
     while True:
@@ -627,7 +632,15 @@ def run(
 def _end_sampled(geo: np.ndarray, j: int, n_buf: int, ends: int) -> bool:
     """Whether segment j's end gets a sample of its own in mode ``ends`` (ENDS_*): with
     ENDS_KIND, unless it and the next segment are both feed moves (linear or arc) of the same
-    tool (the buffer holds the next one unless the program ends with j)."""
+    tool that meet at a tangent (direction change at most ``CORNER_RAD``; the buffer holds the
+    next one unless the program ends with j).
+
+    A step spanning a corner moves the tool along the chord between its two positions: the tool
+    never stands at the corner, and leaves a sliver of the material the corner's position
+    removes (up to ``s sin(theta) / 4`` thick for a step ``s`` turning by ``theta``). A later
+    pass along the same wall (the next layer) would remove that sliver as if it were a chip of
+    the full feed per tooth, over the whole height of the wall: a force spike that is no cut.
+    """
     if ends == ENDS_NONE:
         return False
     if ends == ENDS_ALL or j + 1 >= n_buf:
@@ -635,7 +648,12 @@ def _end_sampled(geo: np.ndarray, j: int, n_buf: int, ends: int) -> bool:
     here = int(geo[j, G_KIND])
     there = int(geo[j + 1, G_KIND])
     feeds = here in (KIND_LINEAR, KIND_ARC) and there in (KIND_LINEAR, KIND_ARC)
-    return not feeds or geo[j, G_TOOL] != geo[j + 1, G_TOOL]
+    if not feeds or geo[j, G_TOOL] != geo[j + 1, G_TOOL]:
+        return True
+    turn = 0.0
+    for a in range(3):
+        turn += geo[j, G_TOUT + a] * geo[j + 1, G_TIN + a]
+    return turn < CORNER_COS
 
 
 @njit(cache=True)

@@ -278,9 +278,12 @@ class TrajectorySampler:
         Also sample segment ends, at their end time and labelled with their segment, so that
         a step does not span them (offline simulation: what a step cuts belongs to the segment
         that moved the tool there). ``"all"``: the end of every segment (dwells included);
-        ``"kind"``: every end but the junction of two feed moves (linear or arc) of the same
-        tool, where a step may still span the junction (every rapid's and dwell's start and
-        end are sampled, and every change of tool); ``"none"`` (the default): grid
+        ``"kind"``: every end but the tangent junction of two feed moves (linear or arc) of
+        the same tool (direction change at most 1e-3 rad), where a step may still span the
+        junction (every rapid's and dwell's start and end are sampled, every corner, and
+        every change of tool: a step spanning a corner would cut the chord, leaving a sliver
+        of the corner that a later pass along the same wall reads as a cut of the whole
+        wall); ``"none"`` (the default): grid
         samples only. Where an end falls on a grid time (within 1e-9 cycles) that grid sample
         is the end sample; elsewhere the chunk gets an extra sample between two grid times.
         With ``"all"`` or ``"kind"`` the last sample is the program's end.

@@ -18,8 +18,8 @@ it into a feed per block:
 - the program is written anew (:mod:`cnctwin.optimize.rewrite`): an F word only where the
   modal feed changes, block numbers kept on the first piece, the original line as a comment
   before a split block; and cut again, sampled as ``cnctwin simulate`` and ``cnctwin signals``
-  sample (a step may span the junction of two feed blocks): a step that still exceeds a limit
-  (the engagement of a step shifts with its length and its junction) lowers its piece's feed
+  sample (a step may span the tangent junction of two feed blocks): a step that still exceeds a
+  limit (the engagement of a step shifts with its length and its junction) lowers its piece's feed
   to what that step allows, until no step exceeds a limit (at most ``passes`` cuts).
 
 What is not rewritten (kept as written, its programmed feed restored where an earlier block's

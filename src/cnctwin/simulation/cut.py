@@ -8,12 +8,15 @@ the loop of the twin cycle (docs/twin.md: kinematics, cut, engagement) without a
 Attribution: the sampler also samples segment ends (``segment_ends``), so that the material a
 move leaves between its last cycle and its end point is cut by a step of that move, not by the
 first step of the next one (a rapid retract after a cut would otherwise "cut" it, a collision
-that is not). By default every end is sampled but the junction of two feed moves of one tool:
-no step spans a rapid's or a dwell's start or end; between two feed moves a step may
-span their junction (the cut of at most one cycle booked to the later line), which keeps dense
-CAM programs (blocks shorter than a cycle) at their cost. ``segment_ends="all"`` samples every
-block's end: every step then belongs to one line, at up to one extra cut per block (2.3 times
-the steps of CAMotics' ``bear.nc``). An end step lies between two cycle times: ``t_s`` is its
+that is not). By default every end is sampled but the tangent junction of two feed moves of one
+tool: no step spans a rapid's or a dwell's start or end, nor a corner between two feed moves
+(a step spanning a corner cuts the chord and leaves a sliver of the corner on the wall, which a
+later pass along that wall, the next layer, would read as a cut of the wall's whole height: a
+single-step force spike); across a tangent junction a step may span the two moves (the cut of
+at most one cycle booked to the later line). ``segment_ends="all"`` samples every block's end:
+every step then belongs to one line, at up to one extra cut per block (2.3 times the steps of
+CAMotics' ``bear.nc``, whose tessellated surfaces turn at nearly every block: 2.2 times with
+the default). An end step lies between two cycle times: ``t_s`` is its
 true time, and each row stands for the time since the row before (:func:`step_durations`);
 the rates (``mrr_mm3_s``, ``feed_mm_min``) are per that time.
 
