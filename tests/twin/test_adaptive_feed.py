@@ -182,3 +182,36 @@ def test_teach_in_learns_each_section_and_a_second_run_holds_it(
             assert abs(h_power[section].mean() / reference - 1.0) < 0.15, line
             # the spikes inside a section are gone: below the taught run's peak there
             assert h_power[section].max() < power[cutting & (lines == line)].max()
+
+
+def test_a_lost_machine_gets_no_command_and_a_gap_restarts_the_interval() -> None:
+    stage = _stage(interval_s=10.0)
+    assert len(stage.process(_state(200.0, 80.0, t_s=1.0)).commands) == 1
+    lost = _state(400.0, 80.0, t_s=2.0)
+    lost.connected = False
+    assert stage.process(lost).commands == []  # nothing while the machine is lost
+    assert stage.process(_state(400.0, 70.0, t_s=3.0)).commands == []  # interval still runs
+    stage.forget()  # the runtime calls it after the gap: the next sample may command at once
+    (decision,) = stage.process(_state(400.0, 70.0, t_s=3.1)).commands
+    assert decision.value == pytest.approx(70.0 * (1.0 + 0.5 * (150.0 / 400.0 - 1.0)))
+
+
+def test_its_commands_obey_the_lost_machine_policy_of_the_safety_filter() -> None:
+    from cnctwin.control import ControlConfig, SafetyFilter
+
+    safety = SafetyFilter(
+        ControlConfig.model_validate(
+            {"enabled": True, "feed_override": {"min_pct": 20.0, "max_pct": 120.0}}
+        )
+    )
+    lowered = _stage().process(_state(200.0, 80.0)).commands[0]  # 70 %
+    verdict = safety.check(lowered, 1.0, readback={"feed_override_pct": 80.0})
+    assert verdict.send and verdict.value == pytest.approx(70.0)
+    # a restarted control shows 100 %: the lowered override is written again, not raised
+    (again,) = safety.after_reconnect({"feed_override_pct": 100.0}, 5.0)
+    assert again.send and again.value == pytest.approx(70.0)
+    raised = _stage().process(_state(60.0, 100.0, t_s=6.0)).commands[0]  # 120 %
+    safety.check(raised, 10.0, readback={"feed_override_pct": 100.0})
+    # above 100 % the twin was blind: it comes back to 100 %
+    (back,) = safety.after_reconnect({"feed_override_pct": 120.0}, 20.0)
+    assert back.send and back.value == pytest.approx(100.0)
