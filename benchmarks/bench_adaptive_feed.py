@@ -6,6 +6,8 @@ in-process virtual machine, one machine step of 25 ms per twin cycle, four times
 
 1. *off*: ``[twin.adaptive_feed]`` disabled, the programmed feed;
 2. *force*: the example's controller, holding the predicted XY force at its reference;
+   and, without ``--quick``, the same with ``lookahead_mm = 0`` (the loop only reacts) and
+   with ``source = "measured"`` (the machine's dynamometer instead of the twin's force);
 3. *teach*: a teach-in cut (``quantity = "power"``): nothing commanded, the mean predicted
    spindle power of each program line learnt into a file;
 4. *hold*: the same configuration with the file present: each line's learnt power held
@@ -145,6 +147,12 @@ def main() -> None:
     on = run_lockstep(config)
     results["off"], results["force"] = figures(off, bounds), figures(on, bounds)
     if not args.quick:
+        results["no_lookahead"] = figures(
+            run_lockstep(with_adaptive(config, lookahead_mm=0.0)), bounds
+        )
+        results["measured"] = figures(
+            run_lockstep(with_adaptive(config, source="measured")), bounds
+        )
         with tempfile.TemporaryDirectory() as folder:
             teach = with_adaptive(
                 config, quantity="power", reference=None, teach_file=Path(folder) / "teach.json"
