@@ -118,17 +118,24 @@ def example() -> RunConfig:
     return load_run_config(EXAMPLE)
 
 
-def test_on_the_virtual_machine_the_controller_cuts_the_peak_and_holds_the_reference(
-    example: RunConfig,
-) -> None:
+@pytest.fixture(scope="module")
+def uncontrolled(example: RunConfig) -> np.ndarray:
     off = run_lockstep(_with(example, enabled=False), hole=False, duration_s=200.0)
-    on = run_lockstep(example, hole=False, duration_s=200.0)
-    assert off.summary.ended == on.summary.ended == "finished"
+    assert off.summary.ended == "finished"
+    return _column(off.states, "predicted_force_xy_n", 0.0)
+
+
+@pytest.mark.parametrize("source", ["predicted", "measured"])
+def test_on_the_virtual_machine_the_controller_cuts_the_peak_and_holds_the_reference(
+    example: RunConfig, uncontrolled: np.ndarray, source: str
+) -> None:
+    on = run_lockstep(_with(example, source=source), hole=False, duration_s=200.0)
+    assert on.summary.ended == "finished"
     reference = example.twin.adaptive_feed.reference
-    force_off = _column(off.states, "predicted_force_xy_n", 0.0)
     force_on = _column(on.states, "predicted_force_xy_n", 0.0)
-    # the uncontrolled slot and corners reach 245 N; the controller keeps the peak 25 % lower
-    assert force_on.max() < 0.75 * force_off.max()
+    # the uncontrolled slot and corners reach 245 N; the controller keeps the peak 20 % lower
+    # (measured in bench_adaptive_feed: 32 % on the predicted force, 27 % on the measured)
+    assert force_on.max() < 0.8 * uncontrolled.max()
     engaged = _column(on.states, "adaptive_feed_engaged", 0.0) > 0.5
     assert engaged.sum() > 200
     assert abs(force_on[engaged].mean() / reference - 1.0) < 0.05
