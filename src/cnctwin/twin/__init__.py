@@ -13,6 +13,7 @@ Public API::
 See docs/twin.md.
 """
 
+from cnctwin.twin.adaptive_feed import AdaptiveFeedConfig
 from cnctwin.twin.config import RunConfig, load_run_config
 from cnctwin.twin.host import MachineProcess, MachineServer
 from cnctwin.twin.local import LocalConnection
@@ -34,6 +35,7 @@ from cnctwin.twin.settings import (
 from cnctwin.twin.state import CycleState, TwinEvent
 
 __all__ = [
+    "AdaptiveFeedConfig",
     "BandResult",
     "CycleState",
     "FilterConfig",

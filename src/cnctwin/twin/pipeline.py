@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 from cnctwin.control import Expression, RuleEngine, SafetyFilter
 from cnctwin.thread import SIGNALS, MachineConnection
 from cnctwin.twin.actions import ActionStage, RuleStage
+from cnctwin.twin.adaptive_feed import AdaptiveFeedStage, program_engagement_map
 from cnctwin.twin.config import RunConfig
 from cnctwin.twin.model_stage import LoadedModel, ModelStage, load_models
 from cnctwin.twin.monitoring import ForceBand
@@ -189,7 +190,17 @@ def build_twin(
     if twin_cfg.wear.enabled:
         stages.append(WearStage(twin_cfg.wear, physics))
     stages += [ModelStage(model) for model in models]
-    stages += [RuleStage(engine), actions]
+    stages.append(RuleStage(engine))
+    adaptive = twin_cfg.adaptive_feed
+    if adaptive.enabled:  # after the rules: a rule's lower override goes first
+        feed = config.control.feed_override
+        emap = None
+        if adaptive.lookahead_mm > 0.0 and (program is not None or program_text is not None):
+            emap = program_engagement_map(
+                config, physics.cutters, adaptive.map_step_mm, program, program_text
+            )
+        stages.append(AdaptiveFeedStage(adaptive, feed.min_pct, feed.max_pct, emap))
+    stages.append(actions)
     outlets: list[MqttOutlet] = []
     if mqtt_source is not None or mqtt_publisher is not None:
         outlets.append(

@@ -9,6 +9,7 @@ from pydantic import Field, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from cnctwin.config import Section, resolve_file
+from cnctwin.twin.adaptive_feed import AdaptiveFeedConfig
 
 __all__ = [
     "FilterConfig",
@@ -396,6 +397,8 @@ class TwinSettings(Section):
         Form-error prediction.
     wear
         Tool wear from the spindle torque.
+    adaptive_feed
+        Adaptive feed control (Ward 2021, Eq. 7; :mod:`cnctwin.twin.adaptive_feed`).
     stop_confirmation
         When a stop counts as done, and the escalation when it does not.
     overload
@@ -417,6 +420,7 @@ class TwinSettings(Section):
     force_band: ForceBandConfig = Field(default_factory=ForceBandConfig)
     form_error: FormErrorConfig = Field(default_factory=FormErrorConfig)
     wear: WearConfig = Field(default_factory=WearConfig)
+    adaptive_feed: AdaptiveFeedConfig = Field(default_factory=AdaptiveFeedConfig)
     stop_confirmation: StopConfirmationConfig = Field(default_factory=StopConfirmationConfig)
     overload: OverloadConfig = Field(default_factory=OverloadConfig)
     models: list[ModelConfig] = Field(default_factory=list, max_length=16)

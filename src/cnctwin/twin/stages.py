@@ -19,7 +19,10 @@ Names a stage adds to :attr:`CycleState.predicted` (units in the names):
   ``force_residual_n``, ``force_scatter_n``, ``force_band_armed``, ``force_out_of_band``,
   ``deflection_um``, ``form_error_um``, ``form_error_out``;
 - wear (:mod:`cnctwin.twin.tool_wear`): ``wear_vb_mm``, ``wear_sd_mm``, ``wear_stage``,
-  ``wear_torque_nm``, ``wear_life_mm3``, ``wear_life_s``.
+  ``wear_torque_nm``, ``wear_life_mm3``, ``wear_life_s``;
+- adaptive feed (:mod:`cnctwin.twin.adaptive_feed`): ``adaptive_feed_reference``,
+  ``adaptive_feed_value``, ``adaptive_feed_target_pct``, ``adaptive_feed_engaged``,
+  ``adaptive_feed_teaching``.
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ from cnctwin.signals import (
     SlidingWindow,
 )
 from cnctwin.thread import SIGNALS, ConnectionLost, MachineConnection, RunState
+from cnctwin.twin.adaptive_feed import ADAPTIVE_FEED_PREDICTIONS
 from cnctwin.twin.freshness import Freshness
 from cnctwin.twin.monitoring import ForceBand
 from cnctwin.twin.physics import TwinPhysics
@@ -100,6 +104,7 @@ PREDICTIONS = (
     "form_error_tolerance_um",
     "form_error_out",
     *WEAR_PREDICTIONS,
+    *ADAPTIVE_FEED_PREDICTIONS,
 )
 
 
