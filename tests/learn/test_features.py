@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 from cnctwin.errors import ConfigError, DataError
-from cnctwin.learn import FeaturePath, FeatureSchema, FeatureSpec
-from cnctwin.twin.settings import FilterConfig, WindowConfig
+from cnctwin.learn import FeaturePath, FeatureSchema, FeatureSpec, FilterSpec, WindowSpec
 from cnctwin.twin.stages import FeatureStage, FilterStage
 from cnctwin.twin.state import CycleState
 
@@ -65,8 +64,8 @@ def test_batch_equals_the_twins_filter_and_feature_stages() -> None:
     schema = _schema()
     log = _log(500, 2)
     batch, _ = FeaturePath(schema).batch(log, log["time_s"])
-    filters = FilterStage({k: FilterConfig(**v) for k, v in SPEC["filters"].items()}, PERIOD_S)
-    windows = FeatureStage([WindowConfig(**w) for w in SPEC["windows"]], PERIOD_S)
+    filters = FilterStage({k: FilterSpec(**v) for k, v in SPEC["filters"].items()}, PERIOD_S)
+    windows = FeatureStage([WindowSpec(**w) for w in SPEC["windows"]], PERIOD_S)
     names = list(schema.names)
     compared = 0
     for i in range(500):

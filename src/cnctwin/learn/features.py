@@ -42,7 +42,7 @@ _BLOCK = 4096
 
 def make_filter(spec: FilterSpec, sample_period_s: float) -> CausalFilter:
     """The filter a :class:`FilterSpec` describes, sampling every ``sample_period_s`` s
-    (the mapping of the twin's ``make_filter``)."""
+    (the twin's ``[twin.filters.X]`` too)."""
     if spec.kind == "hampel":
         return HampelFilter(spec.window, spec.n_sigma)
     if spec.kind == "kalman":

@@ -39,7 +39,7 @@ WINDOW_FEATURES = ("mean", "rms", "peak_to_peak", "slope")
 
 
 class FilterSpec(Section):
-    """A causal filter on one signal (fields and defaults of the twin's ``[twin.filters.X]``).
+    """A causal filter on one signal (also the twin's ``[twin.filters.SIGNAL]``).
 
     Attributes
     ----------
@@ -63,7 +63,7 @@ class FilterSpec(Section):
 
 
 class WindowSpec(Section):
-    """A sliding window of one signal and its features (the twin's ``[[twin.windows]]``).
+    """A sliding window of one signal and its features (also the twin's ``[[twin.windows]]``).
 
     Attributes
     ----------

@@ -24,13 +24,11 @@ from cnctwin.twin.pipeline import Twin, build_twin, signal_names
 from cnctwin.twin.runtime import RunSummary, TwinRuntime
 from cnctwin.twin.session import open_connection, run_session
 from cnctwin.twin.settings import (
-    FilterConfig,
     ForceBandConfig,
     FormErrorConfig,
     ModelConfig,
     TwinSettings,
     WearConfig,
-    WindowConfig,
 )
 from cnctwin.twin.state import CycleState, TwinEvent
 
@@ -38,7 +36,6 @@ __all__ = [
     "AdaptiveFeedConfig",
     "BandResult",
     "CycleState",
-    "FilterConfig",
     "ForceBand",
     "ForceBandConfig",
     "FormErrorConfig",
@@ -55,7 +52,6 @@ __all__ = [
     "TwinRuntime",
     "TwinSettings",
     "WearConfig",
-    "WindowConfig",
     "build_twin",
     "load_models",
     "load_run_config",

@@ -9,10 +9,10 @@ from pydantic import Field, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from cnctwin.config import Section, resolve_file
+from cnctwin.learn import FilterSpec, WindowSpec
 from cnctwin.twin.adaptive_feed import AdaptiveFeedConfig
 
 __all__ = [
-    "FilterConfig",
     "ForceBandConfig",
     "FormErrorConfig",
     "ModelConfig",
@@ -21,54 +21,7 @@ __all__ = [
     "StopConfirmationConfig",
     "TwinSettings",
     "WearConfig",
-    "WindowConfig",
 ]
-
-
-class FilterConfig(Section):
-    """A causal filter on one measured signal (``[twin.filters.SIGNAL]``).
-
-    Attributes
-    ----------
-    kind
-        ``"hampel"`` (outlier rejection), ``"kalman"`` (random-walk state) or
-        ``"butterworth"`` (low pass).
-    window
-        Hampel: samples in the window (odd, >= 3).
-    n_sigma
-        Hampel: outlier threshold in scaled median absolute deviations.
-    process_var, measurement_var
-        Kalman: variances of the random walk per cycle and of the measurement, in the
-        signal's unit squared.
-    cutoff_hz, order
-        Butterworth: cut-off frequency (Hz, below half the cycle rate) and order.
-    """
-
-    kind: Literal["hampel", "kalman", "butterworth"]
-    window: int = Field(default=7, ge=3, le=1001)
-    n_sigma: float = Field(default=3.0, gt=0.0, le=100.0)
-    process_var: float = Field(default=1.0, gt=0.0, le=1e12)
-    measurement_var: float = Field(default=25.0, gt=0.0, le=1e12)
-    cutoff_hz: float = Field(default=10.0, gt=0.0, le=1e5)
-    order: int = Field(default=2, ge=1, le=8)
-
-
-class WindowConfig(Section):
-    """A sliding window of one signal and the features computed over it (``[[twin.windows]]``).
-
-    Attributes
-    ----------
-    signal
-        A measured signal name (its filtered value when it has a filter) or a prediction.
-    length
-        Samples (cycles) in the window.
-    features
-        Names of :mod:`cnctwin.signals` features (``mean``, ``rms``, ``std``, ``slope``, ...).
-    """
-
-    signal: str
-    length: int = Field(default=80, ge=2, le=100_000)
-    features: list[str] = Field(default_factory=lambda: ["mean", "rms"])
 
 
 class ForceBandConfig(Section):
@@ -415,8 +368,8 @@ class TwinSettings(Section):
     position_deadband_mm: float = Field(default=0.005, ge=0.0, le=100.0)
     max_sample_age_s: float = Field(default=2.0, gt=0.0, le=3600.0)
     plausibility: PlausibilityConfig = Field(default_factory=PlausibilityConfig)
-    filters: dict[str, FilterConfig] = Field(default_factory=dict)
-    windows: list[WindowConfig] = Field(default_factory=list)
+    filters: dict[str, FilterSpec] = Field(default_factory=dict)
+    windows: list[WindowSpec] = Field(default_factory=list)
     force_band: ForceBandConfig = Field(default_factory=ForceBandConfig)
     form_error: FormErrorConfig = Field(default_factory=FormErrorConfig)
     wear: WearConfig = Field(default_factory=WearConfig)

@@ -35,11 +35,8 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from cnctwin.learn import FilterSpec, WindowSpec, make_filter
 from cnctwin.signals import (
-    ButterworthFilter,
-    CausalFilter,
-    HampelFilter,
-    KalmanFilter,
     SlidingWindow,
 )
 from cnctwin.thread import SIGNALS, ConnectionLost, MachineConnection, RunState
@@ -49,7 +46,7 @@ from cnctwin.twin.monitoring import ForceBand
 from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.plausibility import AXES, Plausibility
 from cnctwin.twin.program import ProgramMap
-from cnctwin.twin.settings import FilterConfig, FormErrorConfig, WindowConfig
+from cnctwin.twin.settings import FormErrorConfig
 from cnctwin.twin.state import CycleState, TwinEvent
 from cnctwin.twin.tool_wear import WEAR_PREDICTIONS
 
@@ -57,7 +54,6 @@ if TYPE_CHECKING:
     from cnctwin.twin.config import RunConfig
 
 __all__ = [
-    "FEATURES",
     "PLAUSIBLE_LIMITS",
     "PREDICTIONS",
     "CutStage",
@@ -70,12 +66,10 @@ __all__ = [
     "ForceStage",
     "ReadStage",
     "Stage",
-    "make_filter",
     "plausibility_problem",
 ]
 
 #: Features a window may compute (methods of :class:`cnctwin.signals.windows.SlidingWindow`).
-FEATURES = ("mean", "rms", "peak_to_peak", "slope")
 
 #: Every prediction name the stages add, for rule checking (units in the names).
 PREDICTIONS = (
@@ -519,21 +513,6 @@ class ForceStage:
         return state
 
 
-def make_filter(config: FilterConfig, cycle_s: float) -> CausalFilter:
-    """The filter a ``[twin.filters.SIGNAL]`` entry describes, sampling every ``cycle_s`` s.
-
-    Raises
-    ------
-    cnctwin.errors.ConfigError
-        If a Butterworth cut-off is not below half the cycle rate.
-    """
-    if config.kind == "hampel":
-        return HampelFilter(config.window, config.n_sigma)
-    if config.kind == "kalman":
-        return KalmanFilter(config.process_var, config.measurement_var)
-    return ButterworthFilter(config.order, config.cutoff_hz, 1.0 / cycle_s)
-
-
 class FilterStage:
     """Step 7: causal filters on measured signals (Heide 2025, Sec. 2.3: Hampel, Kalman,
     Butterworth).
@@ -549,7 +528,7 @@ class FilterStage:
     per_sample = True
     name = "filters"
 
-    def __init__(self, filters: Mapping[str, FilterConfig], cycle_s: float) -> None:
+    def __init__(self, filters: Mapping[str, FilterSpec], cycle_s: float) -> None:
         self.filters = {name: make_filter(cfg, cycle_s) for name, cfg in filters.items()}
 
     def process(self, state: CycleState) -> CycleState:
@@ -574,33 +553,19 @@ class FeatureStage:
     Parameters
     ----------
     windows
-        Which signals, how long, which features (of :data:`FEATURES`).
+        Which signals, how long, which features (of :data:`cnctwin.learn.WINDOW_FEATURES`).
     cycle_s
         Sample period, s.
-
-    Raises
-    ------
-    cnctwin.errors.ConfigError
-        For a feature that is not one of :data:`FEATURES`.
     """
 
     per_sample = True
     name = "features"
 
-    def __init__(self, windows: Sequence[WindowConfig], cycle_s: float) -> None:
-        from cnctwin.errors import ConfigError
-
-        self.windows: list[_Window] = []
-        for k, w in enumerate(windows):
-            bad = [f for f in w.features if f not in FEATURES]
-            if bad:
-                raise ConfigError(
-                    f"twin.windows[{k}].features: unknown feature {bad[0]!r}; "
-                    f"valid: {', '.join(FEATURES)}"
-                )
-            self.windows.append(
-                _Window(w.signal, SlidingWindow(w.length, 1.0 / cycle_s), tuple(w.features))
-            )
+    def __init__(self, windows: Sequence[WindowSpec], cycle_s: float) -> None:
+        self.windows = [
+            _Window(w.signal, SlidingWindow(w.length, 1.0 / cycle_s), tuple(w.features))
+            for w in windows
+        ]
 
     def process(self, state: CycleState) -> CycleState:
         """Push this cycle's value of each windowed signal; add its features."""
