@@ -179,6 +179,23 @@ BASES: dict[tuple[str, ...], Base] = {
     ("nc", "trace"): Base(lambda t: [str(PACKAGED / "demo.ngc")]),
     ("bench", "latency"): Base(lambda t: ["--transport", "none"], ends_with="--transport"),
     ("wear", "simulate-lathe"): Base(lambda t: ["--test", "1", "--parts", "3", "--json"]),
+    ("learn", "train"): Base(
+        lambda t: [
+            "--data",
+            str(t / "none.csv"),
+            "--features",
+            str(EXAMPLES / "twin_model" / "features.toml"),
+            "--target",
+            "y",
+            "--group-by",
+            "run",
+        ],  # fmt: skip
+        ends_with="none.csv",
+    ),
+    ("learn", "evaluate"): Base(
+        lambda t: [str(t / "none.onnx"), "--data", str(t / "none.csv")], ends_with="none.onnx"
+    ),
+    ("learn", "inspect"): Base(lambda t: [str(t / "none.onnx")], ends_with="none.onnx"),
     ("wear", "ekf"): Base(lambda t: ["--data", str(_ekf_csv(t / "ekf.csv")), "--json"]),
     ("wear", "mount"): Base(
         lambda t: ["--db", str(t / "mount.db"), "--tool", "T2", "--target-mm", "20", "--json"],

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from tiny_models import tiny_model
 from twin_helpers import STEP_S
 
 from cnctwin.errors import ConfigError
@@ -18,7 +19,6 @@ from cnctwin.learn import (
     FeaturePath,
     FeatureSchema,
     FeatureSpec,
-    Run,
     build_dataset,
     export_onnx,
     read_runs,
@@ -136,18 +136,6 @@ def test_the_twin_records_what_the_trained_model_predicts(
     assert np.std(got) > 1.0
 
 
-def _tiny_model(folder: Path, spec: dict[str, Any], signal: str) -> Path:
-    """A linear model of ``y`` from ``signal`` on synthetic rows (seconds)."""
-    rng = np.random.default_rng(3)
-    runs = []
-    for key in range(4):
-        x = rng.normal(size=200)
-        runs.append(Run(str(key), {signal: x, "y": 2.0 * x + rng.normal(0.0, 0.1, 200)}))
-    schema = FeatureSchema.from_spec(FeatureSpec.model_validate(spec))
-    result = train(build_dataset(runs, schema), "y", "linear", "run", quick=True)
-    return export_onnx(result, schema, folder / f"{signal}.onnx")
-
-
 def _build(config: RunConfig) -> None:
     assert config.virtual is not None
     vm = VirtualMachine(config.virtual, config)
@@ -162,7 +150,7 @@ def test_a_model_reading_a_signal_the_twin_lacks_is_refused(
         "signals": {"X1_OutputPower": "kW"},
         "windows": [{"signal": "X1_OutputPower", "length": 5, "features": ["rms"]}],
     }
-    path = _tiny_model(tmp_path, spec, "X1_OutputPower")
+    path = tiny_model(tmp_path, spec, "X1_OutputPower")
     config = _config(demo_config, [{"name": "load", "path": path}])
     with pytest.raises(ConfigError) as err:
         _build(config)
@@ -175,36 +163,14 @@ def test_a_model_of_another_sample_period_or_a_taken_name_is_refused(
     tmp_path: Path, demo_config: RunConfig
 ) -> None:
     spec = {"sample_period_s": 0.1, "signals": {"spindle_power_w": "W"}}
-    path = _tiny_model(tmp_path, spec, "spindle_power_w")
+    path = tiny_model(tmp_path, spec, "spindle_power_w")
     with pytest.raises(ConfigError, match=r"sample period of 0\.1 s .* every 0\.0125 s"):
         _build(_config(demo_config, [{"name": "power", "path": path}]))
     spec["sample_period_s"] = 0.0125
-    path = _tiny_model(tmp_path, spec, "spindle_power_w")
+    path = tiny_model(tmp_path, spec, "spindle_power_w")
     with pytest.raises(ConfigError, match="'contact' is already a signal"):
         _build(_config(demo_config, [{"name": "contact", "path": path}]))
     not_a_model = tmp_path / "bad.onnx"
     not_a_model.write_bytes(b"not onnx")
     with pytest.raises(ConfigError, match=r"twin\.models\[0\].*not an ONNX model"):
         _build(_config(demo_config, [{"name": "power", "path": not_a_model}]))
-
-
-def test_cnctwin_run_refuses_the_model_in_one_line_before_connecting(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    from cnctwin.cli import run
-    from cnctwin.examples import example_file
-
-    spec = {"sample_period_s": 0.0125, "signals": {"X1_OutputPower": "kW"}}
-    _tiny_model(tmp_path, spec, "X1_OutputPower")
-    text = example_file("demo_twin.toml").read_text()
-    (tmp_path / "demo_twin.ngc").write_text(example_file("demo_twin.ngc").read_text())
-    config = tmp_path / "twin.toml"
-    config.write_text(text + '\n[[twin.models]]\nname = "load"\npath = "X1_OutputPower.onnx"\n')
-    # nothing listens on this port: a refusal before connecting is the model's, at once
-    db = tmp_path / "h.sqlite"
-    argv = ["run", "--config", str(config), "--endpoint", "opc.tcp://127.0.0.1:9/x", "--db"]
-    code = run([*argv, str(db)])
-    _, err = capsys.readouterr()
-    lines = [line for line in err.splitlines() if not line.startswith("history: ")]
-    assert code == 2
-    assert len(lines) == 1 and "'X1_OutputPower'" in lines[0] and "twin.models[0]" in lines[0]

@@ -19,7 +19,6 @@ import pytest
 from asyncua import Client, ua
 from timeouts import BODY_S
 
-from cnctwin.cli.app import run
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.store import Historian
 from cnctwin.thread.opcua import NAMESPACE_URI, NODE_MAP
@@ -272,23 +271,3 @@ def test_bad_mappings_and_missing_columns_name_the_key_and_file(
     )
     with pytest.raises(DataError, match=r"column 'Machining_Process' is not numeric \(line 2"):
         read_replay_log(umich, load_replay_map(text))
-
-
-@pytest.mark.parametrize(
-    ("argv", "message"),
-    [
-        (["--replay", "BAD"], "bad.csv: column 'x_mm' is not numeric (line 3: 'oops')"),
-        (["--replay", "BAD", "--map", "no.toml"], "no.toml: cannot read mapping"),
-        (["--map", "m.toml"], "--map needs --replay LOG"),
-        (["--replay", "BAD", "--loop", "--once"], "--loop and --once: give one"),
-        (["--replay", "BAD", "--config", "x.toml"], "--config and --replay: give one"),
-    ],
-)
-def test_cli_refuses_bad_replays_in_one_line_exit_2(
-    tmp_path: Path, argv: list[str], message: str, capsys: pytest.CaptureFixture[str]
-) -> None:
-    bad = str(_csv(tmp_path / "bad.csv", "time_s,x_mm\n0,1\n0.1,oops\n"))
-    assert run(["virtual", "serve", "--port", "0", *(bad if a == "BAD" else a for a in argv)]) == 2
-    err = capsys.readouterr().err
-    assert message in err
-    assert err.count("\n") == 1

@@ -9,6 +9,7 @@ from typing import Annotated, Any
 import typer
 
 from cnctwin import finite_json
+from cnctwin.cli._options import MAX_SEED
 
 __all__ = ["app", "evaluate", "inspect", "train"]
 
@@ -66,7 +67,9 @@ def train(
         float, typer.Option("--holdout", help="Fraction of groups held out.", min=0.0, max=1.0)
     ] = 0.25,
     folds: Annotated[int, typer.Option("--folds", help="Grouped tuning folds.", min=2, max=50)] = 3,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of the hold-out draw.", min=0)] = 0,
+    seed: Annotated[
+        int, typer.Option("--seed", help="Seed of the hold-out draw.", min=0, max=MAX_SEED)
+    ] = 0,
     quick: Annotated[bool, typer.Option("--quick", help="A smaller tuning grid.")] = False,
     max_gpr_points: Annotated[
         int, typer.Option("--max-gpr-points", help="Most GPR training rows.", min=10, max=20000)
