@@ -30,8 +30,10 @@ from cnctwin.twin.settings import (
     WindowConfig,
 )
 from cnctwin.twin.state import CycleState, TwinEvent
+from cnctwin.twin.tool_offset import OFFSET_AXES, OffsetWrite, write_tool_offset
 
 __all__ = [
+    "OFFSET_AXES",
     "BandResult",
     "CycleState",
     "FilterConfig",
@@ -41,6 +43,7 @@ __all__ = [
     "LocalConnection",
     "MachineProcess",
     "MachineServer",
+    "OffsetWrite",
     "RunConfig",
     "RunSummary",
     "Twin",
@@ -55,4 +58,5 @@ __all__ = [
     "open_connection",
     "run_session",
     "signal_names",
+    "write_tool_offset",
 ]
