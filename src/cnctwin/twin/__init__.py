@@ -30,7 +30,12 @@ from cnctwin.twin.settings import (
     WindowConfig,
 )
 from cnctwin.twin.state import CycleState, TwinEvent
-from cnctwin.twin.tool_offset import OFFSET_AXES, OffsetWrite, write_tool_offset
+from cnctwin.twin.tool_offset import (
+    OFFSET_AXES,
+    OffsetWrite,
+    apply_correction,
+    write_tool_offset,
+)
 
 __all__ = [
     "OFFSET_AXES",
@@ -53,6 +58,7 @@ __all__ = [
     "TwinSettings",
     "WearConfig",
     "WindowConfig",
+    "apply_correction",
     "build_twin",
     "load_run_config",
     "open_connection",

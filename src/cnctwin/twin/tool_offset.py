@@ -28,13 +28,16 @@ import logging
 import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 from cnctwin.control import OFFSET_COMMANDS, Decision, SafetyFilter, Verdict
 from cnctwin.errors import InputError
 from cnctwin.thread import CommandRejected, ConnectionLost, MachineConnection
+from cnctwin.twin.config import RunConfig
+from cnctwin.twin.session import open_connection
 
-__all__ = ["OFFSET_AXES", "OffsetAxis", "OffsetWrite", "write_tool_offset"]
+__all__ = ["OFFSET_AXES", "OffsetAxis", "OffsetWrite", "apply_correction", "write_tool_offset"]
 
 logger = logging.getLogger(__name__)
 
@@ -177,3 +180,58 @@ async def write_tool_offset(
         await asyncio.sleep(0.01)
     logger.warning("wear offset %s=%g not confirmed by read-back (%r)", command, value, readback)
     return OffsetWrite(verdict, before, readback, False, "not confirmed by read-back")
+
+
+def apply_correction(
+    config: RunConfig,
+    *,
+    tool: int,
+    axis: OffsetAxis,
+    correction_mm: float,
+    reason: str,
+    internal: bool = False,
+    base_dir: Path | None = None,
+) -> OffsetWrite:
+    """Connect to ``[connection]`` and write one correction (:func:`write_tool_offset`).
+
+    With ``[control] enabled = false`` nothing connects: the result is the blocked decision.
+    A machine that does not answer gives a result with ``error`` set (nothing written).
+
+    Parameters
+    ----------
+    config
+        A twin configuration: its ``[connection]`` and ``[control]`` tables are used.
+    tool, axis, correction_mm, reason, internal
+        As :func:`write_tool_offset` (mm).
+    base_dir
+        Folder of the configuration file (relative certificate paths).
+    """
+    if axis not in OFFSET_AXES:
+        raise InputError(f"offset axis {axis!r}; valid: {', '.join(OFFSET_AXES)}")
+    command = OFFSET_AXES[axis][0]
+    safety = SafetyFilter(config.control)
+    if not config.control.enabled:
+        return asyncio.run(
+            write_tool_offset(
+                None, safety, tool=tool, axis=axis, correction_mm=correction_mm,
+                reason=reason, internal=internal,
+            )
+        )  # fmt: skip
+
+    async def run() -> OffsetWrite:
+        connection = open_connection(config.connection, base_dir)
+        try:
+            await connection.connect()
+        except ConnectionLost as err:
+            decision = Decision(time.monotonic(), OFFSET_RULE, "tool_offset", None, reason)
+            verdict = Verdict(decision, "blocked", command, None, "machine not reached")
+            return OffsetWrite(verdict, None, None, False, str(err))
+        try:
+            return await write_tool_offset(
+                connection, safety, tool=tool, axis=axis, correction_mm=correction_mm,
+                reason=reason, internal=internal,
+            )  # fmt: skip
+        finally:
+            await connection.close()
+
+    return asyncio.run(run())
