@@ -210,15 +210,13 @@ def apply_correction(
         raise InputError(f"offset axis {axis!r}; valid: {', '.join(OFFSET_AXES)}")
     command = OFFSET_AXES[axis][0]
     safety = SafetyFilter(config.control)
-    if not config.control.enabled:
-        return asyncio.run(
-            write_tool_offset(
-                None, safety, tool=tool, axis=axis, correction_mm=correction_mm,
-                reason=reason, internal=internal,
-            )
-        )  # fmt: skip
 
     async def run() -> OffsetWrite:
+        if not config.control.enabled:
+            return await write_tool_offset(
+                None, safety, tool=tool, axis=axis, correction_mm=correction_mm,
+                reason=reason, internal=internal,
+            )  # fmt: skip
         connection = open_connection(config.connection, base_dir)
         try:
             await connection.connect()
@@ -234,4 +232,12 @@ def apply_correction(
         finally:
             await connection.close()
 
-    return asyncio.run(run())
+    result = asyncio.run(run())
+    verdict = result.verdict
+    logger.info(
+        "decision %s: tool_offset T%d %s -> %s%s (%s)%s",
+        verdict.decision.rule, tool, command, verdict.outcome,
+        f" [{verdict.note}]" if verdict.note else "", verdict.decision.reason,
+        f" [{result.error}]" if result.error else "",
+    )  # fmt: skip
+    return result
