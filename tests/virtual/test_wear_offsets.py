@@ -8,10 +8,16 @@ raises the floor of a face cut by exactly ``w``.
 
 from __future__ import annotations
 
+import asyncio
+
 import pytest
 from vm_helpers import MakeVM, run_to_end
 
+from cnctwin.control import ControlConfig, SafetyFilter
+from cnctwin.thread import ConnectionConfig
+from cnctwin.twin import OffsetWrite, open_connection, write_tool_offset
 from cnctwin.virtual import VirtualMachine
+from cnctwin.virtual.modbus_server import ModbusMachineServer
 
 #: A wall along X at Y14 (the contour), the 10 mm cutter on its left (+Y side, G41), 5 mm
 #: deep through the whole 60 mm block; lead-in and lead-out outside the block.
@@ -81,3 +87,34 @@ def test_length_wear_moves_the_floor_and_radius_wear_needs_compensation(
     top = float(vm.stock.ray_intervals_mm("z", i, j)[-1, 1])
     # the slot's floor is 2 mm deep less the offset
     assert top == pytest.approx(-2.0 + wear_mm, abs=1e-4)
+
+
+def test_a_diameter_correction_written_over_modbus_moves_the_compensated_wall(
+    make_vm: MakeVM,
+) -> None:
+    """End to end: the lathe twin's diameter correction, through the safety filter and Modbus
+    TCP, becomes half of it on the radius wear, and the wall the machine cuts stands there."""
+    correction_mm = 0.08
+    vm = make_vm(WALL, **_FAST)
+    while vm.snapshot()["tool_number"] != 1.0:
+        vm.step(vm.tick_s)
+
+    async def write() -> OffsetWrite:
+        async with ModbusMachineServer(vm) as server:
+            config = ConnectionConfig(transport="modbus", endpoint=server.endpoint)
+            async with open_connection(config) as connection:
+                return await write_tool_offset(
+                    connection, SafetyFilter(ControlConfig(enabled=True)), tool=1,
+                    axis="diameter", correction_mm=correction_mm, reason="part 1",
+                )  # fmt: skip
+
+    result = asyncio.run(asyncio.wait_for(write(), 20.0))
+    assert result.confirmed and result.readback_mm == pytest.approx(0.04, abs=1e-4)
+    run_to_end(vm)
+    plain = make_vm(WALL, **_FAST)
+    run_to_end(plain)
+    wear_mm = vm.snapshot()["tool_radius_wear_mm"]
+    assert wear_mm == pytest.approx(correction_mm / 2.0, abs=1e-4)
+    # the wall stands wear_mm further out along the whole 60 mm block, 5 mm deep
+    extra = vm.stock.volume_mm3("y") - plain.stock.volume_mm3("y")
+    assert extra == pytest.approx(wear_mm * _LENGTH_MM * _DEPTH_MM, rel=1e-6)
