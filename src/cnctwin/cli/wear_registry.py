@@ -131,9 +131,44 @@ def compensate(
         str, typer.Option("--measurement", help="Measured dimension of the part, mm.")
     ],
     lathe: LatheOpt = "lathe",
+    write_offset: Annotated[
+        Path | None,
+        typer.Option(
+            "--write-offset",
+            help="Twin configuration whose [connection] gets the correction as a wear offset "
+            "(only with [control] enabled = true; bounded by [control.tool_offset]).",
+        ),
+    ] = None,
+    machine_tool: Annotated[
+        int | None, typer.Option("--machine-tool", help="Tool number on the machine.")
+    ] = None,
+    offset_axis: Annotated[
+        str,
+        typer.Option(
+            "--offset-axis",
+            help="Dimension measured: diameter (half to the radius wear), radius or length.",
+        ),
+    ] = "diameter",
+    internal: Annotated[
+        bool, typer.Option("--internal", help="The dimension is internal (a bore).")
+    ] = False,
     as_json: JsonOpt = False,
 ) -> None:
-    """Record a measured part and print the tool-offset correction to apply now."""
+    """Record a measured part and print the tool-offset correction to apply now; with
+    --write-offset, write it to the machine's wear offset and read it back."""
+    if (write_offset is not None or machine_tool is not None) and (
+        machine_tool is None or not 0 < machine_tool < 10_000
+    ):
+        raise DataError(
+            f"--machine-tool {machine_tool!r}: give the tool's number on the machine "
+            "(1 to 9999) with --write-offset"
+        )
+    if write_offset is not None:
+        from cnctwin.twin import OFFSET_AXES, load_run_config
+
+        if offset_axis not in OFFSET_AXES:
+            raise DataError(f"--offset-axis {offset_axis!r}; valid: {', '.join(OFFSET_AXES)}")
+        run_config = load_run_config(write_offset)
     try:
         measured = float(measurement_mm)
     except ValueError:
@@ -143,17 +178,32 @@ def compensate(
     check_number("--measurement", measured, 0.0, MAX_DIMENSION_MM, low_open=True, unit="mm")
     with TwinRegistry(db) as registry:
         obs = registry.record(lathe, tool, measured * _MM)
+    report: dict[str, Any] = {
+        "tool": tool,
+        "part": obs.part,
+        "deviation_um": round(obs.measured_deviation / _UM, 3),
+        "slope_um_per_part": round(obs.slope / _UM, 4),
+        "trusted": obs.trusted,
+        "slope_source": obs.source,
+        "correction_um": round(obs.correction / _UM, 3),
+        "offset_um": round(obs.offset / _UM, 3),
+    }
+    if write_offset is not None:
+        from cnctwin.twin import apply_correction
+
+        result = apply_correction(
+            run_config,
+            tool=int(machine_tool or 0),
+            axis=offset_axis,  # type: ignore[arg-type]  # checked against OFFSET_AXES
+            correction_mm=obs.correction / _MM,
+            reason=f"{lathe} {tool} part {obs.part} measured {measured:g} mm: "
+            f"correction {obs.correction / _UM:+g} um (Bolyn 2023)",
+            internal=internal,
+            base_dir=write_offset.parent,
+        )
+        report["offset_write"] = result.to_dict()
     _emit(
-        {
-            "tool": tool,
-            "part": obs.part,
-            "deviation_um": round(obs.measured_deviation / _UM, 3),
-            "slope_um_per_part": round(obs.slope / _UM, 4),
-            "trusted": obs.trusted,
-            "slope_source": obs.source,
-            "correction_um": round(obs.correction / _UM, 3),
-            "offset_um": round(obs.offset / _UM, 3),
-        },
+        report,
         as_json,
         f"{tool}: apply {obs.correction / _UM:+.1f} um",
     )

@@ -7,6 +7,7 @@ the values that caused it, whether it reached the machine or not (see docs/contr
 from cnctwin.control.config import (
     ACTION_COMMANDS,
     ControlConfig,
+    OffsetLimits,
     OverrideLimits,
     RuleAction,
     RuleConfig,
@@ -14,6 +15,7 @@ from cnctwin.control.config import (
 from cnctwin.control.expression import Expression
 from cnctwin.control.rules import Decision, RuleEngine
 from cnctwin.control.safety import (
+    OFFSET_COMMANDS,
     Commanded,
     LostMachinePolicy,
     Outcome,
@@ -29,6 +31,8 @@ __all__ = [
     "Decision",
     "Expression",
     "LostMachinePolicy",
+    "OFFSET_COMMANDS",
+    "OffsetLimits",
     "Outcome",
     "OverrideLimits",
     "ReconnectAction",

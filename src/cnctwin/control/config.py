@@ -43,6 +43,7 @@ from cnctwin.thread import COMMANDS
 __all__ = [
     "ACTION_COMMANDS",
     "ControlConfig",
+    "OffsetLimits",
     "OverrideLimits",
     "RuleAction",
     "RuleConfig",
@@ -176,6 +177,23 @@ def _spindle_limits() -> OverrideLimits:
     )
 
 
+class OffsetLimits(Section):
+    """Bounds of a tool wear-offset write (``[control.tool_offset]``).
+
+    Attributes
+    ----------
+    max_step_mm
+        Largest change of a wear offset in one write, mm (against the machine's read-back).
+    max_total_mm
+        Largest wear offset the twin may leave on the machine, mm in magnitude: the wear
+        offset is the sum of all corrections since the tool was set up, so this bounds what
+        the corrections add up to.
+    """
+
+    max_step_mm: float = Field(default=0.05, gt=0.0, le=1.0)
+    max_total_mm: float = Field(default=0.3, gt=0.0, le=1.0)
+
+
 class ControlConfig(Section):
     """Whether and how the twin may command the machine (``[control]``).
 
@@ -198,6 +216,8 @@ class ControlConfig(Section):
         (re-assert what must stay, undo what must not, then go on), ``"feed_hold"`` (as
         resume, then hold the feed until an operator releases it: the twin was blind for the
         gap) or ``"stop"`` (as resume, then stop the program). See docs/control.md.
+    tool_offset
+        Bounds of a tool wear-offset write (one step and the total, mm).
     """
 
     enabled: bool = False
@@ -207,6 +227,7 @@ class ControlConfig(Section):
     max_commands_per_s: float = Field(default=20.0, ge=1.0, le=1000.0)
     readback_tolerance_pct: float = Field(default=0.5, ge=0.0, le=100.0)
     on_reconnect: Literal["resume", "feed_hold", "stop"] = "resume"
+    tool_offset: OffsetLimits = Field(default_factory=OffsetLimits)
 
     @model_validator(mode="after")
     def _bounds_inside_machine_range(self) -> ControlConfig:

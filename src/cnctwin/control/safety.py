@@ -41,6 +41,7 @@ from cnctwin.errors import InputError
 
 __all__ = [
     "ESCALATION_RULE",
+    "OFFSET_COMMANDS",
     "Commanded",
     "LostMachinePolicy",
     "Outcome",
@@ -64,6 +65,13 @@ ESCALATION_RULE = "stop_escalation"
 #: it re-asserts any of them after a lost connection, see :class:`LostMachinePolicy`).
 _LATCHING = ("stop", "feed_hold", "emergency_stop")
 _EPS = 1e-9
+#: The tool wear-offset commands (mm) that :meth:`SafetyFilter.check_offset` passes.
+OFFSET_COMMANDS = ("tool_length_wear_mm", "tool_radius_wear_mm")
+#: A read-back within this of the value sent confirms a wear offset, mm (a Modbus register
+#: carries 0.1 um steps).
+OFFSET_TOLERANCE_MM = 1e-4
+#: Action name of a wear-offset decision.
+OFFSET_ACTION = "tool_offset"
 
 
 @dataclass(frozen=True, slots=True)
@@ -158,6 +166,10 @@ class LostMachinePolicy:
       while the twin is watching, and it was not.
     - the **spindle override** is left as the machine has it: neither direction is safe in
       general (a lower speed raises the chip load); a difference is noted.
+    - a **tool wear offset** is never written again: a correction is computed from a
+      measured part and the offset the machine had; after a gap the machine's value (an
+      operator may have set it, or the write was lost) is the reference of the next
+      correction, and a difference is noted.
     - with ``on_reconnect = "feed_hold"`` or ``"stop"`` a feed hold or a stop follows.
 
     Parameters
@@ -247,6 +259,21 @@ class LostMachinePolicy:
                         f"the twin's {spindle.value:g} %; left as the machine has it",
                     )
                 )
+        for name in OFFSET_COMMANDS:
+            sent = commanded.get(name)
+            if sent is None:
+                continue
+            now = _finite(readback.get(name))
+            if now is None or abs(now - sent.value) > OFFSET_TOLERANCE_MM:
+                shown = "unknown" if now is None else f"{now:g} mm"
+                actions.append(
+                    ReconnectAction(
+                        name,
+                        None,
+                        f"{name} {shown} differs from the twin's {sent.value:g} mm; left as "
+                        f"the machine has it (the next measured part corrects from it)",
+                    )
+                )
         if self.on_reconnect != "resume":
             actions.append(
                 ReconnectAction(
@@ -291,6 +318,8 @@ class SafetyFilter:
 
     # -- read-back ---------------------------------------------------------------------
     def _tolerance(self, command: str) -> float:
+        if command in OFFSET_COMMANDS:
+            return OFFSET_TOLERANCE_MM
         return self.config.readback_tolerance_pct if command.endswith("_pct") else 0.5
 
     def observe(self, readback: Mapping[str, float]) -> None:
@@ -455,6 +484,73 @@ class SafetyFilter:
             verdicts.append(self._count(self._filter(step, now_s, readback or {})))
         return verdicts
 
+    # -- tool wear offsets -------------------------------------------------------------
+    def check_offset(
+        self,
+        decision: Decision,
+        command: str,
+        tool: int,
+        readback: Mapping[str, float],
+    ) -> Verdict:
+        """The verdict on setting a tool wear offset: ``command`` = ``decision.value`` (mm).
+
+        In order: blocked with control disabled; blocked for an unknown offset command, a tool
+        that is not the machine's active tool (the machine's wear-offset signals are those of
+        the tool in the spindle or turret station), a missing read-back of the offset (a
+        step cannot be bounded without it), a value that is not finite, a change
+        larger than ``[control.tool_offset] max_step_mm`` or an offset larger in magnitude
+        than ``max_total_mm``; a duplicate when the machine already shows the value; else
+        sent. A correction is never clamped: a part made with part of a correction is
+        neither the old nor the intended one, and a correction beyond the bounds means a bad
+        measurement or a wrong tool, which the operator decides.
+
+        Parameters
+        ----------
+        decision
+            ``action`` ``"tool_offset"``, ``value`` the wear offset to set, mm.
+        command
+            ``"tool_length_wear_mm"`` or ``"tool_radius_wear_mm"``.
+        tool
+            Tool number the offset belongs to.
+        readback
+            The machine's current values by signal name (``tool_number`` and ``command``).
+        """
+        self.observe(readback)
+        return self._count(self._offset_verdict(decision, command, tool, readback))
+
+    def _offset_verdict(
+        self, decision: Decision, command: str, tool: int, readback: Mapping[str, float]
+    ) -> Verdict:
+        def blocked(note: str) -> Verdict:
+            return Verdict(decision, "blocked", command, None, note)
+
+        if not self.config.enabled:
+            return blocked(DISABLED_NOTE)
+        if command not in OFFSET_COMMANDS:
+            return blocked(f"{command} is not a wear offset ({', '.join(OFFSET_COMMANDS)})")
+        active = _finite(readback.get("tool_number"))
+        if active is None or int(active) != tool:
+            shown = "unknown" if active is None else f"T{int(active)}"
+            return blocked(f"T{tool} is not the machine's active tool ({shown})")
+        now = _finite(readback.get(command))
+        if now is None:
+            return blocked(f"no valid {command} reading: the step cannot be bounded")
+        value = decision.value
+        if value is None or not math.isfinite(value):
+            return blocked(f"value {value!r} is not finite")
+        limits = self.config.tool_offset
+        if abs(value - now) > limits.max_step_mm + _EPS:
+            return blocked(
+                f"step {value - now:+g} mm from {now:g} mm exceeds max_step_mm = "
+                f"{limits.max_step_mm:g}"
+            )
+        if abs(value) > limits.max_total_mm + _EPS:
+            return blocked(f"{value:g} mm exceeds max_total_mm = {limits.max_total_mm:g}")
+        if abs(value - now) <= OFFSET_TOLERANCE_MM:
+            return Verdict(decision, "duplicate", command, None, "the machine shows it")
+        self.commanded[command] = Commanded(value, decision.time_s)
+        return Verdict(decision, "sent", command, value, "")
+
     # -- stop escalation ---------------------------------------------------------------
     def escalate(self, command: str, now_s: float, reason: str) -> Verdict:
         """The verdict on one step of a stop's escalation (docs/control.md): ``command`` = 1.
@@ -496,6 +592,7 @@ class SafetyFilter:
             kind = {
                 "feed_override_pct": "feed_override",
                 "spindle_override_pct": "spindle_override",
+                **dict.fromkeys(OFFSET_COMMANDS, OFFSET_ACTION),
             }.get(action.command, action.command)
             decision = Decision(now_s, RECONNECT_RULE, kind, action.value, action.reason)
             if action.value is None:

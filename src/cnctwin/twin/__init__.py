@@ -31,9 +31,16 @@ from cnctwin.twin.settings import (
     WearConfig,
 )
 from cnctwin.twin.state import CycleState, TwinEvent
+from cnctwin.twin.tool_offset import (
+    OFFSET_AXES,
+    OffsetWrite,
+    apply_correction,
+    write_tool_offset,
+)
 
 __all__ = [
     "AdaptiveFeedConfig",
+    "OFFSET_AXES",
     "BandResult",
     "CycleState",
     "ForceBand",
@@ -44,6 +51,7 @@ __all__ = [
     "MachineServer",
     "ModelConfig",
     "ModelStage",
+    "OffsetWrite",
     "RunConfig",
     "RunSummary",
     "Twin",
@@ -52,10 +60,12 @@ __all__ = [
     "TwinRuntime",
     "TwinSettings",
     "WearConfig",
+    "apply_correction",
     "build_twin",
     "load_models",
     "load_run_config",
     "open_connection",
     "run_session",
     "signal_names",
+    "write_tool_offset",
 ]

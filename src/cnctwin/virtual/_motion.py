@@ -85,6 +85,20 @@ class Move:
         p[n] = n0 + (n1 - n0) * f
         return (p[0], p[1], p[2])
 
+    def tangent(self, s_mm: float) -> tuple[float, float, float]:
+        """Unit tangent of the path (direction of travel) at arc length ``s_mm``, mm/mm."""
+        if self.arc is None or self.length_mm <= 0.0:
+            return self.u_start
+        i0, i1, n, _c0, _c1, r0, r1, a0, sweep, n0, n1 = self.arc
+        f = min(max(s_mm / self.length_mm, 0.0), 1.0)
+        angle = a0 + sweep * f
+        r = r0 + (r1 - r0) * f
+        t = [0.0, 0.0, 0.0]
+        t[i0] = (r1 - r0) * math.cos(angle) - r * sweep * math.sin(angle)
+        t[i1] = (r1 - r0) * math.sin(angle) + r * sweep * math.cos(angle)
+        t[n] = n1 - n0
+        return _unit((t[0], t[1], t[2]))
+
 
 def _unit(v: tuple[float, float, float]) -> tuple[float, float, float]:
     norm = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
@@ -201,6 +215,14 @@ class PathFollower:
     def move(self) -> Move | None:
         """The move being executed (``None`` once the program is done)."""
         return self._move
+
+    @property
+    def tangent(self) -> tuple[float, float, float]:
+        """Unit tangent of the path at the controlled point (zero in a dwell or at the end)."""
+        m = self._move
+        if m is None or m.segment.kind == MotionKind.DWELL:
+            return (0.0, 0.0, 0.0)
+        return m.tangent(self._s)
 
     @property
     def finished(self) -> bool:

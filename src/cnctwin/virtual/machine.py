@@ -43,7 +43,7 @@ from cnctwin.errors import ConfigError, NCError
 from cnctwin.examples import example_file
 from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
 from cnctwin.mechanics import milling_material
-from cnctwin.nc import Interpreter, Segment
+from cnctwin.nc import PLANE_AXES, CutterComp, Interpreter, Plane, Segment
 from cnctwin.simulation import CutStep, axial_material, spindle_drive_parameters, step_forces
 from cnctwin.thread import COMMANDS, SIGNALS, RunState
 from cnctwin.virtual._motion import PathFollower
@@ -293,7 +293,9 @@ class VirtualMachine:
         ``stop`` reads back 1 with it, and only :meth:`restart` clears both.
         ``feed_hold`` = 1 decelerates the axes to rest (dwells pause) until it is set to 0.
         ``tool_length_wear_mm`` shifts the Z axis (and the tool tip) at once;
-        ``tool_radius_wear_mm`` is stored and read back but does not move the path.
+        ``tool_radius_wear_mm`` moves the path while the program's cutter radius compensation
+        (G41/G42) is on, as a larger compensation radius would (see :func:`_radius_wear_shift`),
+        and is only stored and read back otherwise.
         """
         number = check_command(name, value)
         if name == "stop":
@@ -378,7 +380,8 @@ class VirtualMachine:
 
         # The cut: the tool tip (with wear offset and breakage) through the machine's stock.
         wear_z = v["tool_length_wear_mm"]
-        axes_pos = (position[0], position[1], position[2] + wear_z)
+        shift = _radius_wear_shift(seg, follower.tangent, v["tool_radius_wear_mm"])
+        axes_pos = (position[0] + shift[0], position[1] + shift[1], position[2] + wear_z)
         tcp = (axes_pos[0] - offset[0], axes_pos[1] - offset[1], axes_pos[2] - offset[2])
         spindle_rpm = self._spindle.state.speed / RAD_S_PER_RPM
         forces = (0.0, 0.0, 0.0)
@@ -523,6 +526,32 @@ class VirtualMachine:
             and tcp[2] <= hi[2]
             and tcp[2] + cutter.flute_length_mm >= lo[2]
         )
+
+
+def _radius_wear_shift(
+    seg: Segment | None, tangent: tuple[float, float, float], wear_mm: float
+) -> tuple[float, float, float]:
+    """Where the radius wear offset moves the controlled point, mm (machine X, Y, Z).
+
+    With cutter radius compensation on, the path is the programmed contour's parallel at the
+    compensation radius ``r`` on the compensation side; a wear offset ``w`` makes it the
+    parallel at ``r + w``, which is the path at ``r`` moved by ``w`` along its normal toward
+    that side (parallel curves compose). This is exact along lines and arcs; at a corner the
+    compensator joins (an arc at a convex corner stays a parallel; at a concave corner the
+    point steps to the next move's parallel instead of the moves' shortened intersection).
+    Zero without compensation, in a dwell, or at rest at the end.
+    """
+    if seg is None or wear_mm == 0.0 or seg.state.cutter_comp == CutterComp.OFF:
+        return (0.0, 0.0, 0.0)
+    i0, i1, _ = PLANE_AXES[Plane(seg.state.plane)]
+    norm = math.hypot(tangent[i0], tangent[i1])
+    if norm <= 0.0:
+        return (0.0, 0.0, 0.0)
+    scale = (wear_mm if seg.state.cutter_comp == CutterComp.LEFT else -wear_mm) / norm
+    shift = [0.0, 0.0, 0.0]
+    shift[i0] = -scale * tangent[i1]  # the left normal of (t0, t1) is (-t1, t0)
+    shift[i1] = scale * tangent[i0]
+    return (shift[0], shift[1], shift[2])
 
 
 def check_command(name: str, value: float) -> float:
