@@ -66,7 +66,6 @@ import asyncio
 import logging
 import math
 import os
-from urllib.parse import urlsplit
 
 from cnctwin.errors import ConfigError
 from cnctwin.thread.config import ConnectionConfig
@@ -78,6 +77,7 @@ from cnctwin.thread.connection import (
     Reading,
     now_s,
 )
+from cnctwin.thread.endpoint import split_endpoint
 from cnctwin.thread.signals import COMMANDS, RunState, implausible
 
 __all__ = [
@@ -121,22 +121,15 @@ def parse_endpoint(endpoint: str) -> tuple[str, int]:
     ConfigError
         One line naming the endpoint and the expected form.
     """
-    parts = urlsplit(endpoint)
-    try:
-        port = parts.port
-    except ValueError:
-        port = -1
-    if (
-        parts.scheme != "linuxcncrsh"
-        or not parts.hostname
-        or port == -1
-        or parts.path not in ("", "/")
-    ):
-        raise ConfigError(
-            f"LinuxCNC endpoint {endpoint!r} is not of the form linuxcncrsh://HOST[:PORT] "
-            "(e.g. linuxcncrsh://127.0.0.1:5007)"
-        )
-    return parts.hostname, DEFAULT_PORT if port is None else port
+    host, port, _ = split_endpoint(
+        endpoint,
+        scheme="linuxcncrsh",
+        default_port=DEFAULT_PORT,
+        what="LinuxCNC",
+        form="linuxcncrsh://HOST[:PORT]",
+        example="linuxcncrsh://127.0.0.1:5007",
+    )
+    return host, port
 
 
 class LinuxCncConnection(MachineConnection):

@@ -21,7 +21,6 @@ answered read counts as a new sample at its receive time.
 from __future__ import annotations
 
 import logging
-from urllib.parse import urlsplit
 
 from pymodbus.client import AsyncModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusException
@@ -37,6 +36,7 @@ from cnctwin.thread.connection import (
     Reading,
     now_s,
 )
+from cnctwin.thread.endpoint import split_endpoint
 from cnctwin.thread.modbus_map import (
     READ_MAP,
     WRITE_MAP,
@@ -70,17 +70,15 @@ def parse_endpoint(endpoint: str) -> tuple[str, int]:
     ConfigError
         One line naming the endpoint and the expected form.
     """
-    parts = urlsplit(endpoint)
-    try:
-        port = parts.port
-    except ValueError:
-        port = -1
-    if parts.scheme != "modbus" or not parts.hostname or port == -1 or parts.path not in ("", "/"):
-        raise ConfigError(
-            f"Modbus endpoint {endpoint!r} is not of the form modbus://HOST:PORT "
-            "(e.g. modbus://127.0.0.1:5020)"
-        )
-    return parts.hostname, 502 if port is None else port
+    host, port, _ = split_endpoint(
+        endpoint,
+        scheme="modbus",
+        default_port=502,
+        what="Modbus",
+        form="modbus://HOST:PORT",
+        example="modbus://127.0.0.1:5020",
+    )
+    return host, port
 
 
 def modbus_maps(

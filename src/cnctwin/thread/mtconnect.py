@@ -45,7 +45,6 @@ import asyncio
 import logging
 from collections import Counter
 from dataclasses import dataclass
-from urllib.parse import urlsplit
 
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.thread.config import ConnectionConfig
@@ -57,6 +56,7 @@ from cnctwin.thread.connection import (
     Reading,
     now_s,
 )
+from cnctwin.thread.endpoint import split_endpoint
 from cnctwin.thread.mtconnect_documents import (
     MAX_DOCUMENT_BYTES,
     AgentError,
@@ -88,24 +88,15 @@ def parse_endpoint(endpoint: str) -> tuple[str, int, str]:
     ConfigError
         One line naming the endpoint and the expected form.
     """
-    parts = urlsplit(endpoint)
-    try:
-        port = parts.port
-    except ValueError:
-        port = -1
-    path = parts.path.rstrip("/")
-    if (
-        parts.scheme != "http"
-        or not parts.hostname
-        or port == -1
-        or parts.query
-        or path.count("/") > 1
-    ):
-        raise ConfigError(
-            f"MTConnect endpoint {endpoint!r} is not of the form http://HOST:PORT[/DEVICE] "
-            "(e.g. http://127.0.0.1:5000)"
-        )
-    return parts.hostname, 80 if port is None else port, path
+    return split_endpoint(
+        endpoint,
+        scheme="http",
+        default_port=80,
+        what="MTConnect",
+        form="http://HOST:PORT[/DEVICE]",
+        example="http://127.0.0.1:5000",
+        segments=1,
+    )
 
 
 @dataclass(frozen=True)
