@@ -5,14 +5,11 @@ the lost-machine policy for an offset."""
 from __future__ import annotations
 
 import asyncio
-import json
 from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
-from pathlib import Path
 
 import pytest
 
-from cnctwin.cli.app import run
 from cnctwin.control import ControlConfig, Decision, LostMachinePolicy, SafetyFilter
 from cnctwin.control.safety import Commanded
 from cnctwin.errors import InputError
@@ -205,19 +202,3 @@ def test_an_unreachable_machine_leaves_the_offset_unwritten() -> None:
     )
     result = apply_correction(config, tool=1, axis="radius", correction_mm=0.005, reason="p1")
     assert result.verdict.outcome == "blocked" and result.error and not result.confirmed
-
-
-def test_the_cli_records_the_part_and_blocks_the_write_with_control_disabled(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    db = str(tmp_path / "shop.db")
-    shipped = Path(__file__).resolve().parents[2] / "examples/wear/lathe_offset.toml"
-    assert run(["wear", "mount", "--db", db, "--tool", "T1", "--target-mm", "20"]) == 0
-    argv = ["wear", "compensate", "--db", db, "--tool", "T1", "--measurement", "20.004"]
-    assert run([*argv, "--write-offset", str(shipped)]) == 2  # no --machine-tool
-    capsys.readouterr()
-    assert run([*argv, "--write-offset", str(shipped), "--machine-tool", "1", "--json"]) == 0
-    report = json.loads(capsys.readouterr().out)
-    assert report["part"] == 1
-    assert report["offset_write"]["outcome"] == "blocked"
-    assert "control disabled" in report["offset_write"]["note"]

@@ -20,6 +20,7 @@ import dataclasses
 import json
 import logging
 import select
+import signal
 import subprocess
 import sys
 from dataclasses import dataclass, field
@@ -344,6 +345,11 @@ class MachineProcess:
             If the child fails to start or does not answer within ``start_timeout_s``.
         """
         answer = self._receive(self.start_timeout_s)
+        if answer is None and self._interrupted():
+            # Ctrl-C reached the child too (one process group); the parent's own interrupt can
+            # be lost while numba compiles (a ctypes callback swallows it): end as Ctrl-C does
+            self.stop()
+            raise KeyboardInterrupt
         if answer is None or "endpoint" not in answer:
             self.stop()
             why = "no answer" if answer is None else answer.get("error", answer)
@@ -353,6 +359,17 @@ class MachineProcess:
             )
         self.endpoint = str(answer["endpoint"])
         return self.endpoint
+
+    def _interrupted(self, timeout_s: float = 2.0) -> bool:
+        """Whether the child ended by SIGINT (Ctrl-C at the terminal); waits ``timeout_s`` s."""
+        process = self._process
+        if process is None:
+            return False
+        try:
+            code = process.wait(timeout_s)
+        except subprocess.TimeoutExpired:
+            return False
+        return code in (-signal.SIGINT, 128 + signal.SIGINT)
 
     def _send(self, command: str) -> bool:
         process = self._process
