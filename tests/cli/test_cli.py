@@ -189,3 +189,26 @@ def test_usage_errors_are_one_line(args: list[str], message: str) -> None:
     )
     assert done.returncode == 2
     assert done.stderr == message + "\n"
+
+
+@pytest.mark.parametrize(("error", "shown"), [(KeyboardInterrupt, False), (ValueError, True)])
+def test_ctrl_c_python_cannot_raise_is_not_printed_as_a_traceback(
+    error: type[BaseException], shown: bool, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Ctrl-C inside a C callback (numba compiling) reaches sys.unraisablehook; the command
+    # still ends with 130, so the console script's hook keeps the traceback off stderr
+    import sys
+
+    from cnctwin.cli.app import _unraisable
+
+    class Raises:
+        def __del__(self) -> None:
+            raise error("in a callback")
+
+    previous, sys.unraisablehook = sys.unraisablehook, _unraisable
+    try:
+        thing = Raises()
+        del thing
+    finally:
+        sys.unraisablehook = previous
+    assert ("Exception ignored" in capsys.readouterr().err) is shown

@@ -303,7 +303,20 @@ def run(argv: Sequence[str] | None = None) -> int:
 
 def main() -> None:
     """Entry point of the ``cnctwin`` console script."""
+    sys.unraisablehook = _unraisable
     sys.exit(run())
+
+
+def _unraisable(unraisable: Any) -> None:
+    """Python's report of an exception it cannot raise, but for Ctrl-C.
+
+    Ctrl-C that lands in a C callback (numba compiling a kernel) is such an exception; Python
+    would print it as a traceback ("Exception ignored ..."). The interrupt itself is not lost:
+    the command ends with exit code 130 as for any Ctrl-C.
+    """
+    if isinstance(unraisable.exc_value, KeyboardInterrupt):
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 def _fail(message: str, code: int) -> int:
