@@ -159,6 +159,9 @@ def main() -> None:
     parser.add_argument("--teach", type=int, default=4, help="teach-in runs (>= 4)")
     parser.add_argument("--samples", type=int, default=1100, help="samples per run")
     parser.add_argument("--out", type=Path, help="write the figures as JSON here")
+    parser.add_argument(
+        "--quick", action="store_true", help="CI: the same run (it takes 20-30 s; no shorter one)"
+    )
     args = parser.parse_args()
     warnings.filterwarnings("ignore")  # scikit-learn's GPR bound warnings
     with as_file(files("cnctwin.examples")) as examples:

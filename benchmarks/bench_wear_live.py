@@ -133,7 +133,10 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5])
     parser.add_argument("--plot", type=Path, help="PNG of the first seed's run")
     parser.add_argument("--json", action="store_true", help="one JSON object")
+    parser.add_argument("--quick", action="store_true", help="CI: the first seed only")
     args = parser.parse_args()
+    if args.quick:
+        args.seeds = args.seeds[:1]
     config = load_run_config(EXAMPLE)
     runs = [run(config, seed, True) for seed in args.seeds]
     clean = [run(config, seed, False) for seed in args.seeds]
