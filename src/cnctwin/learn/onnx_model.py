@@ -1,6 +1,7 @@
 """Model files: ONNX with the feature schema embedded; loading, checking and running them.
 
-:func:`export_onnx` converts a :class:`~cnctwin.learn.TrainResult` with skl2onnx and stores,
+:func:`export_onnx` converts a :class:`~cnctwin.learn.TrainResult` with skl2onnx (a GPR with
+:func:`cnctwin.learn.gpr_graph.gpr_graph`, a graph built by hand) and stores,
 in the model's metadata, the feature schema (``cnctwin.schema``, with its SHA-256), the
 model description (``cnctwin.model``: kind, task, target, classes, band, outputs) and the
 training report (``cnctwin.report``). Inputs are one ``features`` matrix ``(rows, features)``:
@@ -29,6 +30,7 @@ from numpy.typing import NDArray
 from cnctwin import finite_json
 from cnctwin.errors import DataError, InputError
 from cnctwin.learn.dataset import Dataset
+from cnctwin.learn.gpr_graph import gpr_graph
 from cnctwin.learn.schema import FeatureSchema
 from cnctwin.learn.training import (
     BAND_LEVEL,
@@ -56,7 +58,6 @@ def export_onnx(result: TrainResult, schema: FeatureSchema, path: str | Path) ->
     import onnx
     from skl2onnx import to_onnx
     from skl2onnx.common.data_types import DoubleTensorType, FloatTensorType
-    from sklearn.gaussian_process import GaussianProcessRegressor
 
     kind = result.report["model"]
     dtype = np.float32 if kind == "gbm" else np.float64
@@ -66,15 +67,15 @@ def export_onnx(result: TrainResult, schema: FeatureSchema, path: str | Path) ->
     if result.task == "classification":
         options[id(final)] = {"zipmap": False}
     if kind == "gpr":
-        # CDist (onnxruntime's contrib operator) instead of a Scan over the training rows:
-        # the same numbers, a fraction of the time per window
-        options[GaussianProcessRegressor] = {"return_std": True, "optim": "cdist"}
-    proto = to_onnx(
-        result.estimator,
-        initial_types=[("features", tensor([None, len(schema.names)]))],
-        options=options or None,
-        target_opset=_OPSET,
-    )
+        # by hand: skl2onnx's graph multiplies k* by the full K^-1 (module gpr_graph)
+        proto = gpr_graph(result.estimator, len(schema.names), _OPSET)
+    else:
+        proto = to_onnx(
+            result.estimator,
+            initial_types=[("features", tensor([None, len(schema.names)]))],
+            options=options or None,
+            target_opset=_OPSET,
+        )
     graph = proto.graph
     outputs: dict[str, str] = {}
     if result.task == "classification":
