@@ -34,7 +34,10 @@ from cnctwin.learn import (
     FeatureSpec,
     Predictor,
     TrainResult,
+    build_dataset,
     export_onnx,
+    load_feature_spec,
+    read_runs,
     train,
 )
 
@@ -102,21 +105,37 @@ def time_windows(model: Predictor, repeats: int) -> tuple[float, float, float, f
     )
 
 
-def fixed_kernel_gpr(points: int) -> TrainResult:
-    """A GPR on ``points`` rows with a fixed RBF + white kernel (no marginal-likelihood fit,
-    which takes minutes at 2,000 points), in the form :func:`train` gives, for timing."""
+def fixed_kernel_gpr(data: Dataset, target: str, points: int) -> TrainResult:
+    """A GPR on ``points`` evenly spaced rows of ``data`` with a fixed RBF + white kernel
+    (no marginal-likelihood fit, which takes minutes at 2,000 points), in the form
+    :func:`train` gives, for timing."""
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, WhiteKernel
     from sklearn.pipeline import make_pipeline
     from sklearn.preprocessing import StandardScaler
 
-    data = dataset(points)
-    y = data.columns["torque_nm"]
-    kernel = RBF(np.ones(data.features.shape[1])) + WhiteKernel(0.1)
+    y_all = np.asarray(data.columns[target], dtype=float)
+    rows = np.flatnonzero(np.isfinite(y_all) & np.all(np.isfinite(data.features), axis=1))
+    if rows.size < points:
+        raise SystemExit(f"{points} GPR points asked for, the data has {rows.size} rows")
+    pick = rows[np.linspace(0, rows.size - 1, points).round().astype(int)]
+    x, y = data.features[pick], y_all[pick]
+    kernel = RBF(np.ones(x.shape[1])) + WhiteKernel(0.1)
     gpr = GaussianProcessRegressor(kernel, optimizer=None, normalize_y=False)
-    estimator = make_pipeline(StandardScaler(), gpr).fit(data.features, (y - y.mean()) / y.std())
-    report = {"model": "gpr", "target": "torque_nm", "training_rows": points}
+    estimator = make_pipeline(StandardScaler(), gpr).fit(x, (y - y.mean()) / y.std())
+    report = {"model": "gpr", "target": target, "training_rows": points}
     return TrainResult(estimator, "regression", [], (y.mean(), y.std()), 1.645, report, {})
+
+
+def write_twin_gpr(points: int, path: Path) -> None:
+    """Write a GPR of ``points`` rows with a fixed kernel on the twin's model example
+    (``examples/twin_model``: force Y from the spindle power and the feed, 12.5 ms), for
+    ``bench_twin_cycle.py --model``."""
+    folder = Path(__file__).resolve().parents[1] / "examples" / "twin_model"
+    schema = FeatureSchema.from_spec(load_feature_spec(folder / "features.toml"))
+    data = build_dataset(read_runs([str(folder)]), schema)
+    export_onnx(fixed_kernel_gpr(data, "force_y_n", points), schema, path)
+    print(f"wrote {path}: a GPR of {points} points on {folder}")
 
 
 def main() -> None:
@@ -131,7 +150,17 @@ def main() -> None:
         metavar="POINTS",
         help="also time a GPR of POINTS rows with a fixed kernel (0: none)",
     )
+    parser.add_argument(
+        "--write-twin-gpr",
+        type=Path,
+        metavar="OUT.onnx",
+        help="only write a GPR of --gpr-fixed points on examples/twin_model (for "
+        "bench_twin_cycle.py --model) and stop",
+    )
     args = parser.parse_args()
+    if args.write_twin_gpr is not None:
+        write_twin_gpr(args.gpr_fixed, args.write_twin_gpr)
+        return
     repeats = 500 if args.quick else 5000
     gpr_points = 150 if args.quick else 2000
     rows = 1000 if args.quick else 4000
@@ -158,10 +187,10 @@ def main() -> None:
             )
         if args.gpr_fixed:
             t0 = time.perf_counter()
-            result = fixed_kernel_gpr(args.gpr_fixed)
+            data = dataset(args.gpr_fixed)
+            result = fixed_kernel_gpr(data, "torque_nm", args.gpr_fixed)
             trained_s = time.perf_counter() - t0
-            schema = FeatureSchema.from_spec(SPEC)
-            model = Predictor.load(export_onnx(result, schema, Path(folder) / "fixed.onnx"))
+            model = Predictor.load(export_onnx(result, data.schema, Path(folder) / "fixed.onnx"))
             median, p99, cpu_median, cpu_p99, update = time_windows(model, repeats)
             print(
                 f"| gpr, fixed kernel | {args.gpr_fixed} | {trained_s:.1f} | "
