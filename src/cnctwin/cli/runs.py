@@ -100,11 +100,20 @@ def show(run_id: RunArg, db: DbOpt = None, as_json: JsonOpt = False) -> None:
         "signals": ", ".join(detail.signals) or "-",
         "predicted": ", ".join(detail.predicted) or "-",
         **{f"meta.{k}": v for k, v in s.meta.items()},
-        **{f"summary.{k}": v for k, v in (s.summary or {}).items()},
+        **{f"summary.{k}": v for k, v in (s.summary or {}).items() if k != "stage_results"},
     }
     for key, value in rows.items():
         info.add_row(key, str(value))
     console.print(info)
+    for stage, result in ((s.summary or {}).get("stage_results") or {}).items():
+        sections = result.get("sections") if isinstance(result, dict) else None
+        if sections:
+            table = Table(title=f"{stage} by program section", title_justify="left")
+            for column in sections[0]:
+                table.add_column(column)
+            for row in sections:
+                table.add_row(*("-" if v is None else f"{v:.4g}" for v in row.values()))
+            console.print(table)
     if detail.events:
         events = Table(title="events", title_justify="left")
         for column in ("t_s", "kind", "message"):
