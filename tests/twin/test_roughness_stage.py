@@ -72,12 +72,17 @@ def example() -> RunConfig:
 
 def _with_vibration(config: RunConfig) -> RunConfig:
     """The example with the accelerometer's RMS declared as an [mqtt] sensor signal (the
-    test's machine delivers it with its readings) and read by [twin.roughness]."""
+    test's source delivers it) and read by [twin.roughness], and the form error on."""
     roughness = config.twin.roughness.model_copy(update={"vibration": "vibration_rms_g"})
     sensor = {"topic": "cell4/spindle/accel_rms", "signal": "vibration_rms_g", "unit": "g"}
     return config.model_copy(
         update={
-            "twin": config.twin.model_copy(update={"roughness": roughness}),
+            "twin": config.twin.model_copy(
+                update={
+                    "roughness": roughness,
+                    "form_error": config.twin.form_error.model_copy(update={"enabled": True}),
+                }
+            ),
             "mqtt": MqttConfig(enabled=True, signals=[sensor]),
         }
     )
@@ -238,6 +243,8 @@ def test_live_values_equal_the_offline_functions_on_the_recorded_run(
         assert s["ra_mean_um"] == pytest.approx(float(np.mean(ra[mine_ra])), rel=1e-12)
         assert s["ra_max_um"] == float(np.max(ra[mine_ra]))
         assert s["kin_rz_max_um"] == float(np.max(marks.floor_rt[mine[cut]] * 1e6))
+        assert s["form_error_max_um"] == float(np.max(predicted["form_error_um"][mine]))
+        assert s["form_error_max_um"] > 0.0
     # Ra grows with fz (exponent 0.55): the fz 0.1 mm slot is the roughest of the ap 2 mm ones
     by_line = {s["line"]: s for s in sections}
     assert by_line[23]["ra_mean_um"] > by_line[17]["ra_mean_um"]

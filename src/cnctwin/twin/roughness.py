@@ -153,33 +153,49 @@ class SectionRoughness:
         Of them, samples with a power-law Ra (every feature known).
     ra_mean_um, ra_max_um
         Mean and largest power-law Ra, um.
+    kin_samples
+        Of them, samples with a kinematic roughness (a flat, bull or ball end mill).
     kin_ra_mean_um, kin_rz_max_um
         Mean kinematic Ra and largest kinematic Rz of the floor, um.
     kin_wall_rz_max_um
         Largest kinematic Rz of the wall, um.
     fz_mean_mm
         Mean feed per tooth, mm.
+    form_error_max_um
+        Largest predicted form error of the wall (``form_error_um`` of the form-error
+        stage, :mod:`cnctwin.quality.form_error`), um; NaN with that stage off.
     """
 
     line: int
     tool: int
     samples: int = 0
     ra_samples: int = 0
+    kin_samples: int = 0
     ra_mean_um: float = math.nan
     ra_max_um: float = math.nan
     kin_ra_mean_um: float = math.nan
     kin_rz_max_um: float = math.nan
     kin_wall_rz_max_um: float = math.nan
     fz_mean_mm: float = math.nan
+    form_error_max_um: float = math.nan
 
     def add(
-        self, fz_mm: float, ra_um: float, kin_ra_um: float, kin_rz_um: float, wall_um: float
+        self,
+        fz_mm: float,
+        ra_um: float,
+        kin_ra_um: float,
+        kin_rz_um: float,
+        wall_um: float,
+        form_error_um: float = math.nan,
     ) -> None:
         """Take one cutting sample's values (NaN where a value is unknown)."""
         self.samples += 1
         self.fz_mean_mm = _mean(self.fz_mean_mm, fz_mm, self.samples)
+        if math.isfinite(form_error_um):
+            self.form_error_max_um = _max(self.form_error_max_um, form_error_um)
         if math.isfinite(kin_ra_um):
-            self.kin_ra_mean_um = _mean(self.kin_ra_mean_um, kin_ra_um, self.samples)
+            self.kin_samples += 1
+            self.kin_ra_mean_um = _mean(self.kin_ra_mean_um, kin_ra_um, self.kin_samples)
             self.kin_rz_max_um = _max(self.kin_rz_max_um, kin_rz_um)
             self.kin_wall_rz_max_um = _max(self.kin_wall_rz_max_um, wall_um)
         if math.isfinite(ra_um):
@@ -206,12 +222,17 @@ class SectionRoughness:
             f"roughness of line {self.line} (T{self.tool}): {ra}; feed marks Rz "
             f"{self.kin_rz_max_um:.3g} um floor, {self.kin_wall_rz_max_um:.3g} um wall at fz "
             f"{self.fz_mean_mm:.4g} mm ({self.samples} samples)"
+            + (
+                f"; form error {self.form_error_max_um:.3g} um max"
+                if math.isfinite(self.form_error_max_um)
+                else ""
+            )
         )
 
 
 def _mean(mean: float, value: float, n: int) -> float:
     """The running mean after the ``n``-th value."""
-    return value if n == 1 or not math.isfinite(mean) else mean + (value - mean) / n
+    return value if n == 1 else mean + (value - mean) / n
 
 
 def _max(current: float, value: float) -> float:
@@ -326,7 +347,8 @@ class RoughnessStage:
         if p.get("contact", 0.0) and fz > 0.0:
             ra = self.ra_um(state)
             kin_ra, kin_rz, wall = self.feed_marks_um(state.tool, fz)
-            section.add(fz, ra, kin_ra, kin_rz, wall)
+            form = p.get("form_error_um", math.nan)
+            section.add(fz, ra, kin_ra, kin_rz, wall, form)
         p.update(
             roughness_ra_um=ra,
             roughness_kin_ra_um=kin_ra,
