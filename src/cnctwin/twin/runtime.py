@@ -531,7 +531,7 @@ class TwinRuntime:
             },
             outlets={outlet.name: outlet.stats() for outlet in self.outlets},
             stage_results={
-                stage.name: stage.run_results()  # type: ignore[attr-defined]
+                stage.name: stage.run_results()
                 for stage in self.stages
                 if hasattr(stage, "run_results")
             },
