@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from cnctwin.control import RuleConfig
 from cnctwin.errors import ConfigError
 from cnctwin.quality import ROYANDI_2026_EQ24, end_mill_feed_marks, fit_metrics
 from cnctwin.store.historian import Historian
@@ -26,7 +27,7 @@ from cnctwin.thread import MqttConfig
 from cnctwin.thread.mqtt import SensorValue
 from cnctwin.twin.config import RunConfig, load_run_config
 from cnctwin.twin.local import LocalConnection
-from cnctwin.twin.pipeline import build_twin, signal_names
+from cnctwin.twin.pipeline import build_twin, shed_order, signal_names
 from cnctwin.twin.recorder import Recorder
 from cnctwin.twin.roughness import RoughnessConfig, RoughnessStage
 from cnctwin.twin.runtime import RunSummary
@@ -264,3 +265,10 @@ def test_refusals_name_the_key(example: RunConfig, tmp_path: Path) -> None:
     bad.write_text("[1, 2]")
     with pytest.raises(ConfigError, match="twin.roughness.model: .*not a roughness model"):
         RoughnessStage(RoughnessConfig(enabled=True, model=bad), example.tools, names)
+
+
+def test_shed_under_overload_unless_a_protective_rule_reads_it(example: RunConfig) -> None:
+    assert shed_order(example)[-1] == "roughness"
+    rough = RuleConfig(name="rough", condition="roughness_section_ra_mean_um > 1.6", action="stop")
+    guarded = example.model_copy(update={"rules": [*example.rules, rough]})
+    assert "roughness" not in shed_order(guarded)

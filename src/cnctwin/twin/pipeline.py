@@ -68,7 +68,8 @@ def shed_order(config: RunConfig) -> tuple[str, ...]:
     """The stages of :data:`SHED_ORDER` this configuration may shed, in order.
 
     A stage whose output a protective rule (``stop`` or ``feed_hold``) reads is not
-    optional: it is kept whatever the load.
+    optional: it is kept whatever the load. The roughness stage is shed only where it runs
+    (``[twin.roughness] enabled``).
     """
     protective: set[str] = set()
     for rule in config.rules:
@@ -82,7 +83,8 @@ def shed_order(config: RunConfig) -> tuple[str, ...]:
         "form_error": _FORM_ERROR_NAMES,
         "roughness": ROUGHNESS_PREDICTIONS,
     }
-    return tuple(name for name in SHED_ORDER if not protective.intersection(outputs[name]))
+    running = [name for name in SHED_ORDER if name != "roughness" or config.twin.roughness.enabled]
+    return tuple(name for name in running if not protective.intersection(outputs[name]))
 
 
 @dataclass
