@@ -23,7 +23,7 @@ from cnctwin.control import RuleConfig
 from cnctwin.errors import ConfigError
 from cnctwin.quality import ROYANDI_2026_EQ24, end_mill_feed_marks, fit_metrics
 from cnctwin.store.historian import Historian
-from cnctwin.thread import MqttConfig
+from cnctwin.thread import MqttConfig, RunState
 from cnctwin.thread.mqtt import SensorValue
 from cnctwin.twin.config import RunConfig, load_run_config
 from cnctwin.twin.local import LocalConnection
@@ -90,10 +90,17 @@ def _with_vibration(config: RunConfig) -> RunConfig:
 
 
 def _run(
-    config: RunConfig, db: Path, *, override_pct: float | None = None, vibration: bool = False
+    config: RunConfig,
+    db: Path,
+    *,
+    override_pct: float | None = None,
+    vibration: bool = False,
+    machine: list[VirtualMachine] | None = None,
 ) -> tuple[RunSummary, list[dict[str, float]]]:
     assert config.virtual is not None
     vm = VirtualMachine(config.virtual, config)
+    if machine is not None:
+        machine.append(vm)
     if override_pct is not None:
         vm.command("feed_override_pct", override_pct)
     conn = LocalConnection(vm, step_s=STEP_S, tick_s=vm.tick_s)
@@ -272,3 +279,22 @@ def test_shed_under_overload_unless_a_protective_rule_reads_it(example: RunConfi
     rough = RuleConfig(name="rough", condition="roughness_section_ra_mean_um > 1.6", action="stop")
     guarded = example.model_copy(update={"rules": [*example.rules, rough]})
     assert "roughness" not in shed_order(guarded)
+
+
+def test_a_stop_rule_on_a_sections_roughness_stops_the_machine_in_that_section(
+    example: RunConfig, tmp_path: Path
+) -> None:
+    """With control on, a ``stop`` rule on the section's feed marks stops the machine in the
+    coarse slot (line 23), confirmed by the machine's own state, through the safety filter."""
+    stop = RuleConfig(
+        name="too_rough", condition="roughness_section_kin_rz_max_um > 1.0", action="stop"
+    )
+    config = example.model_copy(
+        update={"rules": [stop], "control": example.control.model_copy(update={"enabled": True})}
+    )
+    vms: list[VirtualMachine] = []
+    summary, rows = _run(config, tmp_path / "s.sqlite", machine=vms)
+    assert summary.ended == "stopped" and summary.decisions >= 1
+    assert vms[0].run_state == RunState.STOPPED
+    assert rows[-1]["line"] == 23  # stopped in the slot whose marks passed the limit
+    assert "roughness" not in shed_order(config)  # a protective rule reads it: never shed
