@@ -19,7 +19,8 @@ Two predictions, from the live state of every new sample in contact:
 
 A **program section** is a run of samples at one NC line (``program_line``), the unit the
 adaptive feed's teach-in learns by (:mod:`cnctwin.twin.adaptive_feed`). Each section's
-cutting samples are summarised (:class:`SectionRoughness`): an event ``roughness_section``
+cutting samples are summarised (:class:`SectionRoughness`, with the largest predicted form
+error of the form-error stage where it runs): an event ``roughness_section``
 when the section ends, and every section in the run's summary (``stage_results.roughness``,
 ``cnctwin runs show``).
 
