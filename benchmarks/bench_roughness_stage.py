@@ -47,14 +47,15 @@ def _variant(config: RunConfig, name: str) -> RunConfig:
 
 def run(config: RunConfig) -> dict[str, Any]:
     """One lockstep run of the program; the stage's and the cycle's times, ms."""
-    assert config.virtual is not None
-    vm = VirtualMachine(config.virtual, config)
+    virtual = config.virtual
+    assert virtual is not None
+    vm = VirtualMachine(virtual, config)
     conn = LocalConnection(vm, step_s=STEP_S, tick_s=vm.tick_s)
 
     async def main() -> dict[str, Any]:
         await conn.connect()
         try:
-            twin = build_twin(config, conn, program=config.virtual.program, realtime=False)
+            twin = build_twin(config, conn, program=virtual.program, realtime=False)
             summary = await twin.runtime.run(duration_s=120.0)
         finally:
             await conn.close()

@@ -84,7 +84,7 @@ def _with_vibration(config: RunConfig) -> RunConfig:
                     "form_error": config.twin.form_error.model_copy(update={"enabled": True}),
                 }
             ),
-            "mqtt": MqttConfig(enabled=True, signals=[sensor]),
+            "mqtt": MqttConfig.model_validate({"enabled": True, "signals": [sensor]}),
         }
     )
 
@@ -97,8 +97,9 @@ def _run(
     vibration: bool = False,
     machine: list[VirtualMachine] | None = None,
 ) -> tuple[RunSummary, list[dict[str, float]]]:
-    assert config.virtual is not None
-    vm = VirtualMachine(config.virtual, config)
+    virtual = config.virtual
+    assert virtual is not None
+    vm = VirtualMachine(virtual, config)
     if machine is not None:
         machine.append(vm)
     if override_pct is not None:
@@ -120,7 +121,7 @@ def _run(
                     config,
                     conn,
                     recorder=recorder,
-                    program=config.virtual.program,
+                    program=virtual.program,
                     realtime=False,
                     mqtt_source=source,
                 )
@@ -250,7 +251,7 @@ def test_live_values_equal_the_offline_functions_on_the_recorded_run(
         assert s["ra_samples"] == int(mine_ra.sum())
         assert s["ra_mean_um"] == pytest.approx(float(np.mean(ra[mine_ra])), rel=1e-12)
         assert s["ra_max_um"] == float(np.max(ra[mine_ra]))
-        assert s["kin_rz_max_um"] == float(np.max(marks.floor_rt[mine[cut]] * 1e6))
+        assert s["kin_rz_max_um"] == float(np.max(np.asarray(marks.floor_rt)[mine[cut]] * 1e6))
         assert s["form_error_max_um"] == float(np.max(predicted["form_error_um"][mine]))
         assert s["form_error_max_um"] > 0.0
     # Ra grows with fz (exponent 0.55): the fz 0.1 mm slot is the roughest of the ap 2 mm ones
