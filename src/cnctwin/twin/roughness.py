@@ -17,8 +17,9 @@ Two predictions, from the live state of every new sample in contact:
   geometry (``[[tools]]`` kind, diameter, corner radius; ``dish_angle_deg`` for a flat end
   mill's floor). Runout is not modelled.
 
-A **program section** is a run of samples at one NC line (``program_line``), the unit the
-adaptive feed's teach-in learns by (:mod:`cnctwin.twin.adaptive_feed`). Each section's
+A **program section** is a run of samples at one NC line (``program_line``) with one tool,
+the unit the adaptive feed's teach-in learns by (:mod:`cnctwin.twin.adaptive_feed`); a line
+run again later (a loop) is a new section. Each section's
 cutting samples are summarised (:class:`SectionRoughness`, with the largest predicted form
 error of the form-error stage where it runs): an event ``roughness_section``
 when the section ends, and every section in the run's summary (``stage_results.roughness``,
