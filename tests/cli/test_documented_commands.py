@@ -83,6 +83,10 @@ SPECIAL: dict[tuple[str, str], Special] = {
         f"{SERVE} --replay ../shared/data/umich_cnc_mill_tool_wear/experiment_05.csv "
         "--map examples/replay/umich.toml --loop",
     ): Special("server", MACHINE, port=4840, ready=OPCUA),
+    (
+        "docs/roughness.md",
+        f"{SERVE} --config examples/roughness/roughness_twin.toml --delay 20 --once",
+    ): Special("server", MACHINE, port=4840, ready=OPCUA),
     ("docs/dashboard.md", "cnctwin demo --web"): Special(
         "server",
         "a server: it waits up to 60 s for a browser, runs, then serves the page until Ctrl-C",
@@ -140,6 +144,7 @@ SPECIAL: dict[tuple[str, str], Special] = {
 FIXED_PORTS = (
     "README.md",
     "docs/dashboard.md",
+    "docs/roughness.md",
     "docs/run-browser.md",
     "docs/twin.md",
     "docs/virtual-machine.md",

@@ -60,6 +60,30 @@ def test_list_and_show_tables(capsys: pytest.CaptureFixture[str], db: Path) -> N
     assert "force below the band" in out and "hole" in out and "x_mm, force_x_n" in out
 
 
+def test_show_tables_a_stages_sections(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """A run summary's ``stage_results`` with sections (the roughness stage's) is a table."""
+    path = tmp_path / "s.sqlite"
+    sections = [
+        {"line": 17, "tool": 1, "samples": 167, "ra_mean_um": None, "kin_rz_max_um": 0.70481},
+        {"line": 23, "tool": 1, "samples": 125, "ra_mean_um": 1.2345, "kin_rz_max_um": 1.2535},
+    ]
+    empty = {"line": 29, "tool": 1, "samples": 9, "ra_mean_um": None, "kin_rz_max_um": None}
+    with Historian.open(path) as h:
+        run_id = h.start_run({"program": "slots.ngc"})
+        results = {"roughness": {"sections": sections}, "other": {"sections": [empty]}}
+        h.end_run(run_id, "finished", {"stage_results": results})
+    code, out, _ = cli(capsys, "runs", "show", "1", "--db", str(path))
+    assert code == 0 and "roughness by program section" in out
+    assert "summary.stage_results" not in out and "kin rz max um" in out
+    # a column without a value is left out
+    assert "other by program section" in out and "kin rz" not in out.split("other by")[1]
+    rows = [line for line in out.splitlines() if "│ 17" in line or "│ 23" in line]
+    assert [[cell.strip() for cell in row.split("│")[1:-1]] for row in rows] == [
+        ["17", "1", "167", "-", "0.7048"],
+        ["23", "1", "125", "1.234", "1.254"],
+    ]
+
+
 def test_show_json(capsys: pytest.CaptureFixture[str], db: Path) -> None:
     code, out, _ = cli(capsys, "runs", "show", "1", "--db", str(db), "--json")
     assert code == 0

@@ -17,7 +17,9 @@ import pytest
 
 from cnctwin.errors import DataError, InputError
 from cnctwin.quality import (
+    ROYANDI_2026_EQ24,
     PowerLawModel,
+    end_mill_feed_marks,
     fit_metrics,
     fit_power_law,
     flat_end_mill_ra,
@@ -347,3 +349,32 @@ def test_flat_end_mill_saw_tooth() -> None:
 def test_kinematic_models_reject_bad_geometry(call, message: str) -> None:  # type: ignore[no-untyped-def]
     with pytest.raises(InputError, match=message):
         call()
+
+
+def test_royandi_eq24_constant_is_the_printed_equation() -> None:
+    """The packaged Eq. 24 is the paper's print (ln b0 in b0's place, exponents as printed)."""
+    assert ROYANDI_2026_EQ24.ln_b0 == pytest.approx(EQ24[0], abs=1e-12)
+    assert tuple(ROYANDI_2026_EQ24.exponents.values()) == EQ24[1:]
+    assert ROYANDI_2026_EQ24.features == NAMES
+    assert ROYANDI_2026_EQ24.target == "ra_um"
+
+
+def test_end_mill_feed_marks_by_kind_against_hand_values() -> None:
+    """fz 0.1 mm: a 1 mm corner leaves Rt = 1 - sqrt(1 - 0.05^2) mm = 1.2508 um (f^2/8r =
+    1.25 um) and Ra = f^2/(32 r) = 0.3125 um; a 10 mm tool's wall 5 - sqrt(25 - 0.05^2) mm;
+    a 2 deg dish fz tan(2 deg); a 6 mm ball the arc of 3 mm."""
+    fz = 0.1e-3
+    bull = end_mill_feed_marks("bull", fz, 10e-3, corner_radius_m=1e-3)
+    assert bull.floor_rt == pytest.approx((1 - math.sqrt(1 - 0.05**2)) * 1e-3, rel=1e-9)
+    assert bull.floor_ra == pytest.approx(0.3125e-6, rel=1e-12)
+    assert bull.wall_rt == pytest.approx((5 - math.sqrt(25 - 0.05**2)) * 1e-3, rel=1e-9)
+    flat = end_mill_feed_marks("flat", fz, 10e-3, dish_angle_rad=math.radians(2.0))
+    assert flat.floor_rt == pytest.approx(fz * math.tan(math.radians(2.0)), rel=1e-12)
+    assert flat.floor_ra == pytest.approx(flat.floor_rt / 4, rel=1e-12)
+    assert end_mill_feed_marks("flat", fz, 10e-3).floor_rt == 0.0  # no dish: a flat floor
+    ball = end_mill_feed_marks("ball", fz, 6e-3)
+    assert ball.floor_rt == pytest.approx((3 - math.sqrt(9 - 0.05**2)) * 1e-3, rel=1e-9)
+    with pytest.raises(InputError, match="kind='drill'"):
+        end_mill_feed_marks("drill", fz, 6e-3)
+    with pytest.raises(InputError, match="feed 0.002 m >= 2 x radius 0.001 m"):
+        end_mill_feed_marks("bull", 2e-3, 10e-3, corner_radius_m=1e-3)

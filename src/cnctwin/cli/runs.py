@@ -100,11 +100,21 @@ def show(run_id: RunArg, db: DbOpt = None, as_json: JsonOpt = False) -> None:
         "signals": ", ".join(detail.signals) or "-",
         "predicted": ", ".join(detail.predicted) or "-",
         **{f"meta.{k}": v for k, v in s.meta.items()},
-        **{f"summary.{k}": v for k, v in (s.summary or {}).items()},
+        **{f"summary.{k}": v for k, v in (s.summary or {}).items() if k != "stage_results"},
     }
     for key, value in rows.items():
         info.add_row(key, str(value))
     console.print(info)
+    for stage, result in ((s.summary or {}).get("stage_results") or {}).items():
+        sections = result.get("sections") if isinstance(result, dict) else None
+        if sections:  # the columns with a value (headers wrap at their words)
+            columns = [k for k in sections[0] if any(row.get(k) is not None for row in sections)]
+            table = Table(title=f"{stage} by program section", title_justify="left")
+            for column in columns:
+                table.add_column(column.replace("_", " "))
+            for row in sections:
+                table.add_row(*("-" if row.get(k) is None else f"{row[k]:.4g}" for k in columns))
+            console.print(table)
     if detail.events:
         events = Table(title="events", title_justify="left")
         for column in ("t_s", "kind", "message"):

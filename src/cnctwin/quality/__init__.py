@@ -6,9 +6,12 @@ The power law takes features in the units it was fitted in (named in the feature
 
 from cnctwin.quality.form_error import end_mill_stiffness, form_error, wall_normal_force
 from cnctwin.quality.roughness import (
+    ROYANDI_2026_EQ24,
+    FeedMarks,
     FitMetrics,
     PowerLawFit,
     PowerLawModel,
+    end_mill_feed_marks,
     fit_metrics,
     fit_power_law,
     flat_end_mill_ra,
@@ -21,9 +24,12 @@ from cnctwin.quality.roughness import (
 )
 
 __all__ = [
+    "ROYANDI_2026_EQ24",
+    "FeedMarks",
     "FitMetrics",
     "PowerLawFit",
     "PowerLawModel",
+    "end_mill_feed_marks",
     "end_mill_stiffness",
     "fit_metrics",
     "fit_power_law",

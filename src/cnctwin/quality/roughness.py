@@ -29,11 +29,14 @@ from numpy.typing import ArrayLike, NDArray
 from cnctwin.errors import CnctwinError, ConfigError, DataError, InputError
 
 __all__ = [
+    "ROYANDI_2026_EQ24",
+    "FeedMarks",
     "FitMetrics",
     "PowerLawFit",
     "PowerLawModel",
     "fit_metrics",
     "fit_power_law",
+    "end_mill_feed_marks",
     "flat_end_mill_ra",
     "flat_end_mill_rt",
     "milling_cusp_height",
@@ -213,6 +216,24 @@ class PowerLawModel:
             log_y = log_y + exponent * np.log(x)
         roughness: NDArray[np.float64] = np.exp(log_y)
         return roughness
+
+
+#: Royandi 2026 Eq. 24: Ra (um) of full-slot milling of AL6061 with a 4-flute carbide end
+#: mill from ``ap_mm`` (mm), ``spindle_rpm`` (rpm), ``fz_mm`` (mm) and the measured RMS
+#: vibration acceleration ``vibration_g`` (g), fitted on the paper's 56 cuts (ap 1-4 mm,
+#: 3000-9500 rpm, fz 0.05-0.1 mm, V 0.8-5.6 g). The paper prints ``ln(b0)`` = 1.216292 in
+#: ``b0``'s place (docs/validation.md, "Surface roughness"); the exponents are printed as
+#: they are, all positive (checked against the refit of Tables 3 and 4).
+ROYANDI_2026_EQ24 = PowerLawModel(
+    b0=math.exp(1.216292),
+    exponents={
+        "ap_mm": 0.389456,
+        "spindle_rpm": 0.004973,
+        "fz_mm": 0.551936,
+        "vibration_g": 0.173492,
+    },
+    target="ra_um",
+)
 
 
 def read_power_law_model(path: Path, default_target: str = "ra_um") -> PowerLawModel:
@@ -554,3 +575,78 @@ def flat_end_mill_ra(feed_per_tooth_m: ArrayLike, dish_angle_rad: ArrayLike) -> 
     """
     (f,) = _lengths(feed_per_tooth_m=feed_per_tooth_m)
     return _scalar_or_array(0.25 * f * _dish_tangent(dish_angle_rad))
+
+
+@dataclass(frozen=True, slots=True)
+class FeedMarks:
+    """Ideal roughness of the feed marks an end mill leaves, m.
+
+    Attributes
+    ----------
+    floor_ra, floor_rt
+        Ra and Rt (peak to valley) of the floor (the surface the tool's end makes), m. The
+        profile is periodic with one identical mark per tooth, so its Rz (mean of the
+        peak-to-valley heights of the sampling lengths) equals Rt.
+    wall_rt
+        Rt of a wall the tool's periphery makes (arcs of the tool radius ``D/2``, spaced by
+        the feed per tooth: the circular-path approximation of the tooth's trochoid, whose
+        marks are ``fz^2 / (8 (R +- z fz / pi))`` in up and down milling, Martellotti 1941,
+        Trans. ASME 63: within 1 % of it for ``fz < 0.03 R / z``), m.
+    """
+
+    floor_ra: FloatOrArray
+    floor_rt: FloatOrArray
+    wall_rt: FloatOrArray
+
+
+def end_mill_feed_marks(
+    kind: str,
+    feed_per_tooth_m: ArrayLike,
+    diameter_m: float,
+    *,
+    corner_radius_m: float = 0.0,
+    dish_angle_rad: float = 0.0,
+) -> FeedMarks:
+    """Ideal (kinematic) roughness of the floor and wall of an end mill's cut, m.
+
+    The floor of a ``"flat"`` end mill is the saw-tooth of its dished end edge
+    (:func:`flat_end_mill_rt`, :func:`flat_end_mill_ra`: 0 without a dish); that of a
+    ``"bull"`` (corner radius) or ``"ball"`` end mill the cusps of the arcs of its corner or
+    ball radius (:func:`milling_cusp_height`, :func:`milling_cusp_ra`; for a ball, where the
+    contact point is off the tool axis). The wall of any of them is the cusps of the arcs of
+    its radius ``D/2`` (:func:`milling_cusp_height`). Runout, vibration, wear and side flow
+    are not in these figures.
+
+    Parameters
+    ----------
+    kind
+        ``"flat"``, ``"bull"`` or ``"ball"`` (the :class:`cnctwin.config.ToolConfig` kinds).
+    feed_per_tooth_m
+        Feed per tooth fz, m, > 0 and below twice the radius of the arc that makes the mark.
+    diameter_m
+        Tool diameter D, m, > 0.
+    corner_radius_m
+        Corner radius, m, > 0 for ``"bull"`` (ignored otherwise).
+    dish_angle_rad
+        End-edge dish angle of a ``"flat"`` end mill, rad, in [0, pi/2).
+
+    Returns
+    -------
+    FeedMarks
+
+    Raises
+    ------
+    cnctwin.errors.InputError
+        For another kind, or a feed, radius or angle outside the ranges above.
+    """
+    radius = 0.5 * diameter_m
+    if kind == "flat":
+        floor_ra = flat_end_mill_ra(feed_per_tooth_m, dish_angle_rad)
+        floor_rt = flat_end_mill_rt(feed_per_tooth_m, dish_angle_rad)
+    elif kind in ("bull", "ball"):
+        arc = corner_radius_m if kind == "bull" else radius
+        floor_ra = milling_cusp_ra(feed_per_tooth_m, arc)
+        floor_rt = milling_cusp_height(feed_per_tooth_m, arc)
+    else:
+        raise InputError(f"kind={kind!r}; the feed marks are those of 'flat', 'bull' or 'ball'")
+    return FeedMarks(floor_ra, floor_rt, milling_cusp_height(feed_per_tooth_m, radius))

@@ -21,6 +21,7 @@ from cnctwin.twin.model_stage import ModelStage, load_models
 from cnctwin.twin.monitoring import BandResult, ForceBand
 from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.pipeline import Twin, build_twin, signal_names
+from cnctwin.twin.roughness import RoughnessConfig
 from cnctwin.twin.runtime import RunSummary, TwinRuntime
 from cnctwin.twin.session import open_connection, run_session
 from cnctwin.twin.settings import (
@@ -52,6 +53,7 @@ __all__ = [
     "ModelConfig",
     "ModelStage",
     "OffsetWrite",
+    "RoughnessConfig",
     "RunConfig",
     "RunSummary",
     "Twin",

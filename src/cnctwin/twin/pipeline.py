@@ -20,6 +20,7 @@ from cnctwin.twin.mqtt import MqttOutlet, MqttSignalStage
 from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.program import ProgramMap
 from cnctwin.twin.recorder import Recorder
+from cnctwin.twin.roughness import ROUGHNESS_PREDICTIONS, RoughnessStage
 from cnctwin.twin.runtime import TwinRuntime
 from cnctwin.twin.stages import (
     PREDICTIONS,
@@ -43,9 +44,9 @@ __all__ = ["SHED_ORDER", "Twin", "build_twin", "shed_order", "signal_names"]
 
 #: The optional work of the cycle, first shed first when the twin is overloaded
 #: (docs/twin.md, "Overload"): the historian's per-cycle detail, the windowed features, the
-#: form-error prediction. The reading, kinematics, cut, engagement, forces, filters,
+#: form-error and roughness predictions. The reading, kinematics, cut, engagement, forces, filters,
 #: force band, rules and actions (the chain that decides a stop) are never shed.
-SHED_ORDER = ("historian_detail", "features", "form_error")
+SHED_ORDER = ("historian_detail", "features", "form_error", "roughness")
 
 #: What each optional stage adds that a rule could read (features: by configuration).
 _FORM_ERROR_NAMES = ("deflection_um", "form_error_um", "form_error_tolerance_um", "form_error_out")
@@ -67,7 +68,8 @@ def shed_order(config: RunConfig) -> tuple[str, ...]:
     """The stages of :data:`SHED_ORDER` this configuration may shed, in order.
 
     A stage whose output a protective rule (``stop`` or ``feed_hold``) reads is not
-    optional: it is kept whatever the load.
+    optional: it is kept whatever the load. The roughness stage is shed only where it runs
+    (``[twin.roughness] enabled``).
     """
     protective: set[str] = set()
     for rule in config.rules:
@@ -79,8 +81,10 @@ def shed_order(config: RunConfig) -> tuple[str, ...]:
         "historian_detail": (),
         "features": tuple(f"{w.signal}_{f}" for w in config.twin.windows for f in w.features),
         "form_error": _FORM_ERROR_NAMES,
+        "roughness": ROUGHNESS_PREDICTIONS,
     }
-    return tuple(name for name in SHED_ORDER if not protective.intersection(outputs[name]))
+    running = [name for name in SHED_ORDER if name != "roughness" or config.twin.roughness.enabled]
+    return tuple(name for name in running if not protective.intersection(outputs[name]))
 
 
 @dataclass
@@ -165,7 +169,8 @@ def build_twin(
     physics.warm_up()
     models = load_models(twin_cfg) if models is None else models
     model_outputs = [name for model in models for name in model.outputs]
-    engine = RuleEngine(config.rules, valid_names=signal_names(config) + model_outputs)
+    valid_names = signal_names(config) + model_outputs
+    engine = RuleEngine(config.rules, valid_names=valid_names)
     safety = SafetyFilter(config.control)
     actions = ActionStage(
         connection, safety, recorder, stop_confirmation=twin_cfg.stop_confirmation
@@ -190,6 +195,8 @@ def build_twin(
     if twin_cfg.wear.enabled:
         stages.append(WearStage(twin_cfg.wear, physics))
     stages += [ModelStage(model) for model in models]
+    if twin_cfg.roughness.enabled:  # after the models: one may give the vibration
+        stages.append(RoughnessStage(twin_cfg.roughness, config.tools, valid_names))
     stages.append(RuleStage(engine))
     adaptive = twin_cfg.adaptive_feed
     if adaptive.enabled:  # after the rules: a rule's lower override goes first

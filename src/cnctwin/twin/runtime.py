@@ -106,6 +106,9 @@ class RunSummary:
         Stage name -> ``{"p50_ms", "p99_ms", "max_ms"}`` (outlets too).
     outlets
         Outlet name -> its figures (MQTT: messages offered, acknowledged, dropped, gaps).
+    stage_results
+        Stage name -> what the stage found over the run, for the stages that report it
+        (a ``run_results()`` method; the roughness stage: its program sections).
     """
 
     cycles: int = 0
@@ -128,6 +131,7 @@ class RunSummary:
     gaps_s: list[float] = field(default_factory=list)
     stages_ms: dict[str, dict[str, float]] = field(default_factory=dict)
     outlets: dict[str, dict[str, Any]] = field(default_factory=dict)
+    stage_results: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The summary as JSON-ready values."""
@@ -526,6 +530,11 @@ class TwinRuntime:
                 for name, series in self.timings.items()
             },
             outlets={outlet.name: outlet.stats() for outlet in self.outlets},
+            stage_results={
+                stage.name: stage.run_results()
+                for stage in self.stages
+                if hasattr(stage, "run_results")
+            },
         )
 
 

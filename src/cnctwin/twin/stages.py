@@ -22,7 +22,10 @@ Names a stage adds to :attr:`CycleState.predicted` (units in the names):
   ``wear_torque_nm``, ``wear_life_mm3``, ``wear_life_s``;
 - adaptive feed (:mod:`cnctwin.twin.adaptive_feed`): ``adaptive_feed_reference``,
   ``adaptive_feed_value``, ``adaptive_feed_target_pct``, ``adaptive_feed_engaged``,
-  ``adaptive_feed_teaching``.
+  ``adaptive_feed_teaching``;
+- roughness (:mod:`cnctwin.twin.roughness`): ``roughness_ra_um``, ``roughness_kin_ra_um``,
+  ``roughness_kin_rz_um``, ``roughness_kin_wall_rz_um``, ``roughness_section_ra_mean_um``,
+  ``roughness_section_ra_max_um``, ``roughness_section_kin_rz_max_um``.
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ from cnctwin.twin.monitoring import ForceBand
 from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.plausibility import AXES, Plausibility
 from cnctwin.twin.program import ProgramMap
+from cnctwin.twin.roughness import ROUGHNESS_PREDICTIONS
 from cnctwin.twin.settings import FormErrorConfig
 from cnctwin.twin.state import CycleState, TwinEvent
 from cnctwin.twin.tool_wear import WEAR_PREDICTIONS
@@ -99,6 +103,7 @@ PREDICTIONS = (
     "form_error_out",
     *WEAR_PREDICTIONS,
     *ADAPTIVE_FEED_PREDICTIONS,
+    *ROUGHNESS_PREDICTIONS,
 )
 
 

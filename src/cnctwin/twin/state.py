@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -129,3 +130,13 @@ class CycleState:
         values.update(self.features)
         values.update(self.predicted)
         return values
+
+    def value(self, name: str) -> float:
+        """The value :meth:`signals` would give ``name`` (same precedence), without building
+        the whole mapping; NaN when the twin has none this cycle."""
+        for source in (self.predicted, self.features):
+            if name in source:
+                return source[name]
+        if name.startswith("filtered_") and name[9:] in self.filtered:
+            return self.filtered[name[9:]]
+        return self.measured.get(name, math.nan)
