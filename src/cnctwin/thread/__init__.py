@@ -17,6 +17,7 @@ from cnctwin.thread.connection import (
     ConnectionState,
     MachineConnection,
     Reading,
+    SampleBlock,
     now_s,
 )
 from cnctwin.thread.signals import COMMANDS, SIGNALS, RunState, SignalSpec
@@ -160,6 +161,7 @@ __all__ = [
     "MTConnectConnection",
     "OpcUaConnection",
     "Reading",
+    "SampleBlock",
     "RunState",
     "SignalSpec",
     "now_s",

@@ -22,7 +22,9 @@ Names a stage adds to :attr:`CycleState.predicted` (units in the names):
   ``wear_torque_nm``, ``wear_life_mm3``, ``wear_life_s``;
 - adaptive feed (:mod:`cnctwin.twin.adaptive_feed`): ``adaptive_feed_reference``,
   ``adaptive_feed_value``, ``adaptive_feed_target_pct``, ``adaptive_feed_engaged``,
-  ``adaptive_feed_teaching``.
+  ``adaptive_feed_teaching``;
+- chatter (:mod:`cnctwin.twin.chatter_live`): ``chatter_ratio``, ``chatter_frequency_hz``,
+  ``chatter_detected``, ``chatter_vibration_um``, ``chatter_stable_rpm``, ``chatter_avoided``.
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ from cnctwin.signals import (
 )
 from cnctwin.thread import SIGNALS, ConnectionLost, MachineConnection, RunState
 from cnctwin.twin.adaptive_feed import ADAPTIVE_FEED_PREDICTIONS
+from cnctwin.twin.chatter_live import CHATTER_PREDICTIONS
 from cnctwin.twin.freshness import Freshness
 from cnctwin.twin.monitoring import ForceBand
 from cnctwin.twin.physics import TwinPhysics
@@ -99,6 +102,7 @@ PREDICTIONS = (
     "form_error_out",
     *WEAR_PREDICTIONS,
     *ADAPTIVE_FEED_PREDICTIONS,
+    *CHATTER_PREDICTIONS,
 )
 
 
