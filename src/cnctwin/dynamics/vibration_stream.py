@@ -18,6 +18,9 @@ tables and keeps the surface; the axial slices are as many as the depth needs (a
 new slices (each slice's remembered surface at its height). When the tool enters the material (a piece with depth after one without)
 the surface is the nominal one the previous tooth left, as at the start of
 :func:`~cnctwin.dynamics.simulate_milling`: the entry's step of force seeds the vibration.
+Where the immersion widens during a cut (the tool entering a side cut), the angles and
+slices new to the cut get that nominal surface too: material no tooth has cut yet, which a
+tooth meets with the nominal chip ``f_z sin(phi)`` (plus the vibration's share).
 
 Units: SI (m, s, rad/s, N).
 """
@@ -135,6 +138,7 @@ class MillingStream:
         self._matrices: tuple[float, _Modal] | None = None
         self._tables: tuple[tuple[float, float, float], _Tables] | None = None
         self._air: _Tables | None = None
+        self._inside: np.ndarray | None = None  # the angles in the cut in the last piece
 
     @property
     def time_s(self) -> float:
@@ -174,8 +178,16 @@ class MillingStream:
         if cutting:
             self._fit_slices(c.depth_m)
             tables = self._angle_tables(c)
-            if not self._in_cut:
-                self._enter(tables.sin, c.feed_per_tooth_m)
+            nominal = self._nominal(tables.sin, c.feed_per_tooth_m)
+            held = self._inside
+            if not self._in_cut or held is None or held.shape != tables.inside.shape:
+                self._surface[:] = nominal
+                if not self._in_cut:  # the entry: the force of this step is the cut's
+                    self._force[:] = self._entry_force(modal, tables, c.feed_per_tooth_m)
+            else:  # where the cut widened, the material is as the last tooth left it nominally
+                fresh = tables.inside & ~held
+                self._surface[fresh] = nominal[fresh]
+            self._inside = tables.inside
         else:
             tables = self._air_tables()
         self._in_cut = cutting
@@ -261,9 +273,32 @@ class MillingStream:
         )
         self.slices = count
 
-    def _enter(self, sin_t: np.ndarray, feed: float) -> None:
-        """The surface the previous tooth left on an undeflected path (the cut's entry)."""
+    def _entry_force(self, modal: _Modal, tables: _Tables, feed: float) -> tuple[float, float]:
+        """The cutting force (N) at the current step on entering the cut, the surface updated."""
+        n = modal.tip.shape[1]
+        rx, ry = modal.tip @ self._state[:n]
+        return _k.cutting_force(
+            self._step,
+            self._advance_m + float(rx),
+            float(ry),
+            self.steps_per_tooth,
+            feed,
+            tables.inside,
+            tables.sin,
+            tables.cos,
+            tables.cut_x,
+            tables.cut_y,
+            tables.edge_x,
+            tables.edge_y,
+            self._surface,
+            True,
+            True,
+        )
+
+    def _nominal(self, sin_t: np.ndarray, feed: float) -> np.ndarray:
+        """The surface the previous tooth left on an undeflected path, per angle and slice (m):
+        the cut's entry, and where the immersion widens into material no tooth has cut."""
         m = self.steps_per_tooth
         grid = sin_t.shape[0]
         phase = ((np.arange(grid) - self._step) % m) / m  # each angle's place in its tooth period
-        self._surface[:] = sin_t * (self._advance_m + feed * (phase - 1.0))[:, None]
+        return sin_t * (self._advance_m + feed * (phase - 1.0))[:, None]

@@ -8,9 +8,14 @@ virtual machine's tool-tip displacement at 10 kHz, x and y) and pushes them into
 (:mod:`cnctwin.dynamics.chatter_detection`; Ward 2021, Sec. 4.3). The harmonics are those of
 the measured spindle speed and the tool's teeth; when the speed moves by more than
 ``speed_tolerance_pct`` the detectors start again at the new speed (a window must not mix
-two speeds). A window counts only while the twin sees the tool cut (``contact``) and the
-cycle's vibration RMS is at least ``min_rms_um`` (in air the sensor's noise alone has no
-harmonics); ``confirm_windows`` chattering windows in a row are chatter.
+two speeds). A window counts only while the twin sees the tool cut (``contact``), when it
+starts ``entry_s`` or more after the cut began or its engagement last changed (``ae_mm`` or
+``ap_mm`` by more than ``engagement_tolerance_mm``: a step of force rings the tool's modes at
+their natural frequencies, off the harmonics, for a few time constants ``1 / (zeta wn)``
+even where the cut is stable, and the tool entering or leaving the material changes the
+engagement all the way) and the cycle's vibration RMS is at least
+``min_rms_um`` (in air the sensor's noise alone has no harmonics); ``confirm_windows``
+chattering windows in a row are chatter.
 
 **Avoidance.** The stability roadmap of the program (Ward 2021, Sec. 3.4, Eq. 6:
 :func:`cnctwin.dynamics.program_roadmap` with the tool's modes of ``stability_file``) gives
@@ -98,6 +103,12 @@ class ChatterConfig(Section):
         Chattering windows in a row that make chatter.
     min_rms_um
         Least vibration RMS of a cycle's samples for its windows to be judged, um.
+    entry_s
+        Windows that start less than this after the cut began or its engagement changed are
+        not judged, s.
+    engagement_tolerance_mm
+        A change of the twin's ``ae_mm`` or ``ap_mm`` beyond this is a new engagement, mm
+        (at least the twin's dexel pitch, whose steps the engagement jitters by).
     speed_tolerance_pct
         Spindle-speed change that restarts the detectors at the new speed, %.
     avoid
@@ -115,6 +126,8 @@ class ChatterConfig(Section):
     threshold: float = Field(default=0.2, gt=0.0, lt=1.0)
     confirm_windows: int = Field(default=2, ge=1, le=100)
     min_rms_um: float = Field(default=0.5, ge=0.0, le=1e4)
+    entry_s: float = Field(default=0.03, ge=0.0, le=60.0)
+    engagement_tolerance_mm: float = Field(default=0.6, gt=0.0, le=100.0)
     speed_tolerance_pct: float = Field(default=0.5, gt=0.0, le=50.0)
     avoid: bool = True
     stability_file: Path | None = None
@@ -196,6 +209,8 @@ class ChatterStage:
         self._avoided: set[tuple[int, int]] = set()
         self._blind = False
         self._latest: tuple[float, float] = (math.nan, math.nan)
+        self._cut_since_s = math.nan  # machine time the current engagement began (NaN in air)
+        self._engagement = (math.nan, math.nan)  # its ae, ap, mm
 
     async def process(self, state: CycleState) -> CycleState:
         """Read the new samples, detect, and on chatter ask for the roadmap's speed."""
@@ -233,7 +248,17 @@ class ChatterStage:
         p["chatter_avoided"] = float((state.tool, state.line) in self._avoided)
         rpm = abs(state.measured.get("spindle_rpm", math.nan))
         teeth = self.teeth.get(state.tool, 0)
-        judged = bool(p.get("contact", 0.0)) and rms >= self.config.min_rms_um
+        contact = bool(p.get("contact", 0.0))
+        engagement = (p.get("ae_mm", math.nan), p.get("ap_mm", math.nan))
+        tolerance = self.config.engagement_tolerance_mm
+        if not contact:
+            self._cut_since_s = math.nan
+        elif not math.isfinite(self._cut_since_s) or not all(
+            abs(a - b) <= tolerance for a, b in zip(engagement, self._engagement, strict=True)
+        ):
+            self._cut_since_s = state.measured.get("t_s", math.nan)
+            self._engagement = engagement
+        judged = contact and rms >= self.config.min_rms_um
         if samples.shape[0] and math.isfinite(rpm) and rpm >= 1.0 and teeth >= 1:
             detectors = self._for_speed(rpm, teeth, block.first_index, block.rate_hz)
             for window in self._push(detectors, samples):
@@ -245,6 +270,7 @@ class ChatterStage:
         return state
 
     def _restart(self) -> None:
+        self._cut_since_s = math.nan
         self._detectors = None
         self._run = 0
         self._detected = False
@@ -291,7 +317,8 @@ class ChatterStage:
         """Count a completed window pair toward chatter; raise the event on confirmation."""
         top = max(windows, key=lambda w: w.energy_ratio)
         self._latest = (top.energy_ratio, top.chatter_frequency_hz)
-        if not judged:
+        start_s = detectors.first_index / rate_hz + top.start_s
+        if not (judged and start_s >= self._cut_since_s + self.config.entry_s):
             self._run = 0
             return
         if not top.chatter:
