@@ -19,8 +19,8 @@ cut is unstable from there on, and where it is the vibration grows), the detecti
 (the sensor time of the confirming window's end), the command, and stable cutting (the end of
 the vibration's change over one tooth period at the new speed, r(t) - r(t - T), below
 10 % of its level at the command for good; the spectral detector cannot judge the first
-windows at the new speed, whose tooth-passing harmonic may sit on the old chatter frequency), the vibration RMS before and after, and the chatter stage's time
-per cycle.
+windows at the new speed, whose tooth-passing harmonic may sit on the old chatter
+frequency), the vibration RMS before and after, and the chatter stage's time per cycle.
 
 Usage::
 
@@ -151,8 +151,14 @@ def figures(run: dict[str, Any], config: RunConfig) -> dict[str, Any]:
             (float(d["value"]) for d in run["decisions"] if d["target"] == "feed_override_pct"),
             math.nan,
         ),
-        "roadmap_rpm": next((r["chatter_stable_rpm"] for r in rows if "chatter_stable_rpm" in r
-                             and math.isfinite(r["chatter_stable_rpm"])), math.nan),  # fmt: skip
+        "roadmap_rpm": next(
+            (
+                r["chatter_stable_rpm"]
+                for r in rows
+                if "chatter_stable_rpm" in r and math.isfinite(r["chatter_stable_rpm"])
+            ),
+            math.nan,
+        ),  # fmt: skip
         "stage_ms_p50": run["stage_ms"].get("p50_ms", math.nan),
         "stage_ms_p99": run["stage_ms"].get("p99_ms", math.nan),
         "wall_s": run["wall_s"],
@@ -231,7 +237,8 @@ def plot(path: Path, runs: dict[str, dict[str, Any]], found: dict[str, dict[str,
     axes[0].legend(loc="upper right")
     axes[0].set_title(
         f"chatter at onset {f['onset_s']:.2f} s, detected {f['detected_s']:.3f} s "
-        f"(+{1e3 * f['detection_latency_s']:.0f} ms), stable from {f.get('stable_s', math.nan):.3f} s"
+        f"(+{1e3 * f['detection_latency_s']:.0f} ms), "
+        f"stable from {f.get('stable_s', math.nan):.3f} s"
     )
     axes[1].set_ylabel("spindle, rpm")
     axes[1].axhline(f["roadmap_rpm"], color="g", lw=0.8, ls=":")

@@ -225,7 +225,9 @@ def test_bad_configuration_is_refused_in_one_line(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="stability_file"):
         ChatterConfig(enabled=True, avoid=True)
     config = _config(tmp_path, 2.5)
-    vm = VirtualMachine(config.virtual.model_copy(update={"vibration": config.virtual.vibration.model_copy(update={"stability_file": None})}), config)  # type: ignore[union-attr]
+    assert config.virtual is not None
+    silent = config.virtual.vibration.model_copy(update={"stability_file": None})
+    vm = VirtualMachine(config.virtual.model_copy(update={"vibration": silent}), config)
     with pytest.raises(DataError, match="set \\[virtual.vibration\\]"):
         vm.block("vibration", 0)
     conn = LocalConnection(vm)

@@ -15,9 +15,10 @@ angles, so the surface stays where it is. A change of depth or immersion rebuild
 tables and keeps the surface; the axial slices are as many as the depth needs (as
 :func:`~cnctwin.dynamics.simulate_milling`'s default, for the depth rounded up to whole
 :data:`DEPTH_QUANTUM_M`), and when their number changes the surface is interpolated onto the
-new slices (each slice's remembered surface at its height). When the tool enters the material (a piece with depth after one without)
-the surface is the nominal one the previous tooth left, as at the start of
-:func:`~cnctwin.dynamics.simulate_milling`: the entry's step of force seeds the vibration.
+new slices (each slice's remembered surface at its height). When the tool enters the
+material (a piece with depth after one without) the surface is the nominal one the previous
+tooth left, as at the start of :func:`~cnctwin.dynamics.simulate_milling`: the entry's step
+of force seeds the vibration.
 Where the immersion widens during a cut (the tool entering a side cut), the angles and
 slices new to the cut get that nominal surface too: material no tooth has cut yet, which a
 tooth meets with the nominal chip ``f_z sin(phi)`` (plus the vibration's share).
@@ -36,12 +37,12 @@ from cnctwin.dynamics import _time_domain_kernels as _k
 from cnctwin.dynamics.stability import MillingProcess, ToolDynamics
 from cnctwin.dynamics.time_domain import (
     _angle_tables,
-    _Modal,
-    _Tables,
     _cutter_geometry,
+    _Modal,
     _modal_matrices,
     _slices,
     _steps,
+    _Tables,
 )
 from cnctwin.errors import InputError
 from cnctwin.geometry import Cutter
@@ -230,8 +231,12 @@ class MillingStream:
     def _angle_tables(self, c: CutConditions) -> _Tables:
         key = (c.depth_m, c.entry_rad, c.exit_rad)
         held = self._tables
-        if held is None or held[1].inside.shape[1] != self.slices or any(
-            abs(a - b) > _SAME * max(abs(b), 1e-3) for a, b in zip(key, held[0], strict=True)
+        if (
+            held is None
+            or held[1].inside.shape[1] != self.slices
+            or any(
+                abs(a - b) > _SAME * max(abs(b), 1e-3) for a, b in zip(key, held[0], strict=True)
+            )
         ):
             process = MillingProcess(
                 self.teeth, self.coefficients.ktc, self.coefficients.krc, c.entry_rad, c.exit_rad

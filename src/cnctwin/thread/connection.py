@@ -245,7 +245,9 @@ class MachineConnection(ABC):
             return await asyncio.wait_for(self._read_block(name, since), self.timeout_s)
         except (OSError, TimeoutError, ConnectionLost) as err:
             self._lost(err)
-            raise ConnectionLost(f"read of block {name} failed: {err or type(err).__name__}") from err
+            raise ConnectionLost(
+                f"read of block {name} failed: {err or type(err).__name__}"
+            ) from err
 
     async def write(self, name: str, value: float) -> None:
         """Write one command; :class:`ConnectionLost` (and a reconnect) on failure."""

@@ -275,9 +275,7 @@ class ChatterStage:
         self._run = 0
         self._detected = False
 
-    def _for_speed(
-        self, rpm: float, teeth: int, first_index: int, rate_hz: float
-    ) -> _Detectors:
+    def _for_speed(self, rpm: float, teeth: int, first_index: int, rate_hz: float) -> _Detectors:
         """The detectors for this speed: new ones when it moved beyond the tolerance."""
         held = self._detectors
         tolerance = self.config.speed_tolerance_pct / 100.0
@@ -294,7 +292,9 @@ class ChatterStage:
             speed_tolerance=tolerance,
         )
         self._detectors = _Detectors(
-            rpm, first_index, (StreamingChatterDetector(settings), StreamingChatterDetector(settings))
+            rpm,
+            first_index,
+            (StreamingChatterDetector(settings), StreamingChatterDetector(settings)),
         )
         self._run = 0
         return self._detectors
