@@ -80,8 +80,10 @@ _SESSION_TIMEOUT_MS = 600_000
 #: Canonical signal name -> string identifier of its node in :data:`NAMESPACE_URI`.
 #: The dotted identifier is also the browse path below ``Objects/Machines``.
 #: The node a machine serves its vibration samples in (node id in the namespace
-#: :data:`NAMESPACE_URI`): a Double array ``[first index, rate (Hz), channels, samples row by
-#: row...]`` of the newest samples, made when read (cnctwin.virtual.opcua_server).
+#: :data:`NAMESPACE_URI`): a ByteString of little-endian float64 ``[first index, rate (Hz),
+#: channels, samples row by row...]`` of the newest samples, made when read
+#: (cnctwin.virtual.opcua_server; a ByteString is copied whole, where a Double array is
+#: coded value by value).
 BLOCK_NODE = "Machine.Vibration.Block"
 
 NODE_MAP: dict[str, str] = {
@@ -377,8 +379,9 @@ class OpcUaConnection(MachineConnection):
             raise DataError(
                 f"block {name!r}: {self.endpoint} serves no {BLOCK_NODE} ({err})"
             ) from None
-        values = np.asarray(packed, dtype=np.float64)
-        if values.size < 3 or values[2] < 1:
+        raw = packed if isinstance(packed, bytes) else b""
+        values = np.frombuffer(raw[: len(raw) // 8 * 8], dtype="<f8")
+        if values.size < 3 or values[2] < 1 or (values.size - 3) % int(values[2]):
             raise DataError(f"block {name!r}: {BLOCK_NODE} of {values.size} values is garbage")
         first, rate, channels = int(values[0]), float(values[1]), int(values[2])
         samples = values[3:].reshape(-1, channels)

@@ -29,6 +29,11 @@ finds no stable speed, it commands nothing and records an event. The decisions a
 of the rule ``chatter_avoidance``: they pass the safety filter (enable switch, bounds, rate
 limits) and obey the lost-machine policy (docs/control.md). One avoidance per line.
 
+The read runs alongside the cycle: a machine that has not answered within 1 ms is asked no
+more until it has, and its samples are taken in a later cycle (they carry their own sample
+index, so nothing is lost or counted twice; a cycle without new samples shows the last
+outputs).
+
 **Lost machine.** While the connection is down the stage commands nothing and reads
 nothing; afterwards the detectors start again (the windows across the gap would join
 vibration from before and after it) and samples the machine no longer holds are counted as
@@ -46,6 +51,7 @@ Events: ``chatter`` (detected, with the sensor time of the confirming window's e
 
 from __future__ import annotations
 
+import asyncio
 import math
 import os
 from dataclasses import dataclass
@@ -62,7 +68,7 @@ from cnctwin.dynamics import DetectorSettings, StreamingChatterDetector
 from cnctwin.dynamics.chatter_detection import WindowVerdict
 from cnctwin.dynamics.roadmap import RoadmapSegment
 from cnctwin.errors import ConfigError, DataError
-from cnctwin.thread import ConnectionLost, MachineConnection
+from cnctwin.thread import ConnectionLost, MachineConnection, SampleBlock
 from cnctwin.twin.state import CycleState, TwinEvent
 
 if TYPE_CHECKING:
@@ -74,6 +80,10 @@ __all__ = ["CHATTER_PREDICTIONS", "RULE", "ChatterConfig", "ChatterStage", "chat
 
 #: The rule name of the stage's decisions.
 RULE = "chatter_avoidance"
+
+#: Longest wait for the machine's samples in a cycle, s; a slower answer is taken in the next
+#: cycle (the read goes on meanwhile), so a busy machine does not hold up the cycle.
+_WAIT_S = 0.001
 
 #: The names the stage adds (units in the names).
 CHATTER_PREDICTIONS = (
@@ -209,6 +219,8 @@ class ChatterStage:
         self._avoided: set[tuple[int, int]] = set()
         self._blind = False
         self._latest: tuple[float, float] = (math.nan, math.nan)
+        self._pending: asyncio.Future[SampleBlock] | None = None
+        self._outputs: dict[str, float] = {}
         self._cut_since_s = math.nan  # machine time the current engagement began (NaN in air)
         self._engagement = (math.nan, math.nan)  # its ae, ap, mm
 
@@ -216,12 +228,24 @@ class ChatterStage:
         """Read the new samples, detect, and on chatter ask for the roadmap's speed."""
         if not state.connected:
             self._blind = True
+            if self._pending is not None:
+                self._pending.cancel()
+                self._pending = None
             return state
         if self._blind:  # after a gap: the windows start again
             self._blind = False
             self._restart()
+        if self._pending is None:
+            self._pending = asyncio.ensure_future(
+                self.connection.read_block(self.config.block, self._next)
+            )
+        done, _ = await asyncio.wait({self._pending}, timeout=_WAIT_S)
+        if not done:  # the machine has not answered yet: the samples come next cycle
+            self._carry(state)
+            return state
+        task, self._pending = self._pending, None
         try:
-            block = await self.connection.read_block(self.config.block, self._next)
+            block = task.result()
         except ConnectionLost:
             self._blind = True
             return state
@@ -267,7 +291,12 @@ class ChatterStage:
         p["chatter_detected"] = float(self._detected)
         if self._detected and self.config.avoid and state.tool > 0:
             self._avoid(state, segment)
+        self._outputs = {name: p[name] for name in CHATTER_PREDICTIONS if name in p}
         return state
+
+    def _carry(self, state: CycleState) -> None:
+        """A cycle without new samples shows the last cycle's outputs."""
+        state.predicted.update(self._outputs)
 
     def _restart(self) -> None:
         self._cut_since_s = math.nan

@@ -470,15 +470,16 @@ class OpcUaMachineServer:
             node = await vibration.add_variable(
                 _node_id(BLOCK_NODE, ns),
                 ua.QualifiedName(BLOCK_NODE.split(".")[-1], ns),
-                ua.Variant([0.0, 0.0, 0.0], ua.VariantType.Double),
-                datatype=_DATATYPES[ua.VariantType.Double],
+                ua.Variant(np.zeros(3, "<f8").tobytes(), ua.VariantType.ByteString),
+                datatype=ua.NodeId(ua.Int32(ua.ObjectIds.ByteString)),
             )
             self.block_node = node.nodeid
 
     def block_value(self) -> ua.DataValue:
         """The value of :data:`~cnctwin.thread.BLOCK_NODE`, made when read: the machine's last
-        :data:`BLOCK_WINDOW_S` of vibration samples, ``[first index, rate (Hz), channels,
-        samples row by row...]`` (cnctwin.virtual.vibration); ``BadNoData`` without them."""
+        :data:`BLOCK_WINDOW_S` of vibration samples as a ByteString of little-endian float64,
+        ``[first index, rate (Hz), channels, samples row by row...]``
+        (cnctwin.virtual.vibration); ``BadNoData`` without them."""
         read = self.source.block  # type: ignore[attr-defined]
         try:
             count = read(BLOCK_NAME, 2**62).first_index  # an empty block: the samples taken
@@ -487,8 +488,9 @@ class OpcUaMachineServer:
         except CnctwinError:
             return ua.DataValue(StatusCode_=_status(ua.StatusCodes.BadNoData))
         samples = np.asarray(block.samples, dtype=np.float64)
-        head = [float(block.first_index), float(block.rate_hz), float(samples.shape[1])]
-        packed = ua.Variant(head + samples.ravel().tolist(), ua.VariantType.Double)
+        head = np.array([block.first_index, block.rate_hz, samples.shape[1]], dtype="<f8")
+        data = np.concatenate((head, samples.ravel())).astype("<f8").tobytes()
+        packed = ua.Variant(data, ua.VariantType.ByteString)
         now = ua.DateTime.now(UTC)
         return ua.DataValue(packed, SourceTimestamp=now, ServerTimestamp=now)
 
