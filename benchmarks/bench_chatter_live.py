@@ -20,7 +20,8 @@ cut is unstable from there on, and where it is the vibration grows), the detecti
 the vibration's change over one tooth period at the new speed, r(t) - r(t - T), below
 10 % of its level at the command for good; the spectral detector cannot judge the first
 windows at the new speed, whose tooth-passing harmonic may sit on the old chatter
-frequency), the vibration RMS before and after, and the chatter stage's time per cycle.
+frequency), the vibration RMS before (onset to command) and after (0.5 s after the command to the
+end of the steady cut), and the chatter stage's time per cycle.
 
 Usage::
 
@@ -193,7 +194,7 @@ def figures(run: dict[str, Any], config: RunConfig) -> dict[str, Any]:
         twin_low = [r["t_s"] for r in rows if r.get("t_s", 0.0) > command
                     and r.get("chatter_ratio", 1.0) < c.threshold]  # fmt: skip
         out["twin_ratio_below_threshold_s"] = float(twin_low[0]) if twin_low else math.nan
-        late = (times >= stable_from + 0.1) & (times <= steady_end)
+        late = (times >= command + 0.5) & (times <= steady_end)
         out["rms_after_um"] = float(np.std(samples[late], axis=0).max())
     if math.isfinite(onset):
         before_end = command if math.isfinite(command) else cut_end

@@ -41,18 +41,21 @@ def _sdm_critical_mm(rpm: float) -> float:
 
 
 def _cut(tmp_path: Path, depth_mm: float) -> np.ndarray:
-    """The y displacement (um) the machine's sensor took over the steady part of the cut."""
+    """The y displacement (um) the machine's sensor took over 1 s of the steady cut."""
     config = load_run_config(EXAMPLE)
     assert config.virtual is not None and config.virtual.program is not None
     text = config.virtual.program.read_text(encoding="utf-8").replace("Z-2.5", f"Z-{depth_mm:g}")
     program = tmp_path / "cut.ngc"
     program.write_text(text, encoding="utf-8")
     vm = VirtualMachine(config.virtual.model_copy(update={"program": program}), config)
-    samples = []
-    while vm.time_s < 4.5:  # the steady cut runs from 3.2 s to 5.2 s
+    while vm.snapshot()["x_mm"] < 151.0:  # to full engagement: the axis past the end face
         vm.step(vm.tick_s)
-        if vm.time_s > 3.5:
-            samples.append(vm.block("vibration", vm.block("vibration", 0).end_index - 50).samples)
+    for _ in range(10):  # the entry's transient
+        vm.step(vm.tick_s)
+    start = vm.block("vibration", 0).end_index
+    for _ in range(200):  # 1 s of the steady cut
+        vm.step(vm.tick_s)
+    samples = [vm.block("vibration", start).samples]
     return np.vstack(samples)[:, 1]
 
 
