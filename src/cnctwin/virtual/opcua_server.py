@@ -53,9 +53,9 @@ from cnctwin.thread import (
     variant_type,
 )
 from cnctwin.virtual.exposure import check_exposure
-from cnctwin.virtual.vibration import BLOCK_NAME
 from cnctwin.virtual.machine_tool import add_machine_tool, mirror_value
 from cnctwin.virtual.users import UserTable
+from cnctwin.virtual.vibration import BLOCK_NAME
 
 __all__ = [
     "SERVER_APPLICATION_URI",
@@ -486,13 +486,14 @@ class OpcUaMachineServer:
             block = read(BLOCK_NAME, count - 1)
             block = read(BLOCK_NAME, count - math.ceil(BLOCK_WINDOW_S * block.rate_hz))
         except CnctwinError:
-            return ua.DataValue(StatusCode_=_status(ua.StatusCodes.BadNoData))
+            return ua.DataValue(StatusCode=_status(ua.StatusCodes.BadNoData))
         samples = np.asarray(block.samples, dtype=np.float64)
         head = np.array([block.first_index, block.rate_hz, samples.shape[1]], dtype="<f8")
         data = np.concatenate((head, samples.ravel())).astype("<f8").tobytes()
         packed = ua.Variant(data, ua.VariantType.ByteString)
         now = ua.DateTime.now(UTC)
         return ua.DataValue(packed, SourceTimestamp=now, ServerTimestamp=now)
+
 
 _UNSET = object()
 #: Seconds of the newest vibration samples a read of the block node returns (a reader slower
