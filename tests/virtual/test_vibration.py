@@ -8,7 +8,9 @@ and by the vibration's size. The stream in pieces must give what one simulation 
 
 from __future__ import annotations
 
+import asyncio
 import math
+import socket
 from pathlib import Path
 
 import numpy as np
@@ -23,10 +25,12 @@ from cnctwin.dynamics import (
     simulate_milling,
 )
 from cnctwin.dynamics.stability import MillingProcess, sdm_lobes
+from cnctwin.errors import DataError
 from cnctwin.geometry import Cutter
 from cnctwin.mechanics import immersion_angles, milling_material
+from cnctwin.thread import OpcUaConnection, SampleBlock
 from cnctwin.twin import load_run_config
-from cnctwin.virtual import VirtualMachine
+from cnctwin.virtual import OpcUaMachineServer, VirtualMachine
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "chatter_live" / "chatter_live.toml"
 RPM = math.pi / 30.0
@@ -117,3 +121,33 @@ def test_the_sensor_serves_what_it_took_since_an_index(tmp_path: Path) -> None:
     assert tail.first_index == 14_991 and tail.samples.shape == (10, 2)
     np.testing.assert_array_equal(tail.samples, newest.samples[-10:])
     assert vm.block("vibration", 15_001).samples.shape == (0, 2)
+
+
+def test_the_block_travels_over_opc_ua() -> None:
+    # The server makes the node's value when it is read: the newest 0.1 s; the client keeps
+    # the samples from its index on, and from the oldest served when it asks for older ones.
+    config = load_run_config(EXAMPLE)
+    assert config.virtual is not None
+    vm = VirtualMachine(config.virtual, config)
+    for _ in range(50):  # 0.25 s: samples 0 ... 2500
+        vm.step(vm.tick_s)
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    endpoint = f"opc.tcp://127.0.0.1:{port}/cnctwin"
+
+    async def body() -> tuple[SampleBlock, SampleBlock]:
+        async with OpcUaMachineServer(vm, "127.0.0.1", port):
+            link = config.connection.model_copy(update={"endpoint": endpoint})
+            async with OpcUaConnection(link) as connection:
+                recent = await connection.read_block("vibration", 2400)
+                old = await connection.read_block("vibration", 0)
+                with pytest.raises(DataError, match="'vibration' only"):
+                    await connection.read_block("acceleration", 0)
+                return recent, old
+
+    recent, old = asyncio.run(body())
+    here = vm.block("vibration", 2400)
+    assert (recent.first_index, recent.rate_hz) == (2400, 10_000.0)
+    np.testing.assert_array_equal(recent.samples, here.samples)
+    assert old.first_index == 1501 and old.end_index == 2501  # the newest 1000 samples
