@@ -303,7 +303,8 @@ def test_a_tooth_out_of_the_cut_leaves_the_surface_to_the_next() -> None:
     args = (m, feed, inside, sin_t, cos_t, ones, zeros, zeros, zeros)
 
     def force(step: int, rx: float) -> float:
-        return kernels.cutting_force(step, rx, 0.0, *args, surface, True, True)[0]
+        advance = feed * step / m + rx  # the feed advanced so far plus the tip's x
+        return kernels.cutting_force(step, advance, 0.0, *args, surface, True, True)[0]
 
     assert force(2, 0.0) == pytest.approx(feed)
     assert force(6, -1.5 * feed) == 0.0

@@ -73,8 +73,11 @@ from cnctwin.dynamics.stability import (
     zoa_lobes,
 )
 from cnctwin.dynamics.time_domain import MillingVibration, simulate_milling
+from cnctwin.dynamics.vibration_stream import CutConditions, MillingStream
 
 __all__ = [
+    "CutConditions",
+    "MillingStream",
     "CalibratedCut",
     "CalibrationSetup",
     "ChatterDetection",

@@ -22,7 +22,7 @@ from numba import njit
 @njit(cache=True)
 def cutting_force(
     step: int,
-    rx: float,
+    advance: float,
     ry: float,
     steps_per_tooth: int,
     feed: float,
@@ -37,7 +37,8 @@ def cutting_force(
     regenerative: bool,
     update: bool,
 ) -> tuple[float, float]:  # pragma: no cover - compiled
-    """Cutting force on the tool (N) at step ``step`` with the tool tip at ``(rx, ry)`` m.
+    """Cutting force on the tool (N) at step ``step``: ``advance`` is the feed advanced so far
+    plus the tip's x displacement, ``ry`` its y displacement, m.
 
     ``inside`` marks the grid angles inside the immersion; ``cut_x``, ``cut_y`` (N per m of
     chip) and ``edge_x``, ``edge_y`` (N) are the force of each grid angle per unit chip
@@ -45,7 +46,6 @@ def cutting_force(
     """
     grid, slices = sin_t.shape
     teeth = grid // steps_per_tooth
-    advance = feed * step / steps_per_tooth + rx
     fx = 0.0
     fy = 0.0
     for j in range(teeth):
@@ -91,7 +91,55 @@ def simulate(
     regenerative: bool,
     out: np.ndarray,
 ) -> None:  # pragma: no cover - compiled
-    """March ``out.shape[0]`` steps from ``state`` (modal displacements, then velocities).
+    """March ``out.shape[0]`` steps from ``state`` (modal displacements, then velocities) at
+    step 0 with no feed advanced: the force there, then :func:`march`."""
+    n = tip.shape[1]
+    rx = 0.0
+    ry = 0.0
+    for q in range(n):
+        rx += tip[0, q] * state[q]
+        ry += tip[1, q] * state[q]
+    force = np.empty(2)
+    force[0], force[1] = cutting_force(0, rx, ry, steps_per_tooth, feed, inside, sin_t, cos_t,
+                                       cut_x, cut_y, edge_x, edge_y, surface, regenerative,
+                                       True)  # fmt: skip
+    march(transition, hold, ramp, tip, accel_state, accel_force, state.copy(), force, 0, 0.0,
+          steps_per_tooth, feed, inside, sin_t, cos_t, cut_x, cut_y, edge_x, edge_y, surface,
+          regenerative, out)  # fmt: skip
+
+
+@njit(cache=True)
+def march(
+    transition: np.ndarray,
+    hold: np.ndarray,
+    ramp: np.ndarray,
+    tip: np.ndarray,
+    accel_state: np.ndarray,
+    accel_force: np.ndarray,
+    state: np.ndarray,
+    force: np.ndarray,
+    start: int,
+    base: float,
+    steps_per_tooth: int,
+    feed: float,
+    inside: np.ndarray,
+    sin_t: np.ndarray,
+    cos_t: np.ndarray,
+    cut_x: np.ndarray,
+    cut_y: np.ndarray,
+    edge_x: np.ndarray,
+    edge_y: np.ndarray,
+    surface: np.ndarray,
+    regenerative: bool,
+    out: np.ndarray,
+) -> None:  # pragma: no cover - compiled
+    """March ``out.shape[0]`` steps from step ``start``, in place.
+
+    ``state`` (modal displacements, then velocities) and ``force`` (x, y, N; the cutting force
+    of that state, the surface already updated with it) are those at step ``start``, where the
+    feed has advanced ``base`` m; on return they are those at step ``start + out.shape[0]``,
+    so that a stream of calls continues one simulation (the virtual machine's vibration,
+    :mod:`cnctwin.virtual.vibration`).
 
     One step of length ``dt`` is exact for the linear modal dynamics with a force varying
     linearly over the step (first-order hold): ``x+ = transition x + hold F_i +
@@ -105,16 +153,16 @@ def simulate(
     """
     n = tip.shape[1]
     size = 2 * n
-    x = state.copy()
-    base = np.empty(size)
+    x = state
+    base_state = np.empty(size)
     trial = np.empty(size)
+    fx = force[0]
+    fy = force[1]
     rx = 0.0
     ry = 0.0
     for q in range(n):
         rx += tip[0, q] * x[q]
         ry += tip[1, q] * x[q]
-    fx, fy = cutting_force(0, rx, ry, steps_per_tooth, feed, inside, sin_t, cos_t, cut_x, cut_y,
-                           edge_x, edge_y, surface, regenerative, True)  # fmt: skip
     total = out.shape[0]
     for i in range(total):
         vx = 0.0
@@ -135,29 +183,33 @@ def simulate(
         out[i, 5] = ay
         out[i, 6] = fx
         out[i, 7] = fy
-        if i == total - 1:
-            break
         for p in range(size):
             acc = hold[p, 0] * fx + hold[p, 1] * fy
             for q in range(size):
                 acc += transition[p, q] * x[q]
-            base[p] = acc
+            base_state[p] = acc
         px = 0.0
         py = 0.0
         for q in range(n):
-            px += tip[0, q] * base[q]
-            py += tip[1, q] * base[q]
-        gx, gy = cutting_force(i + 1, px, py, steps_per_tooth, feed, inside, sin_t, cos_t, cut_x,
-                               cut_y, edge_x, edge_y, surface, regenerative, False)  # fmt: skip
+            px += tip[0, q] * base_state[q]
+            py += tip[1, q] * base_state[q]
+        step = start + i + 1
+        fed = base + feed * (i + 1) / steps_per_tooth
+        gx, gy = cutting_force(step, fed + px, py, steps_per_tooth, feed, inside, sin_t, cos_t,
+                               cut_x, cut_y, edge_x, edge_y, surface, regenerative,
+                               False)  # fmt: skip
         dx = gx - fx
         dy = gy - fy
         for p in range(size):
-            trial[p] = base[p] + ramp[p, 0] * dx + ramp[p, 1] * dy
+            trial[p] = base_state[p] + ramp[p, 0] * dx + ramp[p, 1] * dy
         x[:] = trial
         rx = 0.0
         ry = 0.0
         for q in range(n):
             rx += tip[0, q] * x[q]
             ry += tip[1, q] * x[q]
-        fx, fy = cutting_force(i + 1, rx, ry, steps_per_tooth, feed, inside, sin_t, cos_t, cut_x,
-                               cut_y, edge_x, edge_y, surface, regenerative, True)  # fmt: skip
+        fx, fy = cutting_force(step, fed + rx, ry, steps_per_tooth, feed, inside, sin_t, cos_t,
+                               cut_x, cut_y, edge_x, edge_y, surface, regenerative,
+                               True)  # fmt: skip
+    force[0] = fx
+    force[1] = fy

@@ -17,6 +17,7 @@ from cnctwin.thread.connection import (
     ConnectionState,
     MachineConnection,
     Reading,
+    SampleBlock,
     now_s,
 )
 from cnctwin.thread.signals import COMMANDS, SIGNALS, RunState, SignalSpec
@@ -67,6 +68,7 @@ if TYPE_CHECKING:
     )
     from cnctwin.thread.mtconnect_map import RUN_STATE_EXECUTION, UNIT_FACTORS
     from cnctwin.thread.opcua import (
+        BLOCK_NODE,
         DEFAULT_SUBSCRIPTION_MS,
         NAMESPACE_URI,
         NODE_MAP,
@@ -124,6 +126,7 @@ _LAZY = {
     "WRITE_MAP": "cnctwin.thread.modbus_map",
     "RegisterAddress": "cnctwin.thread.modbus_map",
     "NAMESPACE_URI": "cnctwin.thread.opcua",
+    "BLOCK_NODE": "cnctwin.thread.opcua",
     "NODE_MAP": "cnctwin.thread.opcua",
     "OpcUaConnection": "cnctwin.thread.opcua",
     "variant_type": "cnctwin.thread.opcua",
@@ -160,6 +163,7 @@ __all__ = [
     "MTConnectConnection",
     "OpcUaConnection",
     "Reading",
+    "SampleBlock",
     "RunState",
     "SignalSpec",
     "now_s",
@@ -173,6 +177,7 @@ __all__ = [
     "WRITE_MAP",
     "RegisterAddress",
     "NAMESPACE_URI",
+    "BLOCK_NODE",
     "NODE_MAP",
     "variant_type",
     "TrustList",

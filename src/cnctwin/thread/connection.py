@@ -18,6 +18,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Self
 
+import numpy as np
+
 from cnctwin.errors import CnctwinError, DataError
 
 __all__ = [
@@ -27,6 +29,7 @@ __all__ = [
     "ConnectionState",
     "MachineConnection",
     "Reading",
+    "SampleBlock",
 ]
 
 logger = logging.getLogger(__name__)
@@ -82,6 +85,34 @@ class Reading:
     source_time_s: float | None = None
     server_time_s: float | None = None
     sequence: float | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class SampleBlock:
+    """Samples of a fast signal (a vibration sensor) that a machine serves as a block.
+
+    Attributes
+    ----------
+    name
+        The block's name (``"vibration"``).
+    first_index
+        Index of the first sample since the machine's sensor started (sample ``i`` was taken
+        at ``i / rate_hz`` s of the sensor's clock).
+    rate_hz
+        Sampling rate, Hz.
+    samples
+        (n, channels) values in the block's unit, oldest first.
+    """
+
+    name: str
+    first_index: int
+    rate_hz: float
+    samples: np.ndarray
+
+    @property
+    def end_index(self) -> int:
+        """Index just after the last sample."""
+        return self.first_index + int(self.samples.shape[0])
 
 
 @dataclass(frozen=True)
@@ -145,6 +176,13 @@ class MachineConnection(ABC):
     async def _write(self, name: str, value: float) -> None:
         """Write one command (a name of :data:`~cnctwin.thread.signals.COMMANDS`)."""
 
+    async def _read_block(self, name: str, since: int) -> SampleBlock:
+        """The samples of block ``name`` from index ``since`` on; this default has none."""
+        raise DataError(
+            f"the {type(self).__name__} transport carries no sample blocks ({name!r}); "
+            "read it over an in-process connection"
+        )
+
     async def _reopen(self) -> str:
         """Restore the transport after a loss; return how, one line.
 
@@ -196,6 +234,20 @@ class MachineConnection(ABC):
             reason = reading.rejected.get(name, "not mapped")
             raise DataError(f"machine signal {name!r} unusable: {reason}")
         return reading.values[name]
+
+    async def read_block(self, name: str, since: int) -> SampleBlock:
+        """Read the samples of a fast signal taken from index ``since`` on (fewer, from the
+        oldest kept, when the machine no longer holds them); :class:`ConnectionLost` (and a
+        reconnect) on failure, :class:`~cnctwin.errors.DataError` when the transport or the
+        machine has no such block."""
+        self._require_connected()
+        try:
+            return await asyncio.wait_for(self._read_block(name, since), self.timeout_s)
+        except (OSError, TimeoutError, ConnectionLost) as err:
+            self._lost(err)
+            raise ConnectionLost(
+                f"read of block {name} failed: {err or type(err).__name__}"
+            ) from err
 
     async def write(self, name: str, value: float) -> None:
         """Write one command; :class:`ConnectionLost` (and a reconnect) on failure."""

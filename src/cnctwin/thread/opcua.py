@@ -25,6 +25,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from asyncua import ua
 from asyncua.client.client import Client
 from asyncua.client.ua_client import UaClientState
@@ -42,6 +43,7 @@ from cnctwin.thread.connection import (
     ConnectionLost,
     MachineConnection,
     Reading,
+    SampleBlock,
     now_s,
 )
 from cnctwin.thread.signals import COMMANDS, SIGNALS
@@ -51,6 +53,7 @@ __all__ = [
     "CLIENT_APPLICATION_URI",
     "DEFAULT_SUBSCRIPTION_MS",
     "NAMESPACE_URI",
+    "BLOCK_NODE",
     "NODE_MAP",
     "OpcUaConnection",
     "variant_type",
@@ -76,6 +79,13 @@ _SESSION_TIMEOUT_MS = 600_000
 
 #: Canonical signal name -> string identifier of its node in :data:`NAMESPACE_URI`.
 #: The dotted identifier is also the browse path below ``Objects/Machines``.
+#: The node a machine serves its vibration samples in (node id in the namespace
+#: :data:`NAMESPACE_URI`): a ByteString of little-endian float64 ``[first index, rate (Hz),
+#: channels, samples row by row...]`` of the newest samples, made when read
+#: (cnctwin.virtual.opcua_server; a ByteString is copied whole, where a Double array is
+#: coded value by value).
+BLOCK_NODE = "Machine.Vibration.Block"
+
 NODE_MAP: dict[str, str] = {
     "t_s": "Machine.Production.ActiveProgram.ElapsedTime",
     "program_line": "Machine.Production.ActiveProgram.LineNumber",
@@ -352,6 +362,31 @@ class OpcUaConnection(MachineConnection):
 
         subscription.restore = watched  # type: ignore[method-assign]
         subscription.recreate = recreating  # type: ignore[method-assign]
+
+    async def _read_block(self, name: str, since: int) -> SampleBlock:
+        """Read :data:`BLOCK_NODE` (the newest samples) and keep those from ``since`` on."""
+        client = self._client
+        if client is None or client.uaclient.state is not UaClientState.CONNECTED:
+            raise ConnectionLost("OPC UA client is not open")
+        if name != "vibration":
+            raise DataError(f"block {name!r}: an OPC UA machine serves 'vibration' only")
+        try:
+            ns = await client.get_namespace_index(NAMESPACE_URI)
+            packed = await client.get_node(
+                ua.NodeId(ua.String(BLOCK_NODE), ua.Int16(ns))
+            ).read_value()
+        except (ValueError, UaStatusCodeError) as err:
+            raise DataError(
+                f"block {name!r}: {self.endpoint} serves no {BLOCK_NODE} ({err})"
+            ) from None
+        raw = packed if isinstance(packed, bytes) else b""
+        values = np.frombuffer(raw[: len(raw) // 8 * 8], dtype="<f8")
+        if values.size < 3 or values[2] < 1 or (values.size - 3) % int(values[2]):
+            raise DataError(f"block {name!r}: {BLOCK_NODE} of {values.size} values is garbage")
+        first, rate, channels = int(values[0]), float(values[1]), int(values[2])
+        samples = values[3:].reshape(-1, channels)
+        skip = min(max(since - first, 0), samples.shape[0])
+        return SampleBlock(name, first + skip, rate, samples[skip:])
 
     async def _read_signal(self, name: str) -> float:
         client = self._client

@@ -13,8 +13,16 @@ from __future__ import annotations
 import math
 from typing import Protocol
 
-from cnctwin.errors import ConfigError
-from cnctwin.thread import COMMANDS, SIGNALS, ConnectionLost, MachineConnection, Reading, now_s
+from cnctwin.errors import ConfigError, DataError
+from cnctwin.thread import (
+    COMMANDS,
+    SIGNALS,
+    ConnectionLost,
+    MachineConnection,
+    Reading,
+    SampleBlock,
+    now_s,
+)
 
 __all__ = ["LocalConnection", "MachineSource"]
 
@@ -110,6 +118,15 @@ class LocalConnection(MachineConnection):
                 continue
             values[name] = value
         return Reading(values, now_s(), rejected)
+
+    async def _read_block(self, name: str, since: int) -> SampleBlock:
+        if not self._up:
+            raise ConnectionLost("local link is down")
+        block = getattr(self.machine, "block", None)
+        if block is None:
+            raise DataError(f"block {name!r}: the machine serves no sample blocks")
+        result: SampleBlock = block(name, since)
+        return result
 
     async def _write(self, name: str, value: float) -> None:
         if not self._up:

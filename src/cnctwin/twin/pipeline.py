@@ -13,6 +13,7 @@ from cnctwin.control import Expression, RuleEngine, SafetyFilter
 from cnctwin.thread import SIGNALS, MachineConnection
 from cnctwin.twin.actions import ActionStage, RuleStage
 from cnctwin.twin.adaptive_feed import AdaptiveFeedStage, program_engagement_map
+from cnctwin.twin.chatter_live import chatter_stage
 from cnctwin.twin.config import RunConfig
 from cnctwin.twin.model_stage import LoadedModel, ModelStage, load_models
 from cnctwin.twin.monitoring import ForceBand
@@ -197,6 +198,8 @@ def build_twin(
     stages += [ModelStage(model) for model in models]
     if twin_cfg.roughness.enabled:  # after the models: one may give the vibration
         stages.append(RoughnessStage(twin_cfg.roughness, config.tools, valid_names))
+    if twin_cfg.chatter.enabled:  # before the rules: they may read its predictions
+        stages.append(chatter_stage(config, connection, program))
     stages.append(RuleStage(engine))
     adaptive = twin_cfg.adaptive_feed
     if adaptive.enabled:  # after the rules: a rule's lower override goes first

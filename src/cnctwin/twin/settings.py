@@ -11,6 +11,7 @@ from pydantic_core import PydanticCustomError
 from cnctwin.config import Section, resolve_file
 from cnctwin.learn import FilterSpec, WindowSpec
 from cnctwin.twin.adaptive_feed import AdaptiveFeedConfig
+from cnctwin.twin.chatter_live import ChatterConfig
 from cnctwin.twin.roughness import RoughnessConfig
 
 __all__ = [
@@ -355,6 +356,8 @@ class TwinSettings(Section):
         Adaptive feed control (Ward 2021, Eq. 7; :mod:`cnctwin.twin.adaptive_feed`).
     roughness
         Roughness per sample and program section (:mod:`cnctwin.twin.roughness`).
+    chatter
+        Online chatter detection and avoidance (:mod:`cnctwin.twin.chatter_live`).
     stop_confirmation
         When a stop counts as done, and the escalation when it does not.
     overload
@@ -378,6 +381,7 @@ class TwinSettings(Section):
     wear: WearConfig = Field(default_factory=WearConfig)
     adaptive_feed: AdaptiveFeedConfig = Field(default_factory=AdaptiveFeedConfig)
     roughness: RoughnessConfig = Field(default_factory=RoughnessConfig)
+    chatter: ChatterConfig = Field(default_factory=ChatterConfig)
     stop_confirmation: StopConfirmationConfig = Field(default_factory=StopConfirmationConfig)
     overload: OverloadConfig = Field(default_factory=OverloadConfig)
     models: list[ModelConfig] = Field(default_factory=list, max_length=16)

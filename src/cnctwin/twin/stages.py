@@ -25,7 +25,9 @@ Names a stage adds to :attr:`CycleState.predicted` (units in the names):
   ``adaptive_feed_teaching``;
 - roughness (:mod:`cnctwin.twin.roughness`): ``roughness_ra_um``, ``roughness_kin_ra_um``,
   ``roughness_kin_rz_um``, ``roughness_kin_wall_rz_um``, ``roughness_section_ra_mean_um``,
-  ``roughness_section_ra_max_um``, ``roughness_section_kin_rz_max_um``.
+  ``roughness_section_ra_max_um``, ``roughness_section_kin_rz_max_um``;
+- chatter (:mod:`cnctwin.twin.chatter_live`): ``chatter_ratio``, ``chatter_frequency_hz``,
+  ``chatter_detected``, ``chatter_vibration_um``, ``chatter_stable_rpm``, ``chatter_avoided``.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from cnctwin.signals import (
 )
 from cnctwin.thread import SIGNALS, ConnectionLost, MachineConnection, RunState
 from cnctwin.twin.adaptive_feed import ADAPTIVE_FEED_PREDICTIONS
+from cnctwin.twin.chatter_live import CHATTER_PREDICTIONS
 from cnctwin.twin.freshness import Freshness
 from cnctwin.twin.monitoring import ForceBand
 from cnctwin.twin.physics import TwinPhysics
@@ -104,6 +107,7 @@ PREDICTIONS = (
     *WEAR_PREDICTIONS,
     *ADAPTIVE_FEED_PREDICTIONS,
     *ROUGHNESS_PREDICTIONS,
+    *CHATTER_PREDICTIONS,
 )
 
 

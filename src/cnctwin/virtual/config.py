@@ -24,6 +24,7 @@ __all__ = [
     "HoleFault",
     "NoiseConfig",
     "ToolBreakageFault",
+    "VibrationConfig",
     "VirtualMachineConfig",
     "WearFault",
 ]
@@ -238,6 +239,46 @@ FaultConfig = Annotated[
 ]
 
 
+class VibrationConfig(Section):
+    """The regenerative vibration of the cut and its sensor (``[virtual.vibration]``).
+
+    With a stability file (the tool's modes, docs/stability.md) the machine integrates the
+    time-domain milling model with those modes while it cuts (:mod:`cnctwin.virtual.vibration`,
+    Royandi 2026, Eq. 1-12): an unstable depth chatters, a stable one does not. A tool-tip
+    displacement sensor samples it at ``sample_rate_hz`` and the machine serves the samples as a
+    block (``MachineConnection.read_block("vibration")``), x along the feed, y across it, um.
+
+    Attributes
+    ----------
+    stability_file
+        Stability file whose ``[[modes]]`` are the tool's (relative to this file); ``None``:
+        no vibration (the default).
+    tool
+        The tool those modes are of (its number in ``[[tools]]``); other tools do not vibrate.
+    sample_rate_hz
+        Sampling rate of the displacement sensor, Hz (1 kHz to 100 kHz).
+    steps_per_tooth
+        Integration steps per tooth period; ``None``: 200 per cycle of the highest mode.
+    noise_um
+        Sensor noise (Gaussian, standard deviation), um.
+    buffer_s
+        Samples the machine keeps for a reader, s of signal (a reader slower than this loses
+        samples).
+    """
+
+    stability_file: Path | None = None
+    tool: int = Field(default=1, ge=0, le=10_000)
+    sample_rate_hz: float = Field(default=10_000.0, ge=1_000.0, le=100_000.0)
+    steps_per_tooth: int | None = Field(default=None, ge=20, le=10_000)
+    noise_um: float = Field(default=0.05, ge=0.0, le=1_000.0)
+    buffer_s: float = Field(default=1.0, gt=0.0, le=60.0)
+
+    @field_validator("stability_file")
+    @classmethod
+    def _relative_to_file(cls, value: Path | None, info: ValidationInfo) -> Path | None:
+        return resolve_file(value, info)
+
+
 class VirtualMachineConfig(Section):
     """The simulated machine (``[virtual]``).
 
@@ -267,6 +308,8 @@ class VirtualMachineConfig(Section):
         Feed drives, for the axis loads.
     faults
         Injected faults and anomalies (``[[virtual.faults]]``), each with its ``kind``.
+    vibration
+        The cut's regenerative vibration and its displacement sensor (off by default).
     """
 
     program: Path | None = None
@@ -279,6 +322,7 @@ class VirtualMachineConfig(Section):
     seed: int = Field(default=0, ge=0, le=2**64 - 1)
     axes: AxisDriveConfig = Field(default_factory=AxisDriveConfig)
     faults: list[FaultConfig] = Field(default_factory=list)
+    vibration: VibrationConfig = Field(default_factory=VibrationConfig)
 
     @field_validator("program", "physics_config")
     @classmethod

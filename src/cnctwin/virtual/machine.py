@@ -39,16 +39,17 @@ import numpy as np
 
 from cnctwin.config import MachiningConfig, ToolConfig, load_config
 from cnctwin.drives import RAD_S_PER_RPM, EventState, SpindleDrive
-from cnctwin.errors import ConfigError, NCError
+from cnctwin.errors import ConfigError, DataError, NCError
 from cnctwin.examples import example_file
 from cnctwin.geometry import Cutter, DexelStock, Engagement, cut
-from cnctwin.mechanics import milling_material
+from cnctwin.mechanics import CuttingCoefficients, milling_material
 from cnctwin.nc import PLANE_AXES, CutterComp, Interpreter, Plane, Segment
 from cnctwin.simulation import CutStep, axial_material, spindle_drive_parameters, step_forces
-from cnctwin.thread import COMMANDS, SIGNALS, RunState
+from cnctwin.thread import COMMANDS, SIGNALS, RunState, SampleBlock
 from cnctwin.virtual._motion import PathFollower
 from cnctwin.virtual.config import HoleFault, VirtualMachineConfig
 from cnctwin.virtual.faults import FaultEvent, FaultInjector, blank_with_holes
+from cnctwin.virtual.vibration import BLOCK_NAME, VibrationSensor
 
 __all__ = ["VirtualMachine", "check_command"]
 
@@ -161,6 +162,7 @@ class VirtualMachine:
         self._values["spindle_override_pct"] = 100.0
         self._values["work_offset"] = 1.0
         self._heartbeat = 0
+        self._vibration = _vibration_sensor(config, p, self._coefficients)
         self._start_run()
 
     # ------------------------------------------------------------------ program runs
@@ -255,6 +257,24 @@ class VirtualMachine:
     def tick_s(self) -> float:
         """The configured simulation step, s."""
         return self.config.tick_s
+
+    def block(self, name: str, since: int) -> SampleBlock:
+        """The samples of a fast signal from index ``since`` on: ``"vibration"``, the tool-tip
+        displacement sensor of ``[virtual.vibration]`` (x along the feed, y across it, um;
+        :mod:`cnctwin.virtual.vibration`).
+
+        Raises
+        ------
+        DataError
+            For another name, or a machine without ``[virtual.vibration]``.
+        """
+        if name != BLOCK_NAME or self._vibration is None:
+            raise DataError(
+                f"block {name!r}: this virtual machine serves "
+                + ("'vibration'" if self._vibration is not None else "no blocks")
+                + " (set [virtual.vibration] stability_file for a vibration sensor)"
+            )
+        return self._vibration.block(since)
 
     def snapshot(self) -> dict[str, float]:
         """Current value of every signal of :data:`~cnctwin.thread.signals.SIGNALS`.
@@ -387,6 +407,7 @@ class VirtualMachine:
         forces = (0.0, 0.0, 0.0)
         torque = 0.0
         contact = False
+        vibrating: tuple[Engagement, float] | None = None  # the cut the sensor sees
         tool = self._tools.get(tool_number)
         if tool is None and tool_number != 0 and self._run_state not in _STOPPED_STATES:
             self._fault(f"tool T{tool_number} has no geometry in [[tools]] (line {line})")
@@ -402,6 +423,7 @@ class VirtualMachine:
                 engagement = cut(self._stock, cutter, cut_tcp, self._prev_tcp, fz, dt_s)
                 if engagement.contact:
                     contact = True
+                    vibrating = (engagement, fz)
                     fx, fy, fz_n, torque, mean_n = self._mean_load(
                         engagement, tool_number, cutter, fz, rpm
                     )
@@ -417,6 +439,11 @@ class VirtualMachine:
                     )
             self._prev_tcp = cut_tcp
         self._cut_steps = self._cut_steps + 1 if contact else 0
+        sensor = self._vibration
+        if sensor is not None:
+            cutting = vibrating is not None and tool_number == sensor.tool_number
+            engaged, fz_mm = vibrating if cutting and vibrating is not None else (None, 0.0)
+            sensor.update(self._t, spindle_rpm, engaged, fz_mm)
 
         # Spindle drive, loaded by the cutting torque (Christiand 2024, Eq. 15). After M5, a
         # stop or the end the drive brakes the spindle to rest (reference 0), then switches off.
@@ -598,6 +625,23 @@ def check_command(name: str, value: float) -> float:
     if not spec.low <= number <= spec.high:
         raise ConfigError(f"command {name}={value!r} is out of range; valid: {valid}")
     return number
+
+
+def _vibration_sensor(
+    config: VirtualMachineConfig, physics: MachiningConfig, coefficients: CuttingCoefficients
+) -> VibrationSensor | None:
+    """The vibration sensor of ``[virtual.vibration]``, or ``None`` without a stability file."""
+    vibration = config.vibration
+    if vibration.stability_file is None:
+        return None
+    tool = next((t for t in physics.tools if t.number == vibration.tool), None)
+    if tool is None:
+        numbers = ", ".join(str(t.number) for t in physics.tools) or "none"
+        raise ConfigError(
+            f"virtual.vibration.tool = {vibration.tool}: no such tool in [[tools]] "
+            f"(numbers: {numbers})"
+        )
+    return VibrationSensor(vibration, tool, coefficients, seed=config.seed)
 
 
 def _load_physics(config: VirtualMachineConfig) -> MachiningConfig:

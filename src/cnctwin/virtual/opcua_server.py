@@ -34,6 +34,7 @@ from datetime import UTC
 from pathlib import Path
 from typing import Any, Literal, Protocol
 
+import numpy as np
 from asyncua import Server, ua
 from asyncua.common.utils import ServiceError
 from asyncua.crypto.permission_rules import USER_TYPES, PermissionRuleset, User, UserRole
@@ -42,10 +43,19 @@ from asyncua.server.user_managers import UserManager
 
 from cnctwin import __version__
 from cnctwin.errors import CnctwinError, ConfigError
-from cnctwin.thread import COMMANDS, NAMESPACE_URI, NODE_MAP, SIGNALS, TrustList, variant_type
+from cnctwin.thread import (
+    BLOCK_NODE,
+    COMMANDS,
+    NAMESPACE_URI,
+    NODE_MAP,
+    SIGNALS,
+    TrustList,
+    variant_type,
+)
 from cnctwin.virtual.exposure import check_exposure
 from cnctwin.virtual.machine_tool import add_machine_tool, mirror_value
 from cnctwin.virtual.users import UserTable
+from cnctwin.virtual.vibration import BLOCK_NAME
 
 __all__ = [
     "SERVER_APPLICATION_URI",
@@ -156,7 +166,18 @@ class _Ruleset(PermissionRuleset):
 
 class _MachineAttributeService(AttributeService):
     """Write service: an operator's writes of command nodes go to the source; every other
-    client write is refused. The server's own internal writes (its clock) pass."""
+    client write is refused. The server's own internal writes (its clock) pass. Read
+    service: the vibration block's value is made when it is read (:meth:`OpcUaMachineServer.
+    block_value`)."""
+
+    def read(self, params: ua.ReadParameters) -> list[ua.DataValue]:
+        results = super().read(params)
+        block = self._machine.block_node
+        if block is not None:
+            for index, item in enumerate(params.NodesToRead):
+                if item.NodeId == block and item.AttributeId == ua.AttributeIds.Value:
+                    results[index] = self._machine.block_value()
+        return results
 
     def __init__(self, server: OpcUaMachineServer, base: AttributeService, internal: User) -> None:
         super().__init__(base._aspace)
@@ -246,6 +267,8 @@ class OpcUaMachineServer:
         self.namespace_index = 0
         self._server: Server | None = None
         self._names: dict[ua.NodeId, str] = {}
+        #: The vibration block's node (a source with a ``block`` method), else ``None``.
+        self.block_node: ua.NodeId | None = None
         self._published: dict[str, Any] = {}
         self._slots: dict[str, AttributeValue] = {}
         self._tasks: set[asyncio.Task[None]] = set()
@@ -442,9 +465,40 @@ class OpcUaMachineServer:
             self._slots[name] = server.iserver.aspace[variable.nodeid].attributes[
                 ua.AttributeIds.Value
             ]
+        if callable(getattr(self.source, "block", None)):  # a machine with a vibration sensor
+            vibration = await parent(tuple(BLOCK_NODE.split(".")[:-1]))
+            node = await vibration.add_variable(
+                _node_id(BLOCK_NODE, ns),
+                ua.QualifiedName(BLOCK_NODE.split(".")[-1], ns),
+                ua.Variant(np.zeros(3, "<f8").tobytes(), ua.VariantType.ByteString),
+                datatype=ua.NodeId(ua.Int32(ua.ObjectIds.ByteString)),
+            )
+            self.block_node = node.nodeid
+
+    def block_value(self) -> ua.DataValue:
+        """The value of :data:`~cnctwin.thread.BLOCK_NODE`, made when read: the machine's last
+        :data:`BLOCK_WINDOW_S` of vibration samples as a ByteString of little-endian float64,
+        ``[first index, rate (Hz), channels, samples row by row...]``
+        (cnctwin.virtual.vibration); ``BadNoData`` without them."""
+        read = self.source.block  # type: ignore[attr-defined]
+        try:
+            count = read(BLOCK_NAME, 2**62).first_index  # an empty block: the samples taken
+            block = read(BLOCK_NAME, count - 1)
+            block = read(BLOCK_NAME, count - math.ceil(BLOCK_WINDOW_S * block.rate_hz))
+        except CnctwinError:
+            return ua.DataValue(StatusCode=_status(ua.StatusCodes.BadNoData))
+        samples = np.asarray(block.samples, dtype=np.float64)
+        head = np.array([block.first_index, block.rate_hz, samples.shape[1]], dtype="<f8")
+        data = np.concatenate((head, samples.ravel())).astype("<f8").tobytes()
+        packed = ua.Variant(data, ua.VariantType.ByteString)
+        now = ua.DateTime.now(UTC)
+        return ua.DataValue(packed, SourceTimestamp=now, ServerTimestamp=now)
 
 
 _UNSET = object()
+#: Seconds of the newest vibration samples a read of the block node returns (a reader slower
+#: than this between two reads loses samples, and says so: ``chatter_gap``).
+BLOCK_WINDOW_S = 0.1
 _DATATYPES = {
     ua.VariantType.Double: ua.NodeId(ua.Int32(ua.ObjectIds.Double)),
     ua.VariantType.Int32: ua.NodeId(ua.Int32(ua.ObjectIds.Int32)),
