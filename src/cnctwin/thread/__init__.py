@@ -8,8 +8,9 @@ they are imported on first use so that the signal catalogue and the connection i
 light for the modules that only need those.
 """
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from cnctwin import _lazy
 from cnctwin.thread.connection import (
     Backoff,
     CommandRejected,
@@ -77,57 +78,57 @@ if TYPE_CHECKING:
 
 # pydantic, asyncio, asyncua, pymodbus and cryptography load with these: imported on first use.
 _LAZY = {
-    "AdsConnection": "cnctwin.thread.ads",
-    "default_symbol_map": "cnctwin.thread.ads",
-    "Symbol": "cnctwin.thread.ads_map",
-    "SymbolMap": "cnctwin.thread.ads_map",
-    "load_symbol_map": "cnctwin.thread.ads_map",
-    "ConnectionConfig": "cnctwin.thread.config",
-    "OpcUaSecurityConfig": "cnctwin.thread.config",
-    "JitterProxy": "cnctwin.thread.latency",
-    "LatencyResult": "cnctwin.thread.latency",
-    "measure_latency": "cnctwin.thread.latency",
-    "measure_read_latency": "cnctwin.thread.latency",
-    "DEFAULT_SUBSCRIPTION_MS": "cnctwin.thread.opcua",
-    "LatencyStats": "cnctwin.thread.latency",
-    "measure_endpoint_latency": "cnctwin.thread.latency",
-    "ModbusConnection": "cnctwin.thread.modbus",
-    "Mosquitto": "cnctwin.thread.mosquitto",
-    "LinkEvent": "cnctwin.thread.mqtt",
-    "MqttPublisher": "cnctwin.thread.mqtt",
-    "MqttSource": "cnctwin.thread.mqtt",
-    "SensorValue": "cnctwin.thread.mqtt",
-    "measure_mqtt_latency": "cnctwin.thread.mqtt",
-    "parse_sensor_payload": "cnctwin.thread.mqtt",
-    "SENSOR_SIGNALS": "cnctwin.thread.mqtt_config",
-    "MqttConfig": "cnctwin.thread.mqtt_config",
-    "MqttPublishConfig": "cnctwin.thread.mqtt_config",
-    "MqttSignalConfig": "cnctwin.thread.mqtt_config",
-    "broker_address": "cnctwin.thread.mqtt_config",
-    "LinuxCncConnection": "cnctwin.thread.linuxcnc",
-    "MTConnectConnection": "cnctwin.thread.mtconnect",
-    "SequenceGap": "cnctwin.thread.mtconnect",
-    "AgentError": "cnctwin.thread.mtconnect_documents",
-    "DataItem": "cnctwin.thread.mtconnect_documents",
-    "Devices": "cnctwin.thread.mtconnect_documents",
-    "Observation": "cnctwin.thread.mtconnect_documents",
-    "ShdrFeed": "cnctwin.thread.mtconnect_documents",
-    "ShdrRecord": "cnctwin.thread.mtconnect_documents",
-    "Streams": "cnctwin.thread.mtconnect_documents",
-    "parse_devices": "cnctwin.thread.mtconnect_documents",
-    "parse_shdr": "cnctwin.thread.mtconnect_documents",
-    "parse_streams": "cnctwin.thread.mtconnect_documents",
-    "RUN_STATE_EXECUTION": "cnctwin.thread.mtconnect_map",
-    "UNIT_FACTORS": "cnctwin.thread.mtconnect_map",
-    "READ_MAP": "cnctwin.thread.modbus_map",
-    "STATUS_MAP": "cnctwin.thread.modbus_map",
-    "WRITE_MAP": "cnctwin.thread.modbus_map",
-    "RegisterAddress": "cnctwin.thread.modbus_map",
-    "NAMESPACE_URI": "cnctwin.thread.opcua",
-    "NODE_MAP": "cnctwin.thread.opcua",
-    "OpcUaConnection": "cnctwin.thread.opcua",
-    "variant_type": "cnctwin.thread.opcua",
-    "TrustList": "cnctwin.thread.trust",
+    "AdsConnection": "ads",
+    "default_symbol_map": "ads",
+    "Symbol": "ads_map",
+    "SymbolMap": "ads_map",
+    "load_symbol_map": "ads_map",
+    "ConnectionConfig": "config",
+    "OpcUaSecurityConfig": "config",
+    "JitterProxy": "latency",
+    "LatencyResult": "latency",
+    "measure_latency": "latency",
+    "measure_read_latency": "latency",
+    "DEFAULT_SUBSCRIPTION_MS": "opcua",
+    "LatencyStats": "latency",
+    "measure_endpoint_latency": "latency",
+    "ModbusConnection": "modbus",
+    "Mosquitto": "mosquitto",
+    "LinkEvent": "mqtt",
+    "MqttPublisher": "mqtt",
+    "MqttSource": "mqtt",
+    "SensorValue": "mqtt",
+    "measure_mqtt_latency": "mqtt",
+    "parse_sensor_payload": "mqtt",
+    "SENSOR_SIGNALS": "mqtt_config",
+    "MqttConfig": "mqtt_config",
+    "MqttPublishConfig": "mqtt_config",
+    "MqttSignalConfig": "mqtt_config",
+    "broker_address": "mqtt_config",
+    "LinuxCncConnection": "linuxcnc",
+    "MTConnectConnection": "mtconnect",
+    "SequenceGap": "mtconnect",
+    "AgentError": "mtconnect_documents",
+    "DataItem": "mtconnect_documents",
+    "Devices": "mtconnect_documents",
+    "Observation": "mtconnect_documents",
+    "ShdrFeed": "mtconnect_documents",
+    "ShdrRecord": "mtconnect_documents",
+    "Streams": "mtconnect_documents",
+    "parse_devices": "mtconnect_documents",
+    "parse_shdr": "mtconnect_documents",
+    "parse_streams": "mtconnect_documents",
+    "RUN_STATE_EXECUTION": "mtconnect_map",
+    "UNIT_FACTORS": "mtconnect_map",
+    "READ_MAP": "modbus_map",
+    "STATUS_MAP": "modbus_map",
+    "WRITE_MAP": "modbus_map",
+    "RegisterAddress": "modbus_map",
+    "NAMESPACE_URI": "opcua",
+    "NODE_MAP": "opcua",
+    "OpcUaConnection": "opcua",
+    "variant_type": "opcua",
+    "TrustList": "trust",
 }
 
 __all__ = [
@@ -195,10 +196,4 @@ __all__ = [
     "UNIT_FACTORS",
 ]
 
-
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__, __dir__ = _lazy.exports(__name__, _LAZY)
