@@ -18,7 +18,8 @@ read round trip alone (one batched read: for MTConnect a ``/sample`` request and
 answer, what the twin does each cycle), with the same pauses, jitter and statistics.
 
 Everything here takes a :class:`~cnctwin.thread.connection.MachineConnection` and is
-transport-agnostic.
+transport-agnostic, but for :func:`measure_broker_latency`: MQTT's publish-to-receive round
+trip through a broker (``cnctwin bench latency --transport mqtt``).
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ __all__ = [
     "JitterProxy",
     "LatencyResult",
     "LatencyStats",
+    "measure_broker_latency",
     "measure_endpoint_latency",
     "measure_latency",
     "measure_read_latency",
@@ -530,3 +532,54 @@ async def measure_endpoint_latency(
         netloc = f"{proxy.host}:{proxy.port}"
         via = parts._replace(netloc=f"{userinfo}@{netloc}" if userinfo else netloc)
         return await once(urlunsplit(via))
+
+
+async def measure_broker_latency(
+    endpoint: str | None,
+    *,
+    n: int,
+    interval_s: float,
+    jitter_ms: float = 0.0,
+    seed: int = 0,
+) -> tuple[LatencyResult, str]:
+    """The MQTT publish-to-receive round trip (:func:`~cnctwin.thread.mqtt.measure_mqtt_latency`)
+    through the broker at ``endpoint``, or through a private Mosquitto started for it.
+
+    Parameters
+    ----------
+    endpoint
+        The broker, ``mqtt://HOST:PORT``; ``None``: start a private
+        :class:`~cnctwin.thread.mosquitto.Mosquitto` on loopback for the run.
+    n, interval_s
+        Round trips and the pause between them, s.
+    jitter_ms, seed
+        One-way jitter J on the publisher's path, ms, and its seed.
+
+    Returns
+    -------
+    tuple
+        The result and the broker measured.
+
+    Raises
+    ------
+    InputError
+        When ``endpoint`` is not a broker address.
+    """
+    from cnctwin.thread.mosquitto import Mosquitto
+    from cnctwin.thread.mqtt import measure_mqtt_latency
+    from cnctwin.thread.mqtt_config import broker_address
+
+    if endpoint is None:
+        with Mosquitto() as broker:
+            result = await measure_mqtt_latency(
+                broker.url, n=n, interval_s=interval_s, jitter_ms=jitter_ms, seed=seed
+            )
+            return result, broker.url
+    try:
+        broker_address(endpoint)
+    except ValueError as err:
+        raise InputError(str(err)) from None
+    result = await measure_mqtt_latency(
+        endpoint, n=n, interval_s=interval_s, jitter_ms=jitter_ms, seed=seed
+    )
+    return result, endpoint
