@@ -69,6 +69,7 @@ if TYPE_CHECKING:
     )
     from cnctwin.thread.mtconnect_map import RUN_STATE_EXECUTION, UNIT_FACTORS
     from cnctwin.thread.opcua import (
+        CLIENT_APPLICATION_URI,
         DEFAULT_SUBSCRIPTION_MS,
         NAMESPACE_URI,
         NODE_MAP,
@@ -126,6 +127,7 @@ _LAZY = {
     "STATUS_MAP": "modbus_map",
     "WRITE_MAP": "modbus_map",
     "RegisterAddress": "modbus_map",
+    "CLIENT_APPLICATION_URI": "opcua",
     "NAMESPACE_URI": "opcua",
     "NODE_MAP": "opcua",
     "OpcUaConnection": "opcua",
@@ -176,6 +178,7 @@ __all__ = [
     "STATUS_MAP",
     "WRITE_MAP",
     "RegisterAddress",
+    "CLIENT_APPLICATION_URI",
     "NAMESPACE_URI",
     "NODE_MAP",
     "variant_type",

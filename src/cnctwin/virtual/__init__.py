@@ -42,6 +42,7 @@ from cnctwin.virtual.users import ROLES, Role, UserTable, hash_password, load_us
 
 if TYPE_CHECKING:
     from cnctwin.virtual.ads_server import AdsMachineServer
+    from cnctwin.virtual.certificates import application_certificate
     from cnctwin.virtual.modbus_server import ModbusMachineServer
     from cnctwin.virtual.mtconnect_agent import MTConnectAgent
     from cnctwin.virtual.opcua_server import OpcUaMachineServer, OpcUaServerSecurity, SecurityMode
@@ -51,6 +52,7 @@ if TYPE_CHECKING:
 # first use.
 _LAZY = {
     "AdsMachineServer": "ads_server",
+    "application_certificate": "certificates",
     "ModbusMachineServer": "modbus_server",
     "MTConnectAgent": "mtconnect_agent",
     "OpcUaMachineServer": "opcua_server",
@@ -87,6 +89,7 @@ __all__ = [
     "VirtualMachine",
     "VirtualMachineConfig",
     "WearFault",
+    "application_certificate",
     "blank_with_holes",
     "check_exposure",
     "hash_password",
