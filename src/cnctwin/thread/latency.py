@@ -150,6 +150,13 @@ class LatencyResult:
         }
 
 
+def _check_run(n: int, interval_s: float) -> None:
+    """A latency run of ``n`` round trips ``interval_s`` s apart; ConfigError unless n >= 1
+    and the pause a number >= 0 s."""
+    if n < 1 or not math.isfinite(interval_s) or interval_s < 0:
+        raise ConfigError(f"latency run n={n}, interval_s={interval_s}; valid: n >= 1, >= 0 s")
+
+
 def _targets(name: str, start: float, n: int) -> list[float]:
     """``n`` setpoints of command ``name``, each different from the one before and from
     ``start``: ten steps below ``start`` (whole units where the range allows), cycled."""
@@ -198,8 +205,7 @@ async def measure_latency(
         Write, read and round-trip statistics in ms. The command is set back to the value it
         had before the measurement.
     """
-    if n < 1 or not math.isfinite(interval_s) or interval_s < 0:
-        raise ConfigError(f"latency run n={n}, interval_s={interval_s}; valid: n >= 1, >= 0 s")
+    _check_run(n, interval_s)
     if signal not in COMMANDS:
         raise ConfigError(f"latency signal {signal!r}; valid: {', '.join(COMMANDS)}")
     start = await connection.read_signal(signal)
@@ -276,8 +282,7 @@ async def measure_read_latency(
         ``round_trip_ms`` and ``read_ms`` both the batched read's duration; ``write_ms``
         ``None``.
     """
-    if n < 1 or not math.isfinite(interval_s) or interval_s < 0:
-        raise ConfigError(f"latency run n={n}, interval_s={interval_s}; valid: n >= 1, >= 0 s")
+    _check_run(n, interval_s)
     reads: list[float] = []
     for i in range(n):
         t0 = time.perf_counter()
