@@ -25,14 +25,17 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import json
 import os
 import platform
 import shutil
 import socket
-import sys
+import subprocess
 import tempfile
+import time
 import tomllib
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +53,8 @@ from cnctwin.virtual import virtual_machine_server
 REPO = Path(__file__).resolve().parents[1]
 INTEROP = REPO / "tests" / "interop"
 PRESET = REPO / "examples" / "opcua" / "sinumerik_840d_sl.toml"
+#: The node-opcua server's user that may write the overrides (role Operator).
+USER, PASSWORD = "bench", "bench-s3cret"
 
 
 def _free_port() -> int:
@@ -63,6 +68,38 @@ def _node_ready() -> bool:
         shutil.which("node") is not None
         and (INTEROP / "node_modules" / "node-opcua-server").is_dir()
     )
+
+
+@contextlib.contextmanager
+def _sinumerik_like(port: int, folder: Path) -> Iterator[None]:
+    """tests/interop/sinumerik_like_server.js (node-opcua) on 127.0.0.1:``port``, its user
+    ``USER`` an operator, from its ``{"ready": PORT}`` line until SIGTERM. Its certificate and
+    its output (one line per write, not read) go to ``folder``."""
+    args = ["--port", str(port), "--pki", str(folder), "--user", USER, "--password", PASSWORD]
+    log = folder / "server.log"
+    with log.open("ab") as out:  # appended to: the child's writes never overwrite
+        server = subprocess.Popen(
+            ["node", "sinumerik_like_server.js", *args],
+            cwd=INTEROP,
+            stdin=subprocess.DEVNULL,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env={**os.environ, "NODE_NO_WARNINGS": "1"},
+        )
+    try:
+        deadline = time.monotonic() + 60.0
+        while '"ready"' not in (said := log.read_text(errors="replace")):
+            if server.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError(f"node-opcua server not ready: {said[-2000:]}")
+            time.sleep(0.05)
+        yield
+    finally:
+        server.terminate()
+        try:
+            server.wait(10)
+        except subprocess.TimeoutExpired:
+            server.kill()
+            server.wait()
 
 
 async def _cnctwin_rounds(
@@ -86,8 +123,6 @@ def _node_config(port: int, user: str, password: str) -> ConnectionConfig:
 
 
 async def _node_round(port: int, n: int, interval_s: float) -> dict[str, Any]:
-    from interop.node_opcua import PASSWORD, USER  # the server's operator user
-
     connection = OpcUaConnection(_node_config(port, USER, PASSWORD), subscription_ms=None)
     async with connection:
         result = await measure_latency(connection, n=n, interval_s=interval_s, timeout_s=5.0)
@@ -122,18 +157,11 @@ def run(n: int, interval_ms: float, rounds: int) -> dict[str, Any]:
     ours: list[dict[str, Any]] = []
     theirs: list[dict[str, Any]] = []
     if _node_ready():
-        sys.path.insert(0, str(REPO / "tests"))
-        from interop.node_opcua import start_sinumerik_like
-
-        with tempfile.TemporaryDirectory() as pki:
-            port = _free_port()
-            server = start_sinumerik_like(port, Path(pki))
-            try:
-                for _ in range(rounds):
-                    theirs.append(asyncio.run(_node_round(port, n, interval_s)))
-                    asyncio.run(_cnctwin_rounds(n, interval_s, 1, ours))
-            finally:
-                server.close()
+        port = _free_port()
+        with tempfile.TemporaryDirectory() as pki, _sinumerik_like(port, Path(pki)):
+            for _ in range(rounds):
+                theirs.append(asyncio.run(_node_round(port, n, interval_s)))
+                asyncio.run(_cnctwin_rounds(n, interval_s, 1, ours))
     else:
         report["node_opcua"] = "not installed: node and `npm ci` in tests/interop"
         asyncio.run(_cnctwin_rounds(n, interval_s, rounds, ours))

@@ -31,7 +31,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import platform
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -58,6 +57,7 @@ from cnctwin.virtual import (
     UserTable,
     VirtualMachine,
     VirtualMachineConfig,
+    application_certificate,
     virtual_machine_server,
 )
 
@@ -192,16 +192,13 @@ async def _same_process(
 
 def _security(n: int, interval_s: float, repeats: int) -> list[str]:
     """The same-process set-up with message security None, Sign and SignAndEncrypt
-    (Basic256Sha256), interleaved ``repeats`` times; certificates made by the tests' helper."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-    from pki import certificate  # tests/pki.py: cnctwin's application certificates
-
+    (Basic256Sha256), interleaved ``repeats`` times; self-signed application certificates."""
     rows: list[str] = []
     with tempfile.TemporaryDirectory() as tmp:
         pki = Path(tmp)
         (pki / "trusted").mkdir()
-        certificate(pki, "server", "server")
-        cert, key = certificate(pki, "client", "client")
+        application_certificate(pki, "server", "server")
+        cert, key = application_certificate(pki, "client", "client")
         cert.rename(pki / "trusted" / cert.name)
         key.rename(pki / key.name)
         modes: tuple[SecurityMode, ...] = ("None", "Sign", "SignAndEncrypt")

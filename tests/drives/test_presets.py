@@ -34,14 +34,14 @@ W_REF = 20000.0 * 2.0 * math.pi / 60.0  # the paper's spindle speed, rad/s
 
 def plausible(p: dict[str, float]) -> bool:
     """Physical and control criteria of docs/drives.md, all closed form."""
-    j, b, l, kt, ke, kp, ki, kd = (p[k] for k in TABLE5)
+    j, b, la, kt, ke, kp, ki, kd = (p[k] for k in TABLE5)  # la: armature inductance L
     # Closed-loop characteristic polynomial of Eq. 10-14 (derivative on the speed).
-    poly = [l * j, l * b + R * j + kt * kd, R * b + kt * ke + kt * kp, kt * ki]
+    poly = [la * j, la * b + R * j + kt * kd, R * b + kt * ke + kt * kp, kt * ki]
     poles = np.roots(poly)
     idle_current = b * W_REF / kt
     checks = [
         j <= 1e-3,  # a micro-milling rotor: < 2 kg at < 30 mm radius
-        1e-6 <= l / R <= 1.0,  # armature time constant
+        1e-6 <= la / R <= 1.0,  # armature time constant
         1e-2 <= j / b <= 1e3,  # coast-down time constant
         0.1 <= kt / ke <= 10.0,  # K_T = K_e for an ideal machine in SI units
         1e-3 <= idle_current <= 10.0,  # no-load current at 20,000 rpm

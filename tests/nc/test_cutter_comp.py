@@ -365,8 +365,10 @@ def mismatch(got: list[Segment], expected: list[Move]) -> str | None:
             ok = g.turns == e.turns and _close(g.center_mm, e.centre, tol)
         if not ok:
             lines.append(
-                f"#{i}: got {kinds[g.kind]} {_fmt(g.start_mm)}->{_fmt(g.end_mm)} c={g.center_mm and _fmt(g.center_mm)} "
-                f"t={g.turns}; expected {e.kind} {_fmt(e.start)}->{_fmt(e.end)} c={e.centre and _fmt(e.centre)} t={e.turns}"
+                f"#{i}: got {kinds[g.kind]} {_fmt(g.start_mm)}->{_fmt(g.end_mm)} "
+                f"c={g.center_mm and _fmt(g.center_mm)} t={g.turns}; "
+                f"expected {e.kind} {_fmt(e.start)}->{_fmt(e.end)} "
+                f"c={e.centre and _fmt(e.centre)} t={e.turns}"
             )
             break
     return "\n".join(lines) or None
@@ -427,7 +429,7 @@ def test_square_outside_gets_corner_arcs_of_the_tool_radius_about_the_corners() 
         ((5, -r), None),
     ]
     assert len(out) == len(expected)
-    for seg, (end, corner) in zip(out, expected):
+    for seg, (end, corner) in zip(out, expected, strict=True):
         assert_xy(seg.end_mm, end)
         if corner is not None:
             # G42 goes round convex corners counter-clockwise
@@ -448,7 +450,7 @@ def test_square_inside_corners_are_the_offset_lines_intersections() -> None:
     r = R_TOOL
     ends = [(0, r), (10 - r, r), (10 - r, 10 - r), (r, 10 - r), (r, r), (5, r)]
     assert [s.kind for s in out] == [MotionKind.LINEAR] * 6
-    for seg, end in zip(out, ends):
+    for seg, end in zip(out, ends, strict=True):
         assert_xy(seg.end_mm, end)
     assert_continuous(out)
 
@@ -638,7 +640,9 @@ def test_lathe_orientation_moves_the_path_to_the_imaginary_tip() -> None:
 
 
 def _convex_polygon(angles: list[float], radii: list[float]) -> list[tuple[float, float]]:
-    pts = [(rr * math.cos(a), rr * math.sin(a)) for a, rr in zip(sorted(angles), radii)]
+    pts = [
+        (rr * math.cos(a), rr * math.sin(a)) for a, rr in zip(sorted(angles), radii, strict=False)
+    ]
     # keep the convex hull (counter-clockwise)
     pts.sort()
     hull: list[tuple[float, float]] = []
@@ -659,7 +663,7 @@ def _convex_polygon(angles: list[float], radii: list[float]) -> list[tuple[float
 
 def _dist_to_polygon(p: tuple[float, float], poly: list[tuple[float, float]]) -> float:
     best = math.inf
-    for a, b in zip(poly, poly[1:] + poly[:1]):
+    for a, b in zip(poly, poly[1:] + poly[:1], strict=True):
         ab = (b[0] - a[0], b[1] - a[1])
         t = max(
             0.0,
@@ -697,7 +701,7 @@ def test_outside_offset_of_a_convex_polygon_stays_at_the_tool_radius(
         assert _dist_to_polygon(xy(seg.end_mm), poly) == pytest.approx(r, abs=1e-7)
     # an arc at every corner but the tangent-like ones (offset ends within 0.0025 mm)
     turns = []
-    for p0, p1, p2 in zip(poly, poly[1:] + poly[:1], poly[2:] + poly[:2]):
+    for p0, p1, p2 in zip(poly, poly[1:] + poly[:1], poly[2:] + poly[:2], strict=True):
         a0 = math.atan2(p1[1] - p0[1], p1[0] - p0[0])
         a1 = math.atan2(p2[1] - p1[1], p2[0] - p1[0])
         turns.append(abs(math.remainder(a1 - a0, 2 * math.pi)))
@@ -705,7 +709,7 @@ def test_outside_offset_of_a_convex_polygon_stays_at_the_tool_radius(
     assert sum(s.kind == MotionKind.ARC for s in out) == expected
 
 
-# --------------------------------------------------------------------------- 2. oracles, paths from the traces
+# ---------------------------------------------------------- 2. oracles, paths from the traces
 
 INCH = MM_PER_INCH
 
@@ -769,7 +773,8 @@ def test_oracle_mill_g90g91g92() -> None:
 def _zchanges_path(
     y: float, arc_entry: bool, zs: tuple[float, float, float, float]
 ) -> tuple[PathBuilder, Segment]:
-    """One block of ccomp/mill-zchanges; ``zs``: z before G41, after entry, after the line, after G40."""
+    """One block of ccomp/mill-zchanges; ``zs``: z before G41, after entry, after the line,
+    after G40."""
     b = PathBuilder((0.25, y, zs[0]), units="inch")
     if arc_entry:
         b.arc((0.5, 0.75, zs[1]), (0.5, 0.5, 0), -1)  # g41 g2 x.5 y.75 i.25

@@ -407,9 +407,14 @@ def _same(a, b, shift=(0.0, 0.0, 0.0), tol: float = 1e-6) -> None:
     assert len(a) == len(b)
     for k, (s, t) in enumerate(zip(a, b, strict=True)):
         assert s.kind == t.kind and s.turns == t.turns, (k, s, t)
-        assert all(abs(x + d - y) <= tol for x, d, y in zip(s.end_mm, shift, t.end_mm)), (k, s, t)
+        assert all(
+            abs(x + d - y) <= tol for x, d, y in zip(s.end_mm, shift, t.end_mm, strict=True)
+        ), (k, s, t)
         if s.center_mm is not None:
-            assert all(abs(x + d - y) <= tol for x, d, y in zip(s.center_mm, shift, t.center_mm)), (
+            assert all(
+                abs(x + d - y) <= tol
+                for x, d, y in zip(s.center_mm, shift, t.center_mm, strict=True)
+            ), (
                 k,
                 s,
                 t,

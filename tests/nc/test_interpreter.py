@@ -312,7 +312,7 @@ def test_inch_work_offset_and_g92() -> None:
     assert_moves(segs, [(RAPID, (25.4, 0, 0)), (RAPID, (50.8, 0, 0)), (RAPID, (76.2, 0, 0))])
 
 
-# ---------------------------------------------------------------------------- distance and feed modes
+# -------------------------------------------------------------------------- distance and feed modes
 def test_absolute_and_incremental_distance() -> None:
     segs = segments("G21 G90 G0 X10 Y10 Z5\nG91 G0 X5 Y-2\nZ-1\nG90 X0")
     assert_moves(

@@ -14,6 +14,7 @@ from collections.abc import Callable
 import pytest
 from pyads import constants
 from timeouts import BODY_S
+from twin_helpers import ServerOutage, served, without_faults
 
 from cnctwin.control import RuleConfig
 from cnctwin.thread.signals import RunState
@@ -26,15 +27,8 @@ from cnctwin.virtual import AdsMachineServer
 
 
 def _over_ads(config: RunConfig, endpoint: str, **control: object) -> RunConfig:
-    connection = config.connection.model_copy(update={"transport": "ads", "endpoint": endpoint})
-    virtual = config.virtual.model_copy(update={"faults": []})  # type: ignore[union-attr]
-    return config.model_copy(
-        update={
-            "connection": connection,
-            "virtual": virtual,
-            "control": config.control.model_copy(update=control),
-        }
-    )
+    ads = served(without_faults(config), endpoint, transport="ads")
+    return ads.model_copy(update={"control": ads.control.model_copy(update=control)})
 
 
 def _command_writes(server: AdsMachineServer) -> int:
@@ -56,38 +50,19 @@ def test_server_killed_and_restarted_mid_run_reconnects_and_records_the_gap(
     async def main() -> tuple[RunSummary, RunState, list[float]]:
         async with MachineServer(demo_config, "ads", speed=1.0) as machine:
             config = _over_ads(demo_config, machine.endpoint)
+            outage = ServerOutage(machine, after_s=1.0)
             stop = asyncio.Event()
-            restarted: list[bool] = []
-            gaps: list[float] = []
-            task = None
-
-            async def outage() -> None:
-                await asyncio.sleep(1.0)
-                await machine.clock.stop()
-                await machine.stop_server()
-                await asyncio.sleep(1.0)
-                await machine.restart_server()
-                restarted.append(True)
-                machine.go()
-
-            def go(_twin: object) -> None:
-                nonlocal task
-                machine.go()
-                task = asyncio.get_running_loop().create_task(outage())
 
             def watch(state: CycleState) -> None:
-                for event in state.events:
-                    if restarted and event.kind == "connection_restored":
-                        gaps.append(event.data["gap_s"])
-                if gaps:
+                outage.watch(state)
+                if outage.restored:
                     stop.set()
 
             summary = await run_session(
-                config, duration_s=BODY_S, stop_event=stop, on_cycle=watch, on_start=go
+                config, duration_s=BODY_S, stop_event=stop, on_cycle=watch, on_start=outage.on_start
             )
-            assert task is not None
-            await task
-            return summary, machine.vm.run_state, gaps
+            await outage.finished()
+            return summary, machine.vm.run_state, [gap for _, gap in outage.restored]
 
     summary, run_state, gaps = asyncio.run(asyncio.wait_for(main(), 2 * BODY_S))
     assert summary.reconnects >= 1

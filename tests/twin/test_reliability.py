@@ -19,6 +19,7 @@ from pathlib import Path
 
 import pytest
 from timeouts import BODY_S, CHILD_START_S
+from twin_helpers import ServerOutage, served, without_faults
 
 from cnctwin.store.historian import Historian
 from cnctwin.thread.signals import SIGNALS, RunState
@@ -32,54 +33,26 @@ from cnctwin.twin.state import CycleState
 REPO = Path(__file__).resolve().parents[2]
 
 
-def _with_endpoint(config: RunConfig, endpoint: str) -> RunConfig:
-    connection = config.connection.model_copy(update={"endpoint": endpoint})
-    return config.model_copy(update={"connection": connection})
-
-
 def test_server_restart_mid_run_reconnects_and_records_the_gap(
     demo_config: RunConfig, tmp_path: Path
 ) -> None:
-    clean = demo_config.model_copy(
-        update={"virtual": demo_config.virtual.model_copy(update={"faults": []})}
-    )
+    clean = without_faults(demo_config)
     db = tmp_path / "h.sqlite"
 
     async def main():
         async with MachineServer(clean, "opcua", speed=1.0) as machine:
-            config = _with_endpoint(clean, machine.endpoint)
-
-            async def outage() -> None:
-                # the machine holds still while the server is away, so the twin's blank stays
-                # true however long a loaded computer takes to restart the server
-                await asyncio.sleep(1.5)
-                await machine.clock.stop()
-                await machine.stop_server()
-                await asyncio.sleep(1.0)
-                await machine.restart_server()
-                restarted.append(True)
-                machine.go()
-
+            config = served(clean, machine.endpoint)
+            outage = ServerOutage(machine, after_s=1.5)
             with Historian.open(db) as historian:
-                task = None
                 stop = asyncio.Event()
-                restarted: list[bool] = []
-                restored: list[tuple[int, float]] = []  # (cycle, gap s) after the restart
-
-                def go(_twin) -> None:
-                    nonlocal task
-                    machine.go()
-                    task = asyncio.get_running_loop().create_task(outage())
 
                 def watch(state: CycleState) -> None:
                     # end 80 cycles after the reconnection that follows the restart (a count,
                     # not a time: a server restart takes about 1 s on a quiet machine, many
                     # more on a loaded one, where the heartbeat watchdog may also trip and
                     # recover before)
-                    for e in state.events:
-                        if restarted and e.kind == "connection_restored":
-                            restored.append((state.index, e.data["gap_s"]))
-                    if restored and state.index >= restored[0][0] + 80:
+                    outage.watch(state)
+                    if outage.restored and state.index >= outage.restored[0][0] + 80:
                         stop.set()
 
                 summary = await run_session(
@@ -88,10 +61,10 @@ def test_server_restart_mid_run_reconnects_and_records_the_gap(
                     duration_s=BODY_S,
                     stop_event=stop,
                     on_cycle=watch,
-                    on_start=go,
+                    on_start=outage.on_start,
                 )
-                await task
-            return summary, machine.vm.run_state, restored[0][1]
+                await outage.finished()
+            return summary, machine.vm.run_state, outage.restored[0][1]
 
     summary, run_state, gap_s = asyncio.run(asyncio.wait_for(main(), 2 * BODY_S))
     assert summary.reconnects >= 1
@@ -204,7 +177,7 @@ def test_garbage_over_opc_ua_is_rejected(demo_config: RunConfig) -> None:
     async def main():
         source = Source()
         async with OpcUaMachineServer(source) as server:
-            config = _with_endpoint(RunConfig.from_machining(demo_config), server.endpoint)
+            config = served(RunConfig.from_machining(demo_config), server.endpoint)
             seen: list[CycleState] = []
 
             async def publish() -> None:

@@ -1,4 +1,4 @@
-"""What the commands share: range checks of numeric options, a progress bar.
+"""What the commands share: options, range checks of numeric options, a progress bar.
 
 Each check raises a one-line :class:`~cnctwin.errors.InputError` that names the option, the
 value given and the valid range; the CLI turns it into exit status 2. The checks run before a
@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -27,6 +28,22 @@ Density = Annotated[
 #: ``--cycle-ms``: the simulation's cycle time, ms, overriding the config's.
 CycleMs = Annotated[
     float | None, typer.Option("--cycle-ms", help="Cycle time in ms (overrides the config).")
+]
+#: ``--json``: print the result as one JSON object instead of a table.
+JsonOutput = Annotated[bool, typer.Option("--json", help="Print one JSON object.")]
+#: ``--db``: the historian of the twin's runs (default: the installation's SQLite file).
+HistorianDb = Annotated[
+    str | None,
+    typer.Option(
+        "--db",
+        help="Historian: SQLite file or postgresql://USER@HOST:PORT/DB "
+        "(default: the installation's file).",
+    ),
+]
+#: ``--report``: a self-contained HTML report of the command's result.
+HtmlReport = Annotated[
+    Path | None,
+    typer.Option("--report", help="Write a self-contained HTML report (interactive plots)."),
 ]
 
 #: Largest random seed accepted: the 32-bit seeds every generator of the project takes.

@@ -20,7 +20,12 @@ from rich.table import Table
 from cnctwin import finite_json
 from cnctwin.cli._options import MAX_SEED, check_count, check_number
 from cnctwin.errors import InputError
-from cnctwin.thread import LatencyResult, LatencyStats, measure_endpoint_latency
+from cnctwin.thread import (
+    LatencyResult,
+    LatencyStats,
+    measure_broker_latency,
+    measure_endpoint_latency,
+)
 
 __all__ = ["app", "latency", "run_latency"]
 
@@ -66,7 +71,12 @@ async def run_latency(
         )
     interval_s = interval_ms / 1e3
     if transport == "mqtt":
-        return await _mqtt_latency(endpoint, n, interval_s, jitter_ms, seed)
+        try:
+            return await measure_broker_latency(
+                endpoint, n=n, interval_s=interval_s, jitter_ms=jitter_ms, seed=seed
+            )
+        except InputError as err:
+            raise InputError(f"--endpoint: {err}") from None
     if endpoint is None:
         async with virtual_machine_server(transport) as url:
             result = await measure_endpoint_latency(
@@ -79,28 +89,6 @@ async def run_latency(
         )
     except InputError as err:
         raise InputError(f"--endpoint: {err}") from None
-    return result, endpoint
-
-
-async def _mqtt_latency(
-    endpoint: str | None, n: int, interval_s: float, jitter_ms: float, seed: int
-) -> tuple[LatencyResult, str]:
-    """The MQTT round trip through ``endpoint``, or through a private Mosquitto."""
-    from cnctwin.thread import Mosquitto, broker_address, measure_mqtt_latency
-
-    if endpoint is None:
-        with Mosquitto() as broker:
-            result = await measure_mqtt_latency(
-                broker.url, n=n, interval_s=interval_s, jitter_ms=jitter_ms, seed=seed
-            )
-            return result, broker.url
-    try:
-        broker_address(endpoint)
-    except ValueError as err:
-        raise InputError(f"--endpoint: {err}") from None
-    result = await measure_mqtt_latency(
-        endpoint, n=n, interval_s=interval_s, jitter_ms=jitter_ms, seed=seed
-    )
     return result, endpoint
 
 

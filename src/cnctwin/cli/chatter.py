@@ -22,7 +22,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.cli._options import check_count, check_number
+from cnctwin.cli._options import JsonOutput, check_count, check_number
 from cnctwin.cli.chatter_detect import detect
 from cnctwin.config import MAX_SPINDLE_RPM, MAX_TOOL_DIAMETER_MM
 from cnctwin.errors import InputError
@@ -87,7 +87,6 @@ StepsOption = Annotated[
     int | None,
     typer.Option("--steps", help="Steps per tooth period (default: 200 per mode cycle)."),
 ]
-JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object.")]
 
 
 @app.callback()
@@ -315,7 +314,7 @@ def simulate(
             "--signals", help="Write the signals over time to this CSV (for chatter detect)."
         ),
     ] = None,
-    as_json: JsonOption = False,
+    as_json: JsonOutput = False,
 ) -> None:
     """Simulate one milling cut in time: vibration RMS, chatter, and the SDM's verdict."""
     from cnctwin.dynamics import load_stability_config, read_damping_model

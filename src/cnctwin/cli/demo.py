@@ -21,7 +21,7 @@ import typer
 from rich.console import Console
 
 from cnctwin import finite_json
-from cnctwin.cli._options import MAX_SPEED_FACTOR, check_count, check_number
+from cnctwin.cli._options import MAX_SPEED_FACTOR, HistorianDb, check_count, check_number
 from cnctwin.cli.run import (
     WEB_PORT,
     linger,
@@ -59,14 +59,7 @@ def demo(
             help="Machine seconds per wall-clock second (default: the demo's 2).",
         ),
     ] = None,
-    db: Annotated[
-        str | None,
-        typer.Option(
-            "--db",
-            help="Historian: SQLite file or postgresql://USER@HOST:PORT/DB "
-            "(default: the installation's file).",
-        ),
-    ] = None,
+    db: HistorianDb = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
     transport: Annotated[
         str, typer.Option("--transport", help="Protocol of the virtual machine: opcua or modbus.")

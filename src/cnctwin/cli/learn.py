@@ -9,7 +9,7 @@ from typing import Annotated, Any
 import typer
 
 from cnctwin import finite_json
-from cnctwin.cli._options import MAX_SEED
+from cnctwin.cli._options import MAX_SEED, JsonOutput
 
 __all__ = ["app", "evaluate", "inspect", "train"]
 
@@ -33,7 +33,6 @@ LabelsOpt = Annotated[
 LabelKeyOpt = Annotated[
     str | None, typer.Option("--label-key", help="Column of --labels holding the run key.")
 ]
-JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object.")]
 
 
 def _dataset(data: list[str], schema: Any, labels: Path | None, label_key: str | None) -> Any:
@@ -81,7 +80,7 @@ def train(
             help="Also hold out each group in turn (a model per group); MODEL.loo.json.",
         ),
     ] = False,
-    as_json: JsonOpt = False,
+    as_json: JsonOutput = False,
 ) -> None:
     """Train a model on grouped data; write MODEL.onnx, MODEL.report.json and .png."""
     from cnctwin.learn import (
@@ -166,7 +165,7 @@ def evaluate(
     group_by: Annotated[
         str | None, typer.Option("--group-by", help="Column of groups for per-group figures.")
     ] = None,
-    as_json: JsonOpt = False,
+    as_json: JsonOutput = False,
 ) -> None:
     """Score a model on data, built with the schema stored in the model."""
     from cnctwin.learn import FeatureSchema, Predictor, evaluate_model, load_feature_spec
@@ -186,7 +185,7 @@ def evaluate(
 
 def inspect(
     model_file: Annotated[Path, typer.Argument(help="A model written by `cnctwin learn train`.")],
-    as_json: JsonOpt = False,
+    as_json: JsonOutput = False,
 ) -> None:
     """Show a model's target, features (names, units, filters, windows) and hold-out score."""
     from cnctwin.learn import Predictor

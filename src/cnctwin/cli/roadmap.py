@@ -24,7 +24,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.cli._options import Density
+from cnctwin.cli._options import Density, HtmlReport
 from cnctwin.cli.stability import ProgressLine, parse_rpm_range
 from cnctwin.errors import InputError
 from cnctwin.report import check_report_path
@@ -254,10 +254,7 @@ def roadmap(
         Path | None, typer.Option("--plot", help="Write the roadmap and lobes to this PNG.")
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
-    html: Annotated[
-        Path | None,
-        typer.Option("--report", help="Write a self-contained HTML report (interactive plots)."),
-    ] = None,
+    html: HtmlReport = None,
 ) -> None:
     """Stability roadmap: stable spindle speeds per program segment and a speed schedule.
 

@@ -17,21 +17,13 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
+from cnctwin.cli._options import HistorianDb, JsonOutput
 from cnctwin.store import Historian, RunSummary
 
 __all__ = ["app", "export", "list_runs", "show"]
 
 app = typer.Typer(help="Recorded runs of the twin: list, show, export.", no_args_is_help=True)
 
-DbOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--db",
-        help="Historian: SQLite file or postgresql://USER@HOST:PORT/DB "
-        "(default: the installation's file).",
-    ),
-]
-JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object.")]
 RunArg = Annotated[int, typer.Argument(help="Run id (see `cnctwin runs list`).", min=1)]
 
 
@@ -50,7 +42,7 @@ def _duration(run: RunSummary) -> str:
 
 
 @app.command("list")
-def list_runs(db: DbOpt = None, as_json: JsonOpt = False) -> None:
+def list_runs(db: HistorianDb = None, as_json: JsonOutput = False) -> None:
     """List the recorded runs, oldest first."""
     with _open(db) as h:
         runs = h.runs()
@@ -79,7 +71,7 @@ def list_runs(db: DbOpt = None, as_json: JsonOpt = False) -> None:
 
 
 @app.command()
-def show(run_id: RunArg, db: DbOpt = None, as_json: JsonOpt = False) -> None:
+def show(run_id: RunArg, db: HistorianDb = None, as_json: JsonOutput = False) -> None:
     """Show one run: what it was, its counts, signals, events and decisions."""
     with _open(db) as h:
         detail = h.run(run_id)
@@ -143,8 +135,8 @@ def show(run_id: RunArg, db: DbOpt = None, as_json: JsonOpt = False) -> None:
 def export(
     run_id: RunArg,
     out: Annotated[Path, typer.Argument(help="OUT.csv or OUT.parquet; siblings get the rest.")],
-    db: DbOpt = None,
-    as_json: JsonOpt = False,
+    db: HistorianDb = None,
+    as_json: JsonOutput = False,
 ) -> None:
     """Export a run: OUT gets the signals (time_s + one column per signal);
     OUT.predictions, OUT.events and OUT.decisions (same format) the rest."""

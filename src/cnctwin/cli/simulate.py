@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.cli._options import CycleMs, Density, progress
+from cnctwin.cli._options import CycleMs, Density, HtmlReport, progress
 from cnctwin.config import (
     MAX_CYCLE_MS,
     MAX_DENSITY_PER_MM,
@@ -112,10 +112,7 @@ def simulate(
     ] = None,
     density: Density = None,
     cycle_ms: CycleMs = None,
-    html: Annotated[
-        Path | None,
-        typer.Option("--report", help="Write a self-contained HTML report (interactive plots)."),
-    ] = None,
+    html: HtmlReport = None,
     stl_resolution_mm: Annotated[
         float,
         typer.Option(

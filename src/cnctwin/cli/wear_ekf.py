@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.cli._options import MAX_SEED, check_count, check_number
+from cnctwin.cli._options import MAX_SEED, HtmlReport, check_count, check_number
 from cnctwin.errors import DataError
 from cnctwin.measurements import read_torque_csv
 from cnctwin.report import check_report_path
@@ -129,10 +129,7 @@ def ekf(
     ] = None,
     plot: Annotated[Path | None, typer.Option("--plot", help="Draw the estimate to a PNG.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
-    html: Annotated[
-        Path | None,
-        typer.Option("--report", help="Write a self-contained HTML report (interactive plots)."),
-    ] = None,
+    html: HtmlReport = None,
 ) -> None:
     """Estimate flank wear from spindle torque with the EKF of Christiand 2024."""
     check_count("--seed", seed, 0, MAX_SEED)

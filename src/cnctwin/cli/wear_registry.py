@@ -13,7 +13,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.cli._options import check_number
+from cnctwin.cli._options import JsonOutput, check_number
 from cnctwin.errors import DataError
 from cnctwin.store import TwinRegistry
 from cnctwin.wear import ManufacturingParameters
@@ -36,7 +36,6 @@ MAX_DEPTH_MM = 100.0
 DbOpt = Annotated[Path, typer.Option("--db", help="Registry database (SQLite file).")]
 ToolOpt = Annotated[str, typer.Option("--tool", help="Tool id, e.g. T0101-insert-42.")]
 LatheOpt = Annotated[str, typer.Option("--lathe", help="Lathe name.")]
-JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object.")]
 
 
 def _emit(report: dict[str, Any], as_json: bool, title: str) -> None:
@@ -69,7 +68,7 @@ def mount(
     no_heritage: Annotated[
         bool, typer.Option("--no-heritage", help="Start without inheriting a retired twin.")
     ] = False,
-    as_json: JsonOpt = False,
+    as_json: JsonOutput = False,
 ) -> None:
     """Mount a new tool: its twin inherits the drift of the most similar retired tool."""
     check_number("--target-mm", target_mm, 0.0, MAX_DIMENSION_MM, low_open=True, unit="mm")
@@ -152,7 +151,7 @@ def compensate(
     internal: Annotated[
         bool, typer.Option("--internal", help="The dimension is internal (a bore).")
     ] = False,
-    as_json: JsonOpt = False,
+    as_json: JsonOutput = False,
 ) -> None:
     """Record a measured part and print the tool-offset correction to apply now; with
     --write-offset, write it to the machine's wear offset and read it back."""
@@ -209,7 +208,9 @@ def compensate(
     )
 
 
-def retire(db: DbOpt, tool: ToolOpt, lathe: LatheOpt = "lathe", as_json: JsonOpt = False) -> None:
+def retire(
+    db: DbOpt, tool: ToolOpt, lathe: LatheOpt = "lathe", as_json: JsonOutput = False
+) -> None:
     """Retire a tool; its twin becomes heritage for the next similar tool."""
     with TwinRegistry(db) as registry:
         record = registry.retire(lathe, tool)
@@ -229,7 +230,7 @@ def history(
     db: DbOpt,
     lathe: LatheOpt = "lathe",
     tool: Annotated[str | None, typer.Option("--tool", help="Only this tool.")] = None,
-    as_json: JsonOpt = False,
+    as_json: JsonOutput = False,
 ) -> None:
     """Print the tools of a lathe and the logged parts with their corrections."""
     if not db.exists():

@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from cnctwin.cli._options import check_count
+from cnctwin.cli._options import HistorianDb, check_count
 
 __all__ = ["WEB_PORT", "web"]
 
@@ -16,14 +16,7 @@ WEB_PORT = 8766
 
 
 def web(
-    db: Annotated[
-        str | None,
-        typer.Option(
-            "--db",
-            help="Historian: SQLite file or postgresql://USER@HOST:PORT/DB "
-            "(default: the installation's file).",
-        ),
-    ] = None,
+    db: HistorianDb = None,
     host: Annotated[str, typer.Option("--host", help="Address to listen on.")] = "127.0.0.1",
     port: Annotated[int, typer.Option("--port", help="Port (0: a free one).")] = WEB_PORT,
     insecure: Annotated[

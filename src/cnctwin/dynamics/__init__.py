@@ -17,6 +17,7 @@ from cnctwin.dynamics.chatter_detection import (
     ChatterDetection,
     DetectorSettings,
     StreamingChatterDetector,
+    WindowVerdict,
     detect_chatter,
 )
 from cnctwin.dynamics.config import (
@@ -54,6 +55,7 @@ from cnctwin.dynamics.process_damping import (
 )
 from cnctwin.dynamics.roadmap import (
     DEFAULT_SDM_POINTS,
+    RoadmapSegment,
     StabilityRoadmap,
     program_roadmap,
     stability_roadmap,
@@ -101,8 +103,10 @@ __all__ = [
     "SdmCost",
     "StabilityConfig",
     "StabilityLobes",
+    "RoadmapSegment",
     "StabilityRoadmap",
     "StreamingChatterDetector",
+    "WindowVerdict",
     "ToolDynamics",
     "ToolMode",
     "accelerance_to_receptance",

@@ -18,8 +18,9 @@ The schema, the feature path and the datasets need numpy and scipy; training imp
 scikit-learn, model files skl2onnx, onnx and onnxruntime, each on first use. See docs/learn.md.
 """
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from cnctwin import _lazy
 from cnctwin.learn.dataset import Dataset, Run, build_dataset, read_runs, read_table
 from cnctwin.learn.features import FeaturePath, make_filter
 from cnctwin.learn.schema import (
@@ -84,13 +85,6 @@ _LAZY = {
     "plot_report": "figures",
 }
 
-
-def __getattr__(name: str) -> Any:
-    # scikit-learn, skl2onnx, onnxruntime and matplotlib load only when a model is trained,
-    # written, run or drawn.
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-
-    return getattr(importlib.import_module(f"cnctwin.learn.{module}"), name)
+# scikit-learn, skl2onnx, onnxruntime and matplotlib load only when a model is trained,
+# written, run or drawn.
+__getattr__, __dir__ = _lazy.exports(__name__, _LAZY)

@@ -13,8 +13,9 @@ Lengths are in mm, feeds in mm/min, spindle speeds in rpm (names say so).
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from cnctwin import _lazy
 
 if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run time
     from cnctwin.nc.interpreter import Interpreter, interpret_file, interpret_text
@@ -77,18 +78,7 @@ _HOMES = {
     "summarize": "summary",
 }
 
-
-def __getattr__(name: str) -> Any:
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module 'cnctwin.nc' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"cnctwin.nc.{home}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *_HOMES])
+__getattr__, __dir__ = _lazy.exports(__name__, _HOMES)
 
 
 __all__ = [

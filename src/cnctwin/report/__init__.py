@@ -6,8 +6,9 @@ lobes|roadmap`` and ``cnctwin wear ekf`` writes one file holding plotly.js (from
 (docs/reports.md). Each module imports plotly only when a report is written.
 """
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from cnctwin import _lazy
 from cnctwin.report.document import Report, check_report_path
 from cnctwin.report.downsample import MAX_BUCKETS, Downsampled, minmax_buckets
 
@@ -20,11 +21,11 @@ if TYPE_CHECKING:
 # Each report imports the physics it draws (the dexel stock, the study, the wear twins):
 # imported on first use, so that the run browser's downsampling stays light.
 _LAZY = {
-    "dexel_study_report": "cnctwin.report.study",
-    "lobes_report": "cnctwin.report.stability",
-    "roadmap_report": "cnctwin.report.stability",
-    "simulation_report": "cnctwin.report.simulation",
-    "wear_ekf_report": "cnctwin.report.wear",
+    "dexel_study_report": "study",
+    "lobes_report": "stability",
+    "roadmap_report": "stability",
+    "simulation_report": "simulation",
+    "wear_ekf_report": "wear",
 }
 
 __all__ = [
@@ -40,10 +41,4 @@ __all__ = [
     "wear_ekf_report",
 ]
 
-
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__, __dir__ = _lazy.exports(__name__, _LAZY)

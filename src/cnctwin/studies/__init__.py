@@ -13,8 +13,9 @@ Public API::
 Units at this edge: mm, mm/min, s (names say so). See docs/study.md.
 """
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from cnctwin import _lazy
 from cnctwin.studies.dexel_study import (
     PAPER,
     PAPER_CYCLES_S,
@@ -78,11 +79,7 @@ __all__ = [
     "write_outputs",
 ]
 
-
-def __getattr__(name: str) -> Any:
-    # The outputs draw their heat maps with matplotlib: imported on first use.
-    if name in ("summary_lead", "write_outputs"):
-        from cnctwin.studies import report
-
-        return getattr(report, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# The outputs draw their heat maps with matplotlib: imported on first use.
+__getattr__, __dir__ = _lazy.exports(
+    __name__, {"summary_lead": "report", "write_outputs": "report"}
+)

@@ -62,7 +62,6 @@ from cnctwin.examples import example_file
 from cnctwin.thread.ads_map import Symbol, SymbolMap, load_symbol_map
 from cnctwin.thread.config import ConnectionConfig
 from cnctwin.thread.connection import (
-    Backoff,
     CommandRejected,
     ConnectionLost,
     MachineConnection,
@@ -258,15 +257,7 @@ class AdsConnection(MachineConnection):
     """
 
     def __init__(self, config: ConnectionConfig, base_dir: Path | None = None) -> None:
-        if config.transport != "ads":
-            raise ConfigError(
-                f"[connection] transport {config.transport!r} given to the ADS connection "
-                "(expected 'ads')"
-            )
-        super().__init__(
-            timeout_s=config.timeout_s,
-            backoff=Backoff(initial_s=config.reconnect_initial_s, max_s=config.reconnect_max_s),
-        )
+        self._init_from_config(config, "ads", "ADS")
         self.endpoint = parse_endpoint(config.endpoint)
         self._local_net_id = (
             None

@@ -16,11 +16,14 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Self
+from typing import TYPE_CHECKING, Self
 
 import numpy as np
 
-from cnctwin.errors import CnctwinError, DataError
+from cnctwin.errors import CnctwinError, ConfigError, DataError
+
+if TYPE_CHECKING:
+    from cnctwin.thread.config import ConnectionConfig
 
 __all__ = [
     "Backoff",
@@ -158,6 +161,23 @@ class MachineConnection(ABC):
         self.reconnects = 0
         self.last_reconnect = ""
         self._reconnect_task: asyncio.Task[None] | None = None
+
+    def _init_from_config(self, config: ConnectionConfig, transport: str, name: str) -> None:
+        """Initialise from a ``[connection]`` table meant for this transport.
+
+        Checks that ``config.transport`` is ``transport`` (``name`` names the connection in
+        the error) and takes the table's timeout (s) and reconnection backoff (s).
+        """
+        if config.transport != transport:
+            raise ConfigError(
+                f"[connection] transport {config.transport!r} given to the {name} connection "
+                f"(expected {transport!r})"
+            )
+        MachineConnection.__init__(
+            self,
+            timeout_s=config.timeout_s,
+            backoff=Backoff(initial_s=config.reconnect_initial_s, max_s=config.reconnect_max_s),
+        )
 
     # Transport hooks ------------------------------------------------------------------
     @abstractmethod

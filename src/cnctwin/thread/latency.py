@@ -18,7 +18,8 @@ read round trip alone (one batched read: for MTConnect a ``/sample`` request and
 answer, what the twin does each cycle), with the same pauses, jitter and statistics.
 
 Everything here takes a :class:`~cnctwin.thread.connection.MachineConnection` and is
-transport-agnostic.
+transport-agnostic, but for :func:`measure_broker_latency`: MQTT's publish-to-receive round
+trip through a broker (``cnctwin bench latency --transport mqtt``).
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ __all__ = [
     "JitterProxy",
     "LatencyResult",
     "LatencyStats",
+    "measure_broker_latency",
     "measure_endpoint_latency",
     "measure_latency",
     "measure_read_latency",
@@ -148,6 +150,13 @@ class LatencyResult:
         }
 
 
+def _check_run(n: int, interval_s: float) -> None:
+    """A latency run of ``n`` round trips ``interval_s`` s apart; ConfigError unless n >= 1
+    and the pause a number >= 0 s."""
+    if n < 1 or not math.isfinite(interval_s) or interval_s < 0:
+        raise ConfigError(f"latency run n={n}, interval_s={interval_s}; valid: n >= 1, >= 0 s")
+
+
 def _targets(name: str, start: float, n: int) -> list[float]:
     """``n`` setpoints of command ``name``, each different from the one before and from
     ``start``: ten steps below ``start`` (whole units where the range allows), cycled."""
@@ -196,8 +205,7 @@ async def measure_latency(
         Write, read and round-trip statistics in ms. The command is set back to the value it
         had before the measurement.
     """
-    if n < 1 or not math.isfinite(interval_s) or interval_s < 0:
-        raise ConfigError(f"latency run n={n}, interval_s={interval_s}; valid: n >= 1, >= 0 s")
+    _check_run(n, interval_s)
     if signal not in COMMANDS:
         raise ConfigError(f"latency signal {signal!r}; valid: {', '.join(COMMANDS)}")
     start = await connection.read_signal(signal)
@@ -274,8 +282,7 @@ async def measure_read_latency(
         ``round_trip_ms`` and ``read_ms`` both the batched read's duration; ``write_ms``
         ``None``.
     """
-    if n < 1 or not math.isfinite(interval_s) or interval_s < 0:
-        raise ConfigError(f"latency run n={n}, interval_s={interval_s}; valid: n >= 1, >= 0 s")
+    _check_run(n, interval_s)
     reads: list[float] = []
     for i in range(n):
         t0 = time.perf_counter()
@@ -530,3 +537,54 @@ async def measure_endpoint_latency(
         netloc = f"{proxy.host}:{proxy.port}"
         via = parts._replace(netloc=f"{userinfo}@{netloc}" if userinfo else netloc)
         return await once(urlunsplit(via))
+
+
+async def measure_broker_latency(
+    endpoint: str | None,
+    *,
+    n: int,
+    interval_s: float,
+    jitter_ms: float = 0.0,
+    seed: int = 0,
+) -> tuple[LatencyResult, str]:
+    """The MQTT publish-to-receive round trip (:func:`~cnctwin.thread.mqtt.measure_mqtt_latency`)
+    through the broker at ``endpoint``, or through a private Mosquitto started for it.
+
+    Parameters
+    ----------
+    endpoint
+        The broker, ``mqtt://HOST:PORT``; ``None``: start a private
+        :class:`~cnctwin.thread.mosquitto.Mosquitto` on loopback for the run.
+    n, interval_s
+        Round trips and the pause between them, s.
+    jitter_ms, seed
+        One-way jitter J on the publisher's path, ms, and its seed.
+
+    Returns
+    -------
+    tuple
+        The result and the broker measured.
+
+    Raises
+    ------
+    InputError
+        When ``endpoint`` is not a broker address.
+    """
+    from cnctwin.thread.mosquitto import Mosquitto
+    from cnctwin.thread.mqtt import measure_mqtt_latency
+    from cnctwin.thread.mqtt_config import broker_address
+
+    if endpoint is None:
+        with Mosquitto() as broker:
+            result = await measure_mqtt_latency(
+                broker.url, n=n, interval_s=interval_s, jitter_ms=jitter_ms, seed=seed
+            )
+            return result, broker.url
+    try:
+        broker_address(endpoint)
+    except ValueError as err:
+        raise InputError(str(err)) from None
+    result = await measure_mqtt_latency(
+        endpoint, n=n, interval_s=interval_s, jitter_ms=jitter_ms, seed=seed
+    )
+    return result, endpoint

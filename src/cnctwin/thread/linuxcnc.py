@@ -70,7 +70,6 @@ import os
 from cnctwin.errors import ConfigError
 from cnctwin.thread.config import ConnectionConfig
 from cnctwin.thread.connection import (
-    Backoff,
     CommandRejected,
     ConnectionLost,
     MachineConnection,
@@ -156,20 +155,12 @@ class LinuxCncConnection(MachineConnection):
     """
 
     def __init__(self, config: ConnectionConfig) -> None:
-        if config.transport != "linuxcnc":
-            raise ConfigError(
-                f"[connection] transport {config.transport!r} given to the LinuxCNC connection "
-                "(expected 'linuxcnc')"
-            )
+        self._init_from_config(config, "linuxcnc", "LinuxCNC")
         if config.mapping:
             raise ConfigError(
                 "[connection] mapping is not used with transport 'linuxcnc' (its signals are "
                 "fixed: docs/linuxcnc.md); remove it"
             )
-        super().__init__(
-            timeout_s=config.timeout_s,
-            backoff=Backoff(initial_s=config.reconnect_initial_s, max_s=config.reconnect_max_s),
-        )
         self.host, self.port = parse_endpoint(config.endpoint)
         self.endpoint = f"linuxcncrsh://{self.host}:{self.port}"
         self.settings = config.linuxcnc

@@ -29,7 +29,6 @@ from pymodbus.pdu import ModbusPDU
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.thread.config import ConnectionConfig
 from cnctwin.thread.connection import (
-    Backoff,
     CommandRejected,
     ConnectionLost,
     MachineConnection,
@@ -137,15 +136,7 @@ class ModbusConnection(MachineConnection):
     """
 
     def __init__(self, config: ConnectionConfig) -> None:
-        if config.transport != "modbus":
-            raise ConfigError(
-                f"[connection] transport {config.transport!r} given to the Modbus connection "
-                "(expected 'modbus')"
-            )
-        super().__init__(
-            timeout_s=config.timeout_s,
-            backoff=Backoff(initial_s=config.reconnect_initial_s, max_s=config.reconnect_max_s),
-        )
+        self._init_from_config(config, "modbus", "Modbus")
         self.host, self.port = parse_endpoint(config.endpoint)
         self.unit_id = config.unit_id
         self.read_map, self.write_map = modbus_maps(config.mapping)

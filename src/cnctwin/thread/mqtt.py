@@ -38,7 +38,7 @@ from paho.mqtt.enums import MQTTErrorCode
 
 from cnctwin import finite_json
 from cnctwin.errors import ConfigError, DataError
-from cnctwin.thread.latency import JitterProxy, LatencyResult, LatencyStats
+from cnctwin.thread.latency import JitterProxy, LatencyResult, LatencyStats, _check_run
 from cnctwin.thread.mqtt_config import MqttConfig, MqttSignalConfig, broker_address
 
 __all__ = [
@@ -566,8 +566,7 @@ async def measure_mqtt_latency(
     DataError
         When a round trip takes longer than ``timeout_s`` or the broker cannot be reached.
     """
-    if n < 1 or not math.isfinite(interval_s) or interval_s < 0:
-        raise ConfigError(f"latency run n={n}, interval_s={interval_s}; valid: n >= 1, >= 0 s")
+    _check_run(n, interval_s)
     host, port, _ = broker_address(endpoint)
     tag = f"{os.getpid()}-{time.monotonic_ns() % 10**9}"
     probe = {"topic": f"cnctwin/latency/{tag}/probe", "signal": "latency_probe", "unit": "1"}

@@ -49,7 +49,6 @@ from dataclasses import dataclass
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.thread.config import ConnectionConfig
 from cnctwin.thread.connection import (
-    Backoff,
     CommandRejected,
     ConnectionLost,
     MachineConnection,
@@ -254,15 +253,7 @@ class MTConnectConnection(MachineConnection):
     """
 
     def __init__(self, config: ConnectionConfig) -> None:
-        if config.transport != "mtconnect":
-            raise ConfigError(
-                f"[connection] transport {config.transport!r} given to the MTConnect connection "
-                "(expected 'mtconnect')"
-            )
-        super().__init__(
-            timeout_s=config.timeout_s,
-            backoff=Backoff(initial_s=config.reconnect_initial_s, max_s=config.reconnect_max_s),
-        )
+        self._init_from_config(config, "mtconnect", "MTConnect")
         self.host, self.port, self.device_path = parse_endpoint(config.endpoint)
         self.mapping = dict(config.mapping)
         self.sample_count = config.sample_count

@@ -38,7 +38,6 @@ from asyncua.ua.uaerrors import UaError, UaStatusCodeError
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.thread.config import ConnectionConfig, OpcUaSecurityConfig
 from cnctwin.thread.connection import (
-    Backoff,
     CommandRejected,
     ConnectionLost,
     MachineConnection,
@@ -174,15 +173,7 @@ class OpcUaConnection(MachineConnection):
         base_dir: Path | None = None,
         subscription_ms: float | None = DEFAULT_SUBSCRIPTION_MS,
     ) -> None:
-        if config.transport != "opcua":
-            raise ConfigError(
-                f"transport {config.transport!r} given to the OPC UA connection; "
-                "valid: 'opcua' (use ModbusConnection for 'modbus')"
-            )
-        super().__init__(
-            timeout_s=config.timeout_s,
-            backoff=Backoff(initial_s=config.reconnect_initial_s, max_s=config.reconnect_max_s),
-        )
+        self._init_from_config(config, "opcua", "OPC UA")
         unknown = sorted(set(config.mapping) - set(SIGNALS))
         if unknown:
             raise ConfigError(

@@ -64,9 +64,12 @@ from pydantic_core import PydanticCustomError
 
 from cnctwin.config import Section, resolve_file
 from cnctwin.control import Decision
-from cnctwin.dynamics import DetectorSettings, StreamingChatterDetector
-from cnctwin.dynamics.chatter_detection import WindowVerdict
-from cnctwin.dynamics.roadmap import RoadmapSegment
+from cnctwin.dynamics import (
+    DetectorSettings,
+    RoadmapSegment,
+    StreamingChatterDetector,
+    WindowVerdict,
+)
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.thread import ConnectionLost, MachineConnection, SampleBlock
 from cnctwin.twin.state import CycleState, TwinEvent

@@ -19,8 +19,9 @@ Public API::
 Units: the signals' own (mm, mm/min, rpm, N, N m, A, W, %, s); see docs/virtual-machine.md.
 """
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from cnctwin import _lazy
 from cnctwin.virtual.clock import ClockStats, MachineClock
 from cnctwin.virtual.config import (
     AxisDriveConfig,
@@ -41,6 +42,7 @@ from cnctwin.virtual.users import ROLES, Role, UserTable, hash_password, load_us
 
 if TYPE_CHECKING:
     from cnctwin.virtual.ads_server import AdsMachineServer
+    from cnctwin.virtual.certificates import application_certificate
     from cnctwin.virtual.modbus_server import ModbusMachineServer
     from cnctwin.virtual.mtconnect_agent import MTConnectAgent
     from cnctwin.virtual.opcua_server import OpcUaMachineServer, OpcUaServerSecurity, SecurityMode
@@ -49,14 +51,15 @@ if TYPE_CHECKING:
 # The servers load asyncua and pymodbus, the child process multiprocessing: imported on
 # first use.
 _LAZY = {
-    "AdsMachineServer": "cnctwin.virtual.ads_server",
-    "ModbusMachineServer": "cnctwin.virtual.modbus_server",
-    "MTConnectAgent": "cnctwin.virtual.mtconnect_agent",
-    "OpcUaMachineServer": "cnctwin.virtual.opcua_server",
-    "OpcUaServerSecurity": "cnctwin.virtual.opcua_server",
-    "SecurityMode": "cnctwin.virtual.opcua_server",
-    "TRANSPORTS": "cnctwin.virtual.spawned",
-    "virtual_machine_server": "cnctwin.virtual.spawned",
+    "AdsMachineServer": "ads_server",
+    "application_certificate": "certificates",
+    "ModbusMachineServer": "modbus_server",
+    "MTConnectAgent": "mtconnect_agent",
+    "OpcUaMachineServer": "opcua_server",
+    "OpcUaServerSecurity": "opcua_server",
+    "SecurityMode": "opcua_server",
+    "TRANSPORTS": "spawned",
+    "virtual_machine_server": "spawned",
 }
 
 __all__ = [
@@ -86,6 +89,7 @@ __all__ = [
     "VirtualMachine",
     "VirtualMachineConfig",
     "WearFault",
+    "application_certificate",
     "blank_with_holes",
     "check_exposure",
     "hash_password",
@@ -96,10 +100,4 @@ __all__ = [
     "virtual_machine_server",
 ]
 
-
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__, __dir__ = _lazy.exports(__name__, _LAZY)

@@ -5,7 +5,9 @@ Nothing here is imported by the rest of cnctwin unless a command is given ``--we
 server (FastAPI, uvicorn) loads only then. See docs/dashboard.md.
 """
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from cnctwin import _lazy
 
 if TYPE_CHECKING:
     from cnctwin.web.runs import RunBrowser, runs_app
@@ -13,19 +15,13 @@ if TYPE_CHECKING:
 
 # FastAPI and uvicorn load with these: imported on first use.
 _LAZY = {
-    "LiveDashboard": "cnctwin.web.server",
-    "RunBrowser": "cnctwin.web.runs",
-    "check_host": "cnctwin.web.server",
-    "listen_socket": "cnctwin.web.server",
-    "runs_app": "cnctwin.web.runs",
+    "LiveDashboard": "server",
+    "RunBrowser": "runs",
+    "check_host": "server",
+    "listen_socket": "server",
+    "runs_app": "runs",
 }
 
 __all__ = ["LiveDashboard", "RunBrowser", "check_host", "listen_socket", "runs_app"]
 
-
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__, __dir__ = _lazy.exports(__name__, _LAZY)
