@@ -21,6 +21,7 @@ Units: um for the samples, Hz, s; SI inside the model.
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
@@ -89,6 +90,8 @@ class VibrationSensor:
         self._rng = np.random.default_rng(seed)
         self._ring = np.zeros((max(16, math.ceil(config.buffer_s * self.rate_hz)), 2))
         self._count = 0  # samples taken
+        # The machine's thread stores while a server's thread reads (virtual.opcua_server).
+        self._ring_lock = threading.Lock()
         self._last_t = 0.0  # machine time and displacement (m) of the last output
         self._last_r = np.zeros(2)
 
@@ -175,17 +178,20 @@ class VibrationSensor:
         since
             Index of the first sample wanted (>= 0); the samples taken so far: an empty block.
         """
-        size = self._ring.shape[0]
-        start = min(max(int(since), self._count - size, 0), self._count)
-        index = np.arange(start, self._count) % size
-        return SampleBlock(BLOCK_NAME, start, self.rate_hz, self._ring[index].copy())
+        with self._ring_lock:
+            size = self._ring.shape[0]
+            count = self._count
+            start = min(max(int(since), count - size, 0), count)
+            samples = self._ring[np.arange(start, count) % size]  # fancy indexing: a copy
+        return SampleBlock(BLOCK_NAME, start, self.rate_hz, samples)
 
     def _store(self, samples: np.ndarray) -> None:
         size = self._ring.shape[0]
         samples = samples[-size:]
-        index = (self._count + np.arange(samples.shape[0])) % size
-        self._ring[index] = samples
-        self._count += samples.shape[0]
+        with self._ring_lock:
+            index = (self._count + np.arange(samples.shape[0])) % size
+            self._ring[index] = samples
+            self._count += samples.shape[0]
 
 
 def _conditions(
