@@ -75,6 +75,7 @@ __all__ = [
     "LoadingStresses",
     "ResidualStressProfile",
     "SurfaceLoad",
+    "edge_surface_load",
     "elastic_mirs",
     "elastic_release",
     "loading_stresses",
@@ -189,6 +190,44 @@ class ResidualStressProfile:
         return float(np.max(np.abs(self.sigma_xx_pa)))
 
 
+def edge_surface_load(
+    coefficients: CuttingCoefficients,
+    chip_thickness_m: float,
+    contact_length_m: float,
+    distribution: Distribution = "hertzian",
+) -> SurfaceLoad:
+    """The edge load per unit width at a chip thickness (Ward 2021, Eq. 1 with b = 1).
+
+    Ward's element force per unit chip width: ``F_t = Ktc h + Kte`` (tangential) drags the
+    surface (Q), ``F_r = Krc h + Kre`` (radial) presses on it (P, taken as its magnitude).
+
+    Parameters
+    ----------
+    coefficients
+        Cutting (Pa) and edge (N/m) coefficients.
+    chip_thickness_m
+        Uncut chip thickness h, m (>= 0).
+    contact_length_m
+        Contact length of the edge on the surface 2a, m.
+    distribution
+        Shape of the contact load.
+
+    Returns
+    -------
+    SurfaceLoad
+        P and Q in N/m.
+    """
+    if not (math.isfinite(chip_thickness_m) and 0.0 <= chip_thickness_m <= 0.01):
+        raise ConfigError(f"chip thickness = {chip_thickness_m!r} m; give 0 <= h <= 0.01 m (10 mm)")
+    k, h = coefficients, chip_thickness_m
+    return SurfaceLoad(
+        normal_n_m=abs(k.krc * h + k.kre),
+        tangential_n_m=k.ktc * h + k.kte,
+        contact_length_m=contact_length_m,
+        distribution=distribution,
+    )
+
+
 def milling_surface_load(
     coefficients: CuttingCoefficients,
     feed_per_tooth_m: float,
@@ -197,12 +236,10 @@ def milling_surface_load(
     contact_length_m: float,
     distribution: Distribution = "hertzian",
 ) -> SurfaceLoad:
-    """The largest edge load per unit width of a milling cut (Ward 2021, Eq. 1 with b = 1).
+    """The largest edge load per unit width of a milling cut (:func:`edge_surface_load`).
 
-    Ward's element force per unit chip width, ``F_t = Ktc h + Kte`` (tangential) and
-    ``F_r = Krc h + Kre`` (radial), at the largest chip thickness of the engagement,
-    ``h = fz max(sin phi)`` over ``entry_rad <= phi <= exit_rad``; the tangential force drags
-    the surface (Q), the radial force presses on it (P, taken as its magnitude).
+    At the largest chip thickness of the engagement, ``h = fz max(sin phi)`` over
+    ``entry_rad <= phi <= exit_rad``.
 
     Parameters
     ----------
@@ -231,14 +268,7 @@ def milling_surface_load(
             f"immersion {entry_rad!r} .. {exit_rad!r} rad; give 0 <= entry < exit <= pi"
         )
     sine = 1.0 if lo <= math.pi / 2 <= hi else max(math.sin(lo), math.sin(hi))
-    h = feed_per_tooth_m * sine
-    k = coefficients
-    return SurfaceLoad(
-        normal_n_m=abs(k.krc * h + k.kre),
-        tangential_n_m=k.ktc * h + k.kte,
-        contact_length_m=contact_length_m,
-        distribution=distribution,
-    )
+    return edge_surface_load(coefficients, feed_per_tooth_m * sine, contact_length_m, distribution)
 
 
 def loading_stresses(

@@ -11,6 +11,7 @@ from pydantic_core import PydanticCustomError
 from cnctwin.config import Section, resolve_file
 from cnctwin.learn import FilterSpec, WindowSpec
 from cnctwin.twin.adaptive_feed import AdaptiveFeedConfig
+from cnctwin.twin.mirs import MirsConfig
 
 __all__ = [
     "ForceBandConfig",
@@ -352,6 +353,9 @@ class TwinSettings(Section):
         Tool wear from the spindle torque.
     adaptive_feed
         Adaptive feed control (Ward 2021, Eq. 7; :mod:`cnctwin.twin.adaptive_feed`).
+    mirs
+        Elastic residual stress prediction and control (Ward 2021, Sec. 3.3;
+        :mod:`cnctwin.twin.mirs`).
     stop_confirmation
         When a stop counts as done, and the escalation when it does not.
     overload
@@ -374,6 +378,7 @@ class TwinSettings(Section):
     form_error: FormErrorConfig = Field(default_factory=FormErrorConfig)
     wear: WearConfig = Field(default_factory=WearConfig)
     adaptive_feed: AdaptiveFeedConfig = Field(default_factory=AdaptiveFeedConfig)
+    mirs: MirsConfig = Field(default_factory=MirsConfig)
     stop_confirmation: StopConfirmationConfig = Field(default_factory=StopConfirmationConfig)
     overload: OverloadConfig = Field(default_factory=OverloadConfig)
     models: list[ModelConfig] = Field(default_factory=list, max_length=16)

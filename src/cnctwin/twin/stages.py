@@ -22,7 +22,9 @@ Names a stage adds to :attr:`CycleState.predicted` (units in the names):
   ``wear_torque_nm``, ``wear_life_mm3``, ``wear_life_s``;
 - adaptive feed (:mod:`cnctwin.twin.adaptive_feed`): ``adaptive_feed_reference``,
   ``adaptive_feed_value``, ``adaptive_feed_target_pct``, ``adaptive_feed_engaged``,
-  ``adaptive_feed_teaching``.
+  ``adaptive_feed_teaching``;
+- residual stress (:mod:`cnctwin.twin.mirs`): ``mirs_max_mpa``, ``mirs_surface_xx_mpa``,
+  ``mirs_surface_yy_mpa``, ``mirs_target_feed_pct``, ``mirs_target_spindle_pct``.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ from cnctwin.signals import (
 from cnctwin.thread import SIGNALS, ConnectionLost, MachineConnection, RunState
 from cnctwin.twin.adaptive_feed import ADAPTIVE_FEED_PREDICTIONS
 from cnctwin.twin.freshness import Freshness
+from cnctwin.twin.mirs import MIRS_PREDICTIONS
 from cnctwin.twin.monitoring import ForceBand
 from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.plausibility import AXES, Plausibility
@@ -99,6 +102,7 @@ PREDICTIONS = (
     "form_error_out",
     *WEAR_PREDICTIONS,
     *ADAPTIVE_FEED_PREDICTIONS,
+    *MIRS_PREDICTIONS,
 )
 
 
