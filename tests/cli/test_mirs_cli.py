@@ -44,7 +44,7 @@ def test_search_meets_the_reduction(capsys: pytest.CaptureFixture[str]) -> None:
         (["predict", *CUT, "--feed-mm-min", "-5", "--rpm", "30000"], "--feed-mm-min -5.0"),
         (["predict", *SLOW, "--contact-mm", "0"], "--contact-mm"),
         (["predict", *SLOW, "--forces", "x"], "no milling material 'x'"),
-        (["predict", *SLOW, "--distribution", "box"], "hertzian or uniform"),
+        (["predict", *SLOW, "--points", "1"], "--points 1"),
         (["search", *SLOW, "--reduction", "1"], "reduction < 1"),
         (["search", *SLOW, "--min-rpm", "2e4"], "lower bound"),
     ],

@@ -26,13 +26,19 @@ from cnctwin.twin.mirs import MirsStage
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "mirs" / "mirs.toml"
 K = milling_material("AA7075-T6").coefficients
 DEPTHS = np.linspace(0.0, 200e-6, 41)
-MODEL = ElasticMirsModel(elastic_material("AA7050-T7451"), 3.3e-3, DEPTHS)
+MODEL = ElasticMirsModel(elastic_material("AA7050-T7451"), 3.26e-3, DEPTHS)
 
 
 def _by_hand(h_mm: float) -> float:
     """Largest |sigma_xx| (MPa) with Ward's Eq. 1 per unit width written out."""
     h = h_mm * 1e-3
     return MODEL.profile(abs(K.krc * h + K.kre), K.ktc * h + K.kte).max_abs_xx_pa / 1e6
+
+
+def _meets_edge(h_mm: float, limit_mpa: float = 35.0) -> bool:
+    """The chip thickness is the largest whose MIRS is at most the limit (within 0.1 %; the
+    model's maximum jumps where its worst position along x moves)."""
+    return _by_hand(h_mm) <= limit_mpa < _by_hand(h_mm * 1.001)
 
 
 def _state(h_mm: float, feed: float = 100.0, spindle: float = 100.0, t_s: float = 1.0):  # type: ignore[no-untyped-def]
@@ -48,7 +54,7 @@ def _state(h_mm: float, feed: float = 100.0, spindle: float = 100.0, t_s: float 
 
 
 def _stage(**changes: object) -> MirsStage:
-    settings = {"enabled": True, "contact_length_mm": 3.3, "control": True, "max_mpa": 35.0}
+    settings = {"enabled": True, "contact_length_mm": 3.26, "control": True, "max_mpa": 35.0}
     config = MirsConfig(**{**settings, **changes})  # type: ignore[arg-type]
     return MirsStage(config, K, (20.0, 100.0), (50.0, 100.0))
 
@@ -68,14 +74,13 @@ def test_above_the_band_the_commanded_chip_load_meets_its_edge() -> None:
     s = spindle.value / 100.0
     r = (feed.value / 90.0) / s  # the chip-thickness ratio asked for
     assert s == pytest.approx(1.0 - 0.5 * (1.0 - r), rel=1e-9)
-    assert _by_hand(0.04 * r) == pytest.approx(35.0, rel=1e-4)
-    assert _by_hand(0.04 * r) <= 35.0
+    assert _meets_edge(0.04 * r)
 
 
 def test_feed_only_by_default_and_the_bounds_hold() -> None:
     (feed,) = _stage().process(_state(0.04)).commands
     assert feed.action == "feed_override"
-    assert _by_hand(0.04 * feed.value / 100.0) == pytest.approx(35.0, rel=1e-4)
+    assert _meets_edge(0.04 * feed.value / 100.0)
     (low,) = _stage(max_mpa=1.0).process(_state(0.04)).commands  # unreachable: lower bound
     assert low.value == 20.0
 
@@ -85,7 +90,7 @@ def test_below_the_band_it_raises_back_but_never_above_100_percent() -> None:
     assert feed.value == 100.0  # 0.02 mm at 100 % is still below 35 MPa
     (feed,) = _stage(min_mpa=30.0).process(_state(0.01, feed=20.0)).commands
     assert 20.0 < feed.value < 100.0  # 0.05 mm at 100 % would be above 35 MPa
-    assert _by_hand(0.01 * feed.value / 20.0) == pytest.approx(35.0, rel=1e-4)
+    assert _meets_edge(0.01 * feed.value / 20.0)
     assert _stage(min_mpa=30.0).process(_state(0.01, feed=100.0)).commands == []  # at 100 %
 
 

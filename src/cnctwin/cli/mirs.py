@@ -46,9 +46,6 @@ Material = Annotated[
 Contact = Annotated[
     float, typer.Option("--contact-mm", help="Contact length of the edge on the surface, mm.")
 ]
-Shape = Annotated[
-    str, typer.Option("--distribution", help="Contact load shape: hertzian or uniform.")
-]
 Depth = Annotated[float, typer.Option("--depth-um", help="Deepest point of the profile, um.")]
 Points = Annotated[int, typer.Option("--points", help="Depths in the profile (surface first).")]
 Down = Annotated[
@@ -73,7 +70,6 @@ def _cut(
     forces: str,
     material: str,
     contact_mm: float,
-    distribution: str,
     depth_um: float,
     points: int,
     down: bool,
@@ -92,14 +88,12 @@ def _cut(
     check_number("--contact-mm", contact_mm, 0.0, 100.0, low_open=True, unit="mm")
     check_number("--depth-um", depth_um, 0.0, 10_000.0, low_open=True, unit="um")
     check_count("--points", points, 2, 2000)
-    if distribution not in ("hertzian", "uniform"):
-        raise InputError(f"--distribution {distribution!r}: give hertzian or uniform")
     library = load_materials(materials_file)
     coefficients = library.milling_material(forces).coefficients
     elastic = library.elastic_material(material)
     entry, exit_ = immersion_angles(diameter_mm * 1e-3, ae_mm * 1e-3, down)
     depths = np.linspace(0.0, depth_um * _UM, points)
-    model = ElasticMirsModel(elastic, contact_mm * 1e-3, depths, distribution)  # type: ignore[arg-type]
+    model = ElasticMirsModel(elastic, contact_mm * 1e-3, depths)
     return MillingMirs(coefficients, teeth, entry, exit_, model)
 
 
@@ -118,7 +112,6 @@ def predict(
     forces: Forces = "AA7075-T6",
     material: Material = "AA7050-T7451",
     contact_mm: Contact = 0.1,
-    distribution: Shape = "hertzian",
     depth_um: Depth = 200.0,
     points: Points = 41,
     down: Down = True,
@@ -128,7 +121,7 @@ def predict(
     """The elastic MIRS depth profile of a flat end mill cut (Ward 2021, Eq. 3-5)."""
     _check_cut(feed_mm_min, rpm)
     cut = _cut(
-        diameter_mm, teeth, ae_mm, forces, material, contact_mm, distribution, depth_um,
+        diameter_mm, teeth, ae_mm, forces, material, contact_mm, depth_um,
         points, down, materials_file,
     )  # fmt: skip
     profile = cut.profile(feed_mm_min, rpm)
@@ -201,7 +194,6 @@ def search(
     forces: Forces = "AA7075-T6",
     material: Material = "AA7050-T7451",
     contact_mm: Contact = 0.1,
-    distribution: Shape = "hertzian",
     depth_um: Depth = 200.0,
     points: Points = 41,
     down: Down = True,
@@ -214,7 +206,7 @@ def search(
     _check_cut(feed_mm_min, rpm)
     check_count("--speeds", speeds, 1, 200)
     cut = _cut(
-        diameter_mm, teeth, ae_mm, forces, material, contact_mm, distribution, depth_um,
+        diameter_mm, teeth, ae_mm, forces, material, contact_mm, depth_um,
         points, down, materials_file,
     )  # fmt: skip
     start = cut(feed_mm_min, rpm)

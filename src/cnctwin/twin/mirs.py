@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator, model_validator
@@ -87,8 +86,6 @@ class MirsConfig(Section):
         relative to the configuration file.
     contact_length_mm
         Contact length of the edge on the new surface, mm.
-    distribution
-        Contact load shape: ``"hertzian"`` or ``"uniform"``.
     depth_um
         Deepest point of the profile, um.
     points
@@ -113,7 +110,6 @@ class MirsConfig(Section):
     elastic: str = "AA7050-T7451"
     materials_file: Path | None = None
     contact_length_mm: float = Field(default=0.1, gt=0.0, le=100.0)
-    distribution: Literal["hertzian", "uniform"] = "hertzian"
     depth_um: float = Field(default=200.0, gt=0.0, le=10_000.0)
     points: int = Field(default=41, ge=2, le=2000)
     control: bool = False
@@ -182,7 +178,6 @@ class MirsStage:
             elastic,
             config.contact_length_mm * _MM,
             np.linspace(0.0, config.depth_um * 1e-6, config.points),
-            config.distribution,
         )
         self._last_s = -math.inf
 
@@ -196,7 +191,6 @@ class MirsStage:
             self.coefficients,
             chip_thickness_mm * _MM,
             self.model.contact_length_m,
-            self.config.distribution,
         )
         profile = self.model.profile(load.normal_n_m, load.tangential_n_m)
         return (
