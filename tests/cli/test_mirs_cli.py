@@ -46,7 +46,7 @@ def test_search_meets_the_reduction(capsys: pytest.CaptureFixture[str]) -> None:
         (["predict", *SLOW, "--forces", "x"], "no milling material 'x'"),
         (["predict", *SLOW, "--points", "1"], "--points 1"),
         (["search", *SLOW, "--reduction", "1"], "reduction < 1"),
-        (["search", *SLOW, "--min-rpm", "2e4"], "lower bound"),
+        (["search", *SLOW, "--min-rpm", "2e4"], "--min-rpm 20000 > --max-rpm 10000"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(

@@ -30,6 +30,11 @@ app = typer.Typer(
 
 _MPA = 1e6
 _UM = 1e-6
+#: Largest feed per tooth the edge-load model takes, mm.
+MAX_FZ_MM = 10.0
+#: Smallest radial depth of cut, as a fraction of the diameter (below it the engagement arc
+#: vanishes in floating point).
+MIN_AE_FRACTION = 1e-6
 
 Diameter = Annotated[float, typer.Option("--diameter-mm", help="Cutter diameter in mm.")]
 Teeth = Annotated[int, typer.Option("--teeth", help="Number of teeth (flutes).")]
@@ -78,15 +83,21 @@ def _cut(
     """The MIRS function of the cut (:class:`cnctwin.optimize.MillingMirs`)."""
     import numpy as np
 
+    from cnctwin.config import MAX_TOOL_DIAMETER_MM, MIN_TOOL_DIAMETER_MM
     from cnctwin.mechanics import ElasticMirsModel, immersion_angles, load_materials
     from cnctwin.optimize import MillingMirs
 
-    check_number("--diameter-mm", diameter_mm, 0.0, 1000.0, low_open=True, unit="mm")
+    check_number(
+        "--diameter-mm", diameter_mm, MIN_TOOL_DIAMETER_MM, MAX_TOOL_DIAMETER_MM, unit="mm"
+    )
     check_count("--teeth", teeth, 1, 100)
-    if not (math.isfinite(ae_mm) and 0.0 < ae_mm <= diameter_mm):
-        raise InputError(f"--ae-mm {ae_mm!r}: give 0 < ae <= the diameter ({diameter_mm:g} mm)")
-    check_number("--contact-mm", contact_mm, 0.0, 100.0, low_open=True, unit="mm")
-    check_number("--depth-um", depth_um, 0.0, 10_000.0, low_open=True, unit="um")
+    if not (math.isfinite(ae_mm) and MIN_AE_FRACTION * diameter_mm <= ae_mm <= diameter_mm):
+        raise InputError(
+            f"--ae-mm {ae_mm!r}: give {MIN_AE_FRACTION:g} x the diameter <= ae <= the diameter "
+            f"({diameter_mm:g} mm)"
+        )
+    check_number("--contact-mm", contact_mm, 0.001, 100.0, unit="mm")
+    check_number("--depth-um", depth_um, 1.0, 10_000.0, unit="um")
     check_count("--points", points, 2, 2000)
     library = load_materials(materials_file)
     coefficients = library.milling_material(forces).coefficients
@@ -97,9 +108,20 @@ def _cut(
     return MillingMirs(coefficients, teeth, entry, exit_, model)
 
 
-def _check_cut(feed_mm_min: float, rpm: float) -> None:
+def _check_cut(feed_mm_min: float, rpm: float, teeth: int) -> None:
     check_number("--feed-mm-min", feed_mm_min, 0.0, 1e6, low_open=True, unit="mm/min")
     check_number("--rpm", rpm, 0.0, 1e6, low_open=True, unit="rpm")
+    _check_fz("--feed-mm-min", feed_mm_min, "--rpm", rpm, teeth)
+
+
+def _check_fz(feed_option: str, feed: float, rpm_option: str, rpm: float, teeth: int) -> None:
+    """The feed per tooth of a feed and speed is at most 10 mm (the model's range)."""
+    fz_mm = feed / (max(teeth, 1) * rpm)
+    if not fz_mm <= MAX_FZ_MM:
+        raise InputError(
+            f"{feed_option} {feed:g} at {rpm_option} {rpm:g} is a feed per tooth of "
+            f"{fz_mm:g} mm; give a feed and speed with at most {MAX_FZ_MM:g} mm per tooth"
+        )
 
 
 @app.command()
@@ -119,7 +141,7 @@ def predict(
     as_json: Json = False,
 ) -> None:
     """The elastic MIRS depth profile of a flat end mill cut (Ward 2021, Eq. 3-5)."""
-    _check_cut(feed_mm_min, rpm)
+    _check_cut(feed_mm_min, rpm, teeth)
     cut = _cut(
         diameter_mm, teeth, ae_mm, forces, material, contact_mm, depth_um,
         points, down, materials_file,
@@ -203,7 +225,7 @@ def search(
     """The largest feed, and its speed, that keep the elastic MIRS within a limit."""
     from cnctwin.optimize import search_feed_speed
 
-    _check_cut(feed_mm_min, rpm)
+    _check_cut(feed_mm_min, rpm, teeth)
     check_count("--speeds", speeds, 1, 200)
     cut = _cut(
         diameter_mm, teeth, ae_mm, forces, material, contact_mm, depth_um,
@@ -229,11 +251,13 @@ def search(
         ("--min-feed", "--max-feed", "--min-rpm", "--max-rpm"), (*feeds, *rpms), strict=True
     ):
         check_number(option, value, 0.0, 1e6, low_open=True)
-    if feeds[0] > feeds[1] or rpms[0] > rpms[1]:
+    if feeds[0] > feeds[1]:
         raise InputError(
-            f"feed {feeds[0]:g}..{feeds[1]:g} mm/min, speed {rpms[0]:g}..{rpms[1]:g} rpm: "
-            "give each lower bound <= its upper bound"
+            f"--min-feed {feeds[0]:g} > --max-feed {feeds[1]:g} mm/min: give min <= max"
         )
+    if rpms[0] > rpms[1]:
+        raise InputError(f"--min-rpm {rpms[0]:g} > --max-rpm {rpms[1]:g}: give min <= max")
+    _check_fz("--max-feed", feeds[1], "--min-rpm", rpms[0], teeth)
     found = search_feed_speed(cut, limit_pa, feeds, rpms, speeds=speeds)
     report = {
         "start_feed_mm_min": feed_mm_min,
