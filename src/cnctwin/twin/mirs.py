@@ -109,8 +109,8 @@ class MirsConfig(Section):
     enabled: bool = False
     elastic: str = "AA7050-T7451"
     materials_file: Path | None = None
-    contact_length_mm: float = Field(default=0.1, gt=0.0, le=100.0)
-    depth_um: float = Field(default=200.0, gt=0.0, le=10_000.0)
+    contact_length_mm: float = Field(default=0.1, ge=0.001, le=100.0)
+    depth_um: float = Field(default=200.0, ge=1.0, le=10_000.0)
     points: int = Field(default=41, ge=2, le=2000)
     control: bool = False
     max_mpa: float | None = Field(default=None, gt=0.0, le=1e5)
