@@ -210,6 +210,19 @@ BASES: dict[tuple[str, ...], Base] = {
     ("study", "dexel"): Base(
         lambda t: ["--out", str(_program(t / "a_file")), "--quick"], ends_with="--out"
     ),
+    ("mirs", "predict"): Base(
+        lambda t: (
+            "--diameter-mm 16 --teeth 3 --ae-mm 8 --feed-mm-min 14400 --rpm 30000 "
+            "--contact-mm 1 --depth-um 50 --points 2 --json".split()
+        )
+    ),
+    ("mirs", "search"): Base(
+        lambda t: (
+            "--diameter-mm 16 --teeth 3 --ae-mm 8 --feed-mm-min 14400 --rpm 30000 "
+            "--contact-mm 1 --depth-um 50 --points 2 --speeds 2 --min-feed 1000 "
+            "--max-feed 14400 --min-rpm 20000 --max-rpm 30000 --json".split()
+        )
+    ),
     ("roughness", "fit"): Base(lambda t: [str(_cut_csv(t / "cuts.csv")), "--json"]),
     ("roughness", "predict"): Base(
         lambda t: (

@@ -51,9 +51,7 @@ def test_quick_study_writes_every_output(tmp_path: Path) -> None:
     top = summary["score_optimum"]
     assert top["score"] <= best["score"]
     segment = 9 * math.acos(0.4) - 1.2 * math.sqrt(9 - 1.44)
-    coarse = [
-        r for r in rows if float(r["density_per_mm"]) == 5.0 and float(r["cycle_s"]) == 0.2
-    ]
+    coarse = [r for r in rows if float(r["density_per_mm"]) == 5.0 and float(r["cycle_s"]) == 0.2]
     fast = max(coarse, key=lambda r: float(r["feed_mm_min"]))
     assert float(fast["feed_mm_min"]) == 2880.0
     # Per run the deviation is signed: less removed than by a continuous cut is negative.

@@ -101,6 +101,11 @@ COMMANDS: dict[str, _Lazy] = {
         "app",
         "Surface roughness: fit the power-law model to cuts, predict with it.",
     ),
+    "mirs": _Lazy(
+        "mirs",
+        "app",
+        "Elastic machining-induced residual stress (Ward 2021): predict, search feed and speed.",
+    ),
     "dynamics": _Lazy(
         "dynamics", "app", "Structural dynamics: FRFs and modal fits from tap tests."
     ),

@@ -1,5 +1,5 @@
 """Cutting mechanics: milling, turning and drilling forces, torque, power, coefficients,
-materials.
+materials, elastic machining-induced residual stress (Ward 2021, Eq. 3-5).
 
 Public API::
 
@@ -30,7 +30,9 @@ from cnctwin.mechanics.drilling import (
 from cnctwin.mechanics.engagement import ImmersionIntervals, immersion_angles
 from cnctwin.mechanics.identification import identify_coefficients
 from cnctwin.mechanics.materials import (
+    ElasticMaterial,
     MaterialsLibrary,
+    elastic_material,
     kienzle_material,
     kienzle_milling_coefficients,
     load_materials,
@@ -44,6 +46,17 @@ from cnctwin.mechanics.milling import (
     mean_forces,
     milling_forces,
 )
+from cnctwin.mechanics.residual_stress import (
+    ElasticMirsModel,
+    LoadingStresses,
+    ResidualStressProfile,
+    SurfaceLoad,
+    edge_surface_load,
+    elastic_mirs,
+    elastic_release,
+    loading_stresses,
+    milling_surface_load,
+)
 from cnctwin.mechanics.turning import (
     TurningCoefficients,
     edge_force_turning,
@@ -56,15 +69,24 @@ __all__ = [
     "CuttingCoefficients",
     "DrillingLoad",
     "DrillingMaterial",
+    "ElasticMaterial",
+    "ElasticMirsModel",
     "ForceWaveform",
     "ImmersionIntervals",
+    "LoadingStresses",
     "MaterialsLibrary",
     "MeanForces",
+    "ResidualStressProfile",
+    "SurfaceLoad",
     "TurningCoefficients",
     "drilling_load",
     "drilling_material",
     "drilling_materials",
     "edge_force_turning",
+    "edge_surface_load",
+    "elastic_material",
+    "elastic_mirs",
+    "elastic_release",
     "flat_end_mill_mean_forces",
     "identify_coefficients",
     "immersion_angles",
@@ -72,10 +94,12 @@ __all__ = [
     "kienzle_material",
     "kienzle_milling_coefficients",
     "load_materials",
+    "loading_stresses",
     "mean_forces",
     "milling_forces",
     "milling_entry_toml",
     "milling_material",
+    "milling_surface_load",
     "oblique_coefficients",
     "tapping_torque",
     "turning_chip",

@@ -1,4 +1,5 @@
-"""The materials library: milling coefficients and Kienzle values, each with its source.
+"""The materials library: milling coefficients, Kienzle values and elastic constants, each with
+its source.
 
 The packaged data live in ``cnctwin/mechanics/data/materials.toml`` (customary units, named in
 the keys); this module reads that file through :mod:`importlib.resources` and converts to SI.
@@ -11,13 +12,16 @@ A milling entry may be *derived* from a Kienzle entry (``from_kienzle``): Kienzl
 thickness ``h_ref``, which the linear edge-force model can carry
 (:func:`kienzle_milling_coefficients`). Kienzle gives the cutting (tangential) force only, so a
 derived entry's radial and axial coefficients are 0.
+
+Elastic entries (``[elastic."NAME"]``: Young's modulus, Poisson's ratio, thermal expansion) feed
+the residual stress model (:mod:`cnctwin.mechanics.residual_stress`).
 """
 
 from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib.resources import files
 from pathlib import Path
@@ -27,11 +31,13 @@ from cnctwin.errors import ConfigError, DataError
 from cnctwin.mechanics.coefficients import CuttingCoefficients
 
 __all__ = [
+    "ElasticMaterial",
     "KienzleMaterial",
     "MaterialsLibrary",
     "MillingMaterial",
     "kienzle_material",
     "kienzle_materials",
+    "elastic_material",
     "kienzle_milling_coefficients",
     "load_materials",
     "milling_entry_toml",
@@ -40,7 +46,7 @@ __all__ = [
     "packaged_materials",
 ]
 
-_Entry = TypeVar("_Entry", "MillingMaterial", "KienzleMaterial")
+_Entry = TypeVar("_Entry", "MillingMaterial", "KienzleMaterial", "ElasticMaterial")
 
 #: Valid ranges of the numeric keys: (low, high, low is open, unit). Wide on purpose: they
 #: catch a unit slip (Pa for N/mm^2, m for mm), not an unusual material.
@@ -54,11 +60,16 @@ _RANGES: dict[str, tuple[float, float, bool, str]] = {
     "kc11_n_mm2": (0.0, 20_000.0, True, "N/mm^2"),
     "mc": (0.0, 0.99, False, ""),
     "h_ref_mm": (0.0, 1.0, True, "mm"),
+    "youngs_modulus_gpa": (0.0, 1500.0, True, "GPa"),
+    "poisson_ratio": (0.0, 0.5, False, ""),
+    "expansion_um_m_k": (0.0, 100.0, False, "um/(m K)"),
 }
 _MILLING_KEYS = ("ktc_n_mm2", "krc_n_mm2", "kac_n_mm2", "kte_n_mm", "kre_n_mm", "kae_n_mm")
 _TEXT_KEYS = ("source", "conditions", "note", "derived")
 _MILLING_ALLOWED = (*_MILLING_KEYS, *_TEXT_KEYS, "checked", "from_kienzle", "h_ref_mm")
 _KIENZLE_ALLOWED = ("kc11_n_mm2", "mc", "source", "conditions", "note", "checked")
+_ELASTIC_KEYS = ("youngs_modulus_gpa", "poisson_ratio", "expansion_um_m_k")
+_ELASTIC_ALLOWED = (*_ELASTIC_KEYS, "source", "note", "checked")
 _MM = 1e-3  # m per mm
 
 
@@ -126,6 +137,37 @@ class KienzleMaterial:
 
 
 @dataclass(frozen=True)
+class ElasticMaterial:
+    """Isotropic linear-elastic constants of one workpiece material with their source.
+
+    Attributes
+    ----------
+    name
+        The entry's name in the library.
+    youngs_modulus_pa
+        Young's modulus E, Pa.
+    poisson_ratio
+        Poisson's ratio nu (dimensionless, 0 <= nu < 0.5).
+    expansion_per_k
+        Linear thermal expansion coefficient alpha, 1/K.
+    source
+        Where the values come from.
+    checked
+        Whether the project compared the values with the printed source.
+    note
+        Caveats.
+    """
+
+    name: str
+    youngs_modulus_pa: float
+    poisson_ratio: float
+    expansion_per_k: float
+    source: str
+    checked: bool
+    note: str
+
+
+@dataclass(frozen=True)
 class MaterialsLibrary:
     """Milling and Kienzle entries by name: the packaged library, with a user's file if given.
 
@@ -135,10 +177,13 @@ class MaterialsLibrary:
         Milling entries by name.
     kienzle
         Kienzle entries by name.
+    elastic
+        Elastic entries by name.
     """
 
     milling: dict[str, MillingMaterial]
     kienzle: dict[str, KienzleMaterial]
+    elastic: dict[str, ElasticMaterial] = field(default_factory=dict)
 
     def milling_material(self, name: str) -> MillingMaterial:
         """The milling entry ``name`` (case-insensitive).
@@ -159,6 +204,16 @@ class MaterialsLibrary:
             If there is no such entry; the message lists the valid names.
         """
         return _lookup(self.kienzle, name, "Kienzle")
+
+    def elastic_material(self, name: str) -> ElasticMaterial:
+        """The elastic entry ``name`` (case-insensitive).
+
+        Raises
+        ------
+        ConfigError
+            If there is no such entry; the message lists the valid names.
+        """
+        return _lookup(self.elastic, name, "elastic")
 
 
 def kienzle_milling_coefficients(kc11_pa: float, mc: float, h_ref_m: float) -> CuttingCoefficients:
@@ -262,6 +317,17 @@ def milling_material(name: str) -> MillingMaterial:
     return _packaged().milling_material(name)
 
 
+def elastic_material(name: str) -> ElasticMaterial:
+    """The packaged elastic entry ``name`` (case-insensitive).
+
+    Raises
+    ------
+    ConfigError
+        If there is no such entry; the message lists the valid names.
+    """
+    return _packaged().elastic_material(name)
+
+
 def kienzle_material(name: str) -> KienzleMaterial:
     """The packaged Kienzle entry ``name`` (case-insensitive).
 
@@ -336,10 +402,10 @@ def _build(
     error: type[DataError] | type[ConfigError],
     base: MaterialsLibrary | None,
 ) -> MaterialsLibrary:
-    unknown = sorted(set(data) - {"milling", "kienzle"})
+    unknown = sorted(set(data) - {"milling", "kienzle", "elastic"})
     if unknown:
-        raise error(f"{where}: unknown tables {unknown}; valid: milling, kienzle")
-    tables = {kind: data.get(kind, {}) for kind in ("milling", "kienzle")}
+        raise error(f"{where}: unknown tables {unknown}; valid: milling, kienzle, elastic")
+    tables = {kind: data.get(kind, {}) for kind in ("milling", "kienzle", "elastic")}
     for kind, table in tables.items():
         if not isinstance(table, dict):
             raise error(f'{where}: {kind} is not a table; write [{kind}."NAME"] tables')
@@ -351,7 +417,11 @@ def _build(
     for name, entry in tables["milling"].items():
         _check_new(name, milling, "milling", where, error)
         milling[name] = _milling(name, entry, where, error, kienzle)
-    return MaterialsLibrary(milling, kienzle)
+    elastic = dict(base.elastic) if base else {}
+    for name, entry in tables["elastic"].items():
+        _check_new(name, elastic, "elastic", where, error)
+        elastic[name] = _elastic(name, entry, where, error)
+    return MaterialsLibrary(milling, kienzle, elastic)
 
 
 def _check_new(
@@ -447,6 +517,25 @@ def _kienzle(
         _flag(place, entry, error),
         _text(place, entry, "note", error),
         _text(place, entry, "conditions", error),
+    )
+
+
+def _elastic(
+    name: str, entry: Any, where: str, error: type[DataError] | type[ConfigError]
+) -> ElasticMaterial:
+    place = f"{where}: [elastic.{_toml_string(name)}]"
+    _check_keys(place, entry, _ELASTIC_ALLOWED, (*_ELASTIC_KEYS, "source"), error)
+    e, nu, alpha = (_number(place, key, entry[key], error) for key in _ELASTIC_KEYS)
+    if nu >= 0.5:
+        raise error(f"{place} poisson_ratio = {nu!r}; give 0 <= poisson_ratio < 0.5")
+    return ElasticMaterial(
+        name,
+        e * 1e9,
+        nu,
+        alpha * 1e-6,
+        _text(place, entry, "source", error),
+        _flag(place, entry, error),
+        _text(place, entry, "note", error),
     )
 
 

@@ -1,5 +1,6 @@
 """The optimised NC program: feeds (and speeds) per block from force, power, chip-thickness and
-stability limits, the program rewritten in its own dialect.
+stability limits, the program rewritten in its own dialect; the feed and speed that keep the
+elastic residual stress within a limit (:func:`search_feed_speed`).
 
 Public API::
 
@@ -23,6 +24,7 @@ from cnctwin.optimize.program import (
     optimize_program,
     scheduled_speeds,
 )
+from cnctwin.optimize.residual_stress import MillingMirs, MirsSearch, search_feed_speed
 
 __all__ = [
     "FEED_STEP",
@@ -31,9 +33,12 @@ __all__ = [
     "MIN_PIECE_MM",
     "BlockPlan",
     "FeedLimits",
+    "MillingMirs",
+    "MirsSearch",
     "OptimizedProgram",
     "ProgramLoads",
     "force_feed_limit",
     "optimize_program",
+    "search_feed_speed",
     "scheduled_speeds",
 ]

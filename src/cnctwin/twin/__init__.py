@@ -17,6 +17,7 @@ from cnctwin.twin.adaptive_feed import AdaptiveFeedConfig
 from cnctwin.twin.config import RunConfig, load_run_config
 from cnctwin.twin.host import MachineProcess, MachineServer
 from cnctwin.twin.local import LocalConnection
+from cnctwin.twin.mirs import MirsConfig
 from cnctwin.twin.model_stage import ModelStage, load_models
 from cnctwin.twin.monitoring import BandResult, ForceBand
 from cnctwin.twin.physics import TwinPhysics
@@ -50,6 +51,7 @@ __all__ = [
     "LocalConnection",
     "MachineProcess",
     "MachineServer",
+    "MirsConfig",
     "ModelConfig",
     "ModelStage",
     "OffsetWrite",

@@ -15,6 +15,7 @@ from cnctwin.twin.actions import ActionStage, RuleStage
 from cnctwin.twin.adaptive_feed import AdaptiveFeedStage, program_engagement_map
 from cnctwin.twin.chatter_live import chatter_stage
 from cnctwin.twin.config import RunConfig
+from cnctwin.twin.mirs import MirsStage
 from cnctwin.twin.model_stage import LoadedModel, ModelStage, load_models
 from cnctwin.twin.monitoring import ForceBand
 from cnctwin.twin.mqtt import MqttOutlet, MqttSignalStage
@@ -210,6 +211,16 @@ def build_twin(
                 config, physics.cutters, adaptive.map_step_mm, program, program_text
             )
         stages.append(AdaptiveFeedStage(adaptive, feed.min_pct, feed.max_pct, emap))
+    if twin_cfg.mirs.enabled:  # after the rules and the adaptive feed: the lower override wins
+        limits = config.control
+        stages.append(
+            MirsStage(
+                twin_cfg.mirs,
+                physics.coefficients,
+                (limits.feed_override.min_pct, limits.feed_override.max_pct),
+                (limits.spindle_override.min_pct, limits.spindle_override.max_pct),
+            )
+        )
     stages.append(actions)
     outlets: list[MqttOutlet] = []
     if mqtt_source is not None or mqtt_publisher is not None:

@@ -12,6 +12,7 @@ from cnctwin.config import Section, resolve_file
 from cnctwin.learn import FilterSpec, WindowSpec
 from cnctwin.twin.adaptive_feed import AdaptiveFeedConfig
 from cnctwin.twin.chatter_live import ChatterConfig
+from cnctwin.twin.mirs import MirsConfig
 from cnctwin.twin.roughness import RoughnessConfig
 
 __all__ = [
@@ -358,6 +359,9 @@ class TwinSettings(Section):
         Roughness per sample and program section (:mod:`cnctwin.twin.roughness`).
     chatter
         Online chatter detection and avoidance (:mod:`cnctwin.twin.chatter_live`).
+    mirs
+        Elastic residual stress prediction and control (Ward 2021, Sec. 3.3;
+        :mod:`cnctwin.twin.mirs`).
     stop_confirmation
         When a stop counts as done, and the escalation when it does not.
     overload
@@ -382,6 +386,7 @@ class TwinSettings(Section):
     adaptive_feed: AdaptiveFeedConfig = Field(default_factory=AdaptiveFeedConfig)
     roughness: RoughnessConfig = Field(default_factory=RoughnessConfig)
     chatter: ChatterConfig = Field(default_factory=ChatterConfig)
+    mirs: MirsConfig = Field(default_factory=MirsConfig)
     stop_confirmation: StopConfirmationConfig = Field(default_factory=StopConfirmationConfig)
     overload: OverloadConfig = Field(default_factory=OverloadConfig)
     models: list[ModelConfig] = Field(default_factory=list, max_length=16)

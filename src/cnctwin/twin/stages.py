@@ -27,7 +27,9 @@ Names a stage adds to :attr:`CycleState.predicted` (units in the names):
   ``roughness_kin_rz_um``, ``roughness_kin_wall_rz_um``, ``roughness_section_ra_mean_um``,
   ``roughness_section_ra_max_um``, ``roughness_section_kin_rz_max_um``;
 - chatter (:mod:`cnctwin.twin.chatter_live`): ``chatter_ratio``, ``chatter_frequency_hz``,
-  ``chatter_detected``, ``chatter_vibration_um``, ``chatter_stable_rpm``, ``chatter_avoided``.
+  ``chatter_detected``, ``chatter_vibration_um``, ``chatter_stable_rpm``, ``chatter_avoided``;
+- residual stress (:mod:`cnctwin.twin.mirs`): ``mirs_max_mpa``, ``mirs_surface_xx_mpa``,
+  ``mirs_surface_yy_mpa``, ``mirs_target_feed_pct``, ``mirs_target_spindle_pct``.
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ from cnctwin.thread import SIGNALS, ConnectionLost, MachineConnection, RunState
 from cnctwin.twin.adaptive_feed import ADAPTIVE_FEED_PREDICTIONS
 from cnctwin.twin.chatter_live import CHATTER_PREDICTIONS
 from cnctwin.twin.freshness import Freshness
+from cnctwin.twin.mirs import MIRS_PREDICTIONS
 from cnctwin.twin.monitoring import ForceBand
 from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.plausibility import AXES, Plausibility
@@ -108,6 +111,7 @@ PREDICTIONS = (
     *ADAPTIVE_FEED_PREDICTIONS,
     *ROUGHNESS_PREDICTIONS,
     *CHATTER_PREDICTIONS,
+    *MIRS_PREDICTIONS,
 )
 
 
