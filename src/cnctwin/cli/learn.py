@@ -265,11 +265,17 @@ def lead_time(
     for run in result.report["runs"]:
         if run["flagged"]:
             when = (
-                f"flagged at {run['flag_time_s']:.1f} s, {run['lead_time_s']:.1f} s before the end"
+                f"flagged at {run['flag_time_s']:.1f} s, {run['before_end_s']:.1f} s before "
+                f"the end of machining"
             )
         else:
             when = "not flagged"
-        kind = "alarm" if run["alarm"] else "false alarm" if run["flagged"] else "ok"
+        kind = {
+            (True, True): "caught",
+            (True, False): "missed",
+            (False, True): "false alarm",
+            (False, False): "quiet",
+        }[(run["alarm"], run["flagged"])]
         typer.echo(f"run {run['run']:>4} ({target} = {run['outcome']}, {kind}): {when}")
     typer.echo(
         f"{target} = {alarm}: {summary['alarm_runs_flagged']} of {summary['alarm_runs']} "
