@@ -12,9 +12,14 @@ Per run, over the cycles where the physics band is armed (in contact, settled):
 
 - band half-width: physics ``(force_band_high_n - force_band_low_n) / 2``; hybrid
   ``STOP_FACTOR * residual_band`` around ``predicted_force_xy_n + residual``;
+- the learned 90 % band's coverage (``hybrid_band_coverage``): the share of those cycles
+  whose measured force lies within ``residual_band`` of the hybrid centre;
 - false stops (clean runs): cycles out of the band (the demo's stop rule fires on the first);
 - the hole: machine time from the tool first reaching the hole (its tip within a radius of
   the hole's box, at the hole's depth) to the first out-of-band cycle.
+
+:func:`study` is the whole benchmark as a function (``tests/learn/test_hybrid_band.py`` runs
+it small).
 
 Usage::
 
