@@ -42,7 +42,6 @@ from cnctwin.learn import (
     read_runs,
     read_table,
 )
-from cnctwin.learn.dataset import key_of
 
 REPO = Path(__file__).resolve().parents[1]
 Arrays = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.str_]]
@@ -69,7 +68,7 @@ def study_data(name: str) -> Arrays:
     schema = FeatureSchema.from_spec(load_feature_spec(REPO / "examples" / "learn" / spec))
     data = build_dataset(runs, schema, table, key)
     y = np.asarray(data.columns[target], dtype=float)
-    g = np.array([key_of(v) for v in data.columns[group]], dtype=str)
+    g = np.asarray(data.columns[group]).astype(str)
     ok = np.isfinite(y)
     return data.features[ok].astype(np.float32).astype(float), y[ok], g[ok]
 
