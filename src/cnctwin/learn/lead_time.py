@@ -44,6 +44,7 @@ __all__ = [
     "AlarmRule",
     "LeadTimeResult",
     "RunWindows",
+    "choose_threshold",
     "first_flag",
     "hold_out_decision",
     "lead_time_study",
