@@ -12,9 +12,14 @@ Per run, over the cycles where the physics band is armed (in contact, settled):
 
 - band half-width: physics ``(force_band_high_n - force_band_low_n) / 2``; hybrid
   ``STOP_FACTOR * residual_band`` around ``predicted_force_xy_n + residual``;
+- the learned 90 % band's coverage (``hybrid_band_coverage``): the share of those cycles
+  whose measured force lies within ``residual_band`` of the hybrid centre;
 - false stops (clean runs): cycles out of the band (the demo's stop rule fires on the first);
 - the hole: machine time from the tool first reaching the hole (its tip within a radius of
   the hole's box, at the hole's depth) to the first out-of-band cycle.
+
+:func:`study` is the whole benchmark as a function (``tests/learn/test_hybrid_band.py`` runs
+it small).
 
 Usage::
 
@@ -127,6 +132,7 @@ def first_held(out: np.ndarray, t: np.ndarray, hold: int) -> float | None:
 
 
 def judge(run: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Band widths, centre errors, coverage and out-of-band cycles of one monitored run."""
     armed = run["force_band_armed"] == 1.0
     hybrid_ok = armed & (run["residual_ready"] == 1.0)
     measured = run["measured_force_xy_n"]
@@ -143,6 +149,10 @@ def judge(run: dict[str, np.ndarray]) -> dict[str, Any]:
         "hybrid_half_width_n": float(np.median(hybrid_half[hybrid_ok])),
         "physics_center_error_n": float(np.median(physics_error[armed])),
         "hybrid_center_error_n": float(np.median(np.abs(measured - hybrid_center)[hybrid_ok])),
+        # the learned 90 % band itself (STOP_FACTOR 1): its coverage on this run
+        "hybrid_band_coverage": float(
+            np.mean(np.abs(measured - hybrid_center)[hybrid_ok] <= run["residual_band"][hybrid_ok])
+        ),
         "physics_out_cycles": int(physics_out.sum()),
         "hybrid_out_cycles": int(hybrid_out.sum()),
         **{
@@ -151,6 +161,61 @@ def judge(run: dict[str, np.ndarray]) -> dict[str, Any]:
             for hold in HOLDS
         },
     }  # fmt: skip
+
+
+def study(
+    base: RunConfig, true_material: str, *, teach: int = 4, samples: int = 1100,
+    clean_seeds: tuple[int, ...] = (201, 202),
+) -> dict[str, Any]:  # fmt: skip
+    """Teach on ``teach`` clean runs, monitor clean runs (one per seed) and one through the
+    hole; the figures of each run and the hole's detection delays (s)."""
+    started = time.time()
+    runs = []
+    for k in range(teach):
+        run = run_once(base, true_material, seed=100 + k, hole=False, samples=samples)
+        in_contact = run["force_band_armed"] == 1.0
+        residual = np.where(
+            in_contact, run["measured_force_xy_n"] - run["predicted_force_xy_n"], np.nan
+        )
+        runs.append(Run(str(k), {**{n: run[n] for n in FEATURES}, "residual_n": residual}))
+    spec = FeatureSpec.model_validate({"sample_period_s": base.twin.cycle_s, "signals": FEATURES})
+    schema = FeatureSchema.from_spec(spec)
+    result = train(build_dataset(runs, schema), "residual_n", "gpr", "run", quick=True,
+                   max_gpr_points=100)  # fmt: skip
+    with tempfile.TemporaryDirectory() as tmp:
+        model = export_onnx(result, schema, Path(tmp) / "residual.onnx")
+        monitored = {
+            f"clean_{k + 1}": run_once(base, true_material, seed=seed, hole=False,
+                                       samples=samples, model=model)
+            for k, seed in enumerate(clean_seeds)
+        }  # fmt: skip
+        monitored["hole"] = run_once(base, true_material, seed=203, hole=True,
+                                     samples=samples, model=model)  # fmt: skip
+    figures = {name: judge(run) for name, run in monitored.items()}
+    entry = hole_entry_s(monitored["hole"], base)
+    for key in ("physics", "hybrid"):
+        for hold in HOLDS:
+            first = figures["hole"][f"{key}_first_out_s_hold{hold}"]
+            delay = None if first is None else first - entry
+            figures["hole"][f"{key}_delay_s_hold{hold}"] = delay
+    return {
+        "true_material": true_material,
+        "twin_material": base.material.name,
+        "teach_runs": teach,
+        "samples_per_run": samples,
+        "stop_factor": STOP_FACTOR,
+        "training": {"holdout": result.report["holdout"], "band_k": result.band},
+        "hole_entry_s": entry,
+        "runs": figures,
+        "load": " ".join(f"{x:.1f}" for x in os.getloadavg()),
+        "wall_s": time.time() - started,
+    }
+
+
+def demo_config() -> RunConfig:
+    """The demo's run configuration (the program, the blank with its hole, the twin)."""
+    with as_file(files("cnctwin.examples")) as examples:
+        return load_run_config(Path(examples) / "demo_twin.toml")
 
 
 def main() -> None:
@@ -164,50 +229,7 @@ def main() -> None:
     )
     args = parser.parse_args()
     warnings.filterwarnings("ignore")  # scikit-learn's GPR bound warnings
-    with as_file(files("cnctwin.examples")) as examples:
-        base = load_run_config(Path(examples) / "demo_twin.toml")
-    started = time.time()
-    teach = []
-    for k in range(args.teach):
-        run = run_once(base, args.true_material, seed=100 + k, hole=False, samples=args.samples)
-        in_contact = run["force_band_armed"] == 1.0
-        residual = np.where(
-            in_contact, run["measured_force_xy_n"] - run["predicted_force_xy_n"], np.nan
-        )
-        teach.append(Run(str(k), {**{n: run[n] for n in FEATURES}, "residual_n": residual}))
-    spec = FeatureSpec.model_validate({"sample_period_s": base.twin.cycle_s, "signals": FEATURES})
-    schema = FeatureSchema.from_spec(spec)
-    result = train(build_dataset(teach, schema), "residual_n", "gpr", "run", quick=True,
-                   max_gpr_points=100)  # fmt: skip
-    with tempfile.TemporaryDirectory() as tmp:
-        model = export_onnx(result, schema, Path(tmp) / "residual.onnx")
-        monitored = {
-            "clean_1": run_once(base, args.true_material, seed=201, hole=False,
-                                samples=args.samples, model=model),
-            "clean_2": run_once(base, args.true_material, seed=202, hole=False,
-                                samples=args.samples, model=model),
-            "hole": run_once(base, args.true_material, seed=203, hole=True,
-                             samples=args.samples, model=model),
-        }  # fmt: skip
-    figures = {name: judge(run) for name, run in monitored.items()}
-    entry = hole_entry_s(monitored["hole"], base)
-    for key in ("physics", "hybrid"):
-        for hold in HOLDS:
-            first = figures["hole"][f"{key}_first_out_s_hold{hold}"]
-            delay = None if first is None else first - entry
-            figures["hole"][f"{key}_delay_s_hold{hold}"] = delay
-    out = {
-        "true_material": args.true_material,
-        "twin_material": base.material.name,
-        "teach_runs": args.teach,
-        "samples_per_run": args.samples,
-        "stop_factor": STOP_FACTOR,
-        "training": {"holdout": result.report["holdout"], "band_k": result.band},
-        "hole_entry_s": entry,
-        "runs": figures,
-        "load": " ".join(f"{x:.1f}" for x in os.getloadavg()),
-        "wall_s": time.time() - started,
-    }
+    out = study(demo_config(), args.true_material, teach=args.teach, samples=args.samples)
     text = json.dumps(out, indent=2, default=float)
     print(text)
     if args.out is not None:

@@ -196,6 +196,27 @@ BASES: dict[tuple[str, ...], Base] = {
         lambda t: [str(t / "none.onnx"), "--data", str(t / "none.csv")], ends_with="none.onnx"
     ),
     ("learn", "inspect"): Base(lambda t: [str(t / "none.onnx")], ends_with="none.onnx"),
+    ("learn", "lead-time"): Base(
+        lambda t: [
+            "--data",
+            str(t / "none.csv"),
+            "--labels",
+            str(t / "labels.csv"),
+            "--label-key",
+            "No",
+            "--features",
+            str(EXAMPLES / "learn" / "umich_clamping.toml"),
+            "--target",
+            "machining_finalized",
+            "--alarm",
+            "no",
+            "--phase-column",
+            "Machining_Process",
+            "--active-prefix",
+            "Layer",
+        ],  # fmt: skip
+        ends_with="labels.csv",
+    ),
     ("wear", "ekf"): Base(lambda t: ["--data", str(_ekf_csv(t / "ekf.csv")), "--json"]),
     ("wear", "mount"): Base(
         lambda t: ["--db", str(t / "mount.db"), "--tool", "T2", "--target-mm", "20", "--json"],

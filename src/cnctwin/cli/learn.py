@@ -1,4 +1,5 @@
-"""``cnctwin learn train|evaluate|inspect``: models trained on recorded runs, as ONNX files."""
+"""``cnctwin learn train|evaluate|inspect|lead-time``: models trained on recorded runs, as ONNX
+files; an early-warning study of run outcomes."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import typer
 from cnctwin import finite_json
 from cnctwin.cli._options import MAX_SEED, JsonOutput
 
-__all__ = ["app", "evaluate", "inspect", "train"]
+__all__ = ["app", "evaluate", "inspect", "lead_time", "train"]
 
 app = typer.Typer(
     help="Learned models: train on recorded runs with grouped splits, evaluate, inspect.",
@@ -207,3 +208,82 @@ def inspect(
 app.command("train")(train)
 app.command("evaluate")(evaluate)
 app.command("inspect")(inspect)
+
+
+def lead_time(
+    data: DataOpt,
+    features: Annotated[
+        Path, typer.Option("--features", help="Feature spec (TOML, a 'series' spec).")
+    ],
+    labels: Annotated[
+        Path, typer.Option("--labels", help="Table (CSV/Parquet) of one row per run.")
+    ],
+    label_key: Annotated[str, typer.Option("--label-key", help="Column holding the run key.")],
+    target: Annotated[str, typer.Option("--target", help="Column of each run's outcome.")],
+    alarm: Annotated[str, typer.Option("--alarm", help="The outcome to flag early.")],
+    phase_column: Annotated[
+        str, typer.Option("--phase-column", help="Column of the runs holding the phase.")
+    ],
+    active_prefix: Annotated[
+        str,
+        typer.Option("--active-prefix", help="Samples whose phase starts with this are scored."),
+    ],
+    smooth: Annotated[
+        int,
+        typer.Option("--smooth", help="Samples the online rule averages.", min=1, max=100_000),
+    ] = 20,
+    out: Annotated[
+        Path, typer.Option("--out", help="Report (JSON); the figure goes beside it (.png).")
+    ] = Path("lead_time.json"),
+    as_json: JsonOutput = False,
+) -> None:
+    """Flag a run's outcome online, each run left out in turn; lead times, false alarms."""
+    from cnctwin.learn import (
+        AlarmRule,
+        FeatureSchema,
+        lead_time_study,
+        load_feature_spec,
+        outcomes,
+        plot_lead_time,
+        read_runs,
+        read_table,
+    )
+
+    schema = FeatureSchema.from_spec(load_feature_spec(features))
+    outcome = outcomes(read_table(labels), label_key, target)
+    runs = read_runs(data, exclude=[labels])
+    result = lead_time_study(
+        runs, schema, outcome, AlarmRule(alarm, phase_column, active_prefix, smooth)
+    )
+    out.write_text(finite_json.dumps(result.report, indent=1) + "\n")
+    figure = plot_lead_time(result, out.with_suffix(".png"))
+    summary = result.report["summary"]
+    if as_json:
+        _print({"report": str(out), "figure": str(figure), **summary})
+        return
+    for run in result.report["runs"]:
+        if run["flagged"]:
+            when = (
+                f"flagged at {run['flag_time_s']:.1f} s, {run['before_end_s']:.1f} s before "
+                f"the end of machining"
+            )
+        else:
+            when = "not flagged"
+        kind = {
+            (True, True): "caught",
+            (True, False): "missed",
+            (False, True): "false alarm",
+            (False, False): "quiet",
+        }[(run["alarm"], run["flagged"])]
+        typer.echo(f"run {run['run']:>4} ({target} = {run['outcome']}, {kind}): {when}")
+    typer.echo(
+        f"{target} = {alarm}: {summary['alarm_runs_flagged']} of {summary['alarm_runs']} "
+        f"runs flagged; false alarms on {summary['false_alarms']} of "
+        f"{summary['other_runs']} other runs; window ROC AUC "
+        f"{summary['window_roc_auc_leave_one_run_out']:.3f} left out by run "
+        f"({summary['window_roc_auc_random_windows']:.3f} by random windows, leakage)"
+    )
+    typer.echo(f"wrote {out}, {figure}")
+
+
+app.command("lead-time")(lead_time)

@@ -9,6 +9,9 @@ Public API::
     schema = FeatureSchema.from_spec(load_feature_spec("examples/learn/umich_power.toml"))
     data = build_dataset(read_runs(["experiments/"]), schema, read_table("labels.csv"), "No")
     result = train(data, "S1_OutputPower", "gbm", "run")   # grouped tuning and hold-out
+    outcome = outcomes(read_table("labels.csv"), "No", "machining_finalized")
+    study = lead_time_study(read_runs(["experiments/"]), schema, outcome,
+                            AlarmRule("no", "Machining_Process", "Layer"))  # early warning
     export_onnx(result, schema, "power.onnx")
     model = Predictor.load("power.onnx", available=signal_names)   # schema checked
     path = FeaturePath(model.schema)
@@ -35,7 +38,8 @@ from cnctwin.learn.schema import (
 from cnctwin.learn.splits import grouped_folds, holdout_groups
 
 if TYPE_CHECKING:
-    from cnctwin.learn.figures import plot_report
+    from cnctwin.learn.figures import plot_lead_time, plot_report
+    from cnctwin.learn.lead_time import AlarmRule, LeadTimeResult, lead_time_study, outcomes
     from cnctwin.learn.onnx_model import Predictor, evaluate_model, export_onnx
     from cnctwin.learn.training import (
         BAND_LEVEL,
@@ -47,6 +51,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "BAND_LEVEL",
+    "AlarmRule",
     "MODELS",
     "WINDOW_FEATURES",
     "Dataset",
@@ -55,6 +60,7 @@ __all__ = [
     "FeatureSpec",
     "FilterSpec",
     "InvalidWhen",
+    "LeadTimeResult",
     "Predictor",
     "Run",
     "TrainResult",
@@ -64,9 +70,12 @@ __all__ = [
     "export_onnx",
     "grouped_folds",
     "holdout_groups",
+    "lead_time_study",
     "leave_one_group_out",
     "load_feature_spec",
     "make_filter",
+    "outcomes",
+    "plot_lead_time",
     "plot_report",
     "read_runs",
     "read_table",
@@ -83,6 +92,11 @@ _LAZY = {
     "export_onnx": "onnx_model",
     "evaluate_model": "onnx_model",
     "plot_report": "figures",
+    "plot_lead_time": "figures",
+    "AlarmRule": "lead_time",
+    "LeadTimeResult": "lead_time",
+    "lead_time_study": "lead_time",
+    "outcomes": "lead_time",
 }
 
 # scikit-learn, skl2onnx, onnxruntime and matplotlib load only when a model is trained,

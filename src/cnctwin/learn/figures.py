@@ -1,5 +1,6 @@
 """The training report's figure (matplotlib, Agg): predicted vs measured and residuals per
-group for a regression; confusion matrix and ROC curve for a classification."""
+group for a regression; confusion matrix and ROC curve for a classification; the lead-time
+study's score traces."""
 
 from __future__ import annotations
 
@@ -7,9 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
+from cnctwin.learn.lead_time import LeadTimeResult
 from cnctwin.learn.training import TrainResult
 
-__all__ = ["plot_report"]
+__all__ = ["plot_lead_time", "plot_report"]
 
 
 def plot_report(result: TrainResult, path: str | Path) -> Path:
@@ -76,6 +78,47 @@ def plot_report(result: TrainResult, path: str | Path) -> Path:
         right.set_xlabel("false positive rate")
         right.set_ylabel("true positive rate")
         right.set_title("ROC on held-out groups (windows)", fontsize=9)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
+
+
+def plot_lead_time(result: LeadTimeResult, path: str | Path) -> Path:
+    """Draw each run's online score against the time left to its end of machining (s):
+    alarm runs on the left, the others on the right, the flags marked; returns the path."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    report = result.report
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), sharey=True)
+    for run in report["runs"]:
+        ax = axes[0] if run["alarm"] else axes[1]
+        left, score = result.traces[run["run"]]
+        (line,) = ax.plot(left, score, lw=1, label=f"run {run['run']}")
+        if run["flagged"]:
+            ax.plot(run["before_end_s"], run["threshold"], "o", color=line.get_color())
+    summary, rule = report["summary"], report["rule"]
+    axes[0].set_title(
+        f"{rule['alarm']} (left out in turn): {summary['alarm_runs_flagged']} of "
+        f"{summary['alarm_runs']} flagged, lead times "
+        + ", ".join(f"{t:.1f}" for t in summary["lead_times_s"])
+        + " s",
+        fontsize=9,
+    )
+    axes[1].set_title(
+        f"the other runs: {summary['false_alarms']} of {summary['other_runs']} flagged "
+        f"(false alarms)",
+        fontsize=9,
+    )
+    for ax in axes:
+        ax.invert_xaxis()
+        ax.set_xlabel("time before the end of machining (s)")
+        ax.legend(fontsize=6, ncol=2)
+    axes[0].set_ylabel(f"score: mean probability over {rule['smooth_s']:g} s (dot: flag)")
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path, dpi=90)
