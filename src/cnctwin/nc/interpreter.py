@@ -29,6 +29,7 @@ from cnctwin.nc.expressions import Parameters
 from cnctwin.nc.lexer import lex_block
 from cnctwin.nc.limits import MAX_NUMBER_CHARS, WORD_LIMITS
 from cnctwin.nc.owords import OWordControl
+from cnctwin.nc.runs import StraightRun, straight_run
 from cnctwin.nc.segments import Segment
 from cnctwin.nc.setup import NCSetup
 from cnctwin.nc.source import LineSource, RepeatBudget
@@ -56,6 +57,8 @@ _LENGTH_WORD_LIMIT = WORD_LIMITS["x"][0]
 _FEED_WORD_LIMIT = WORD_LIMITS["f"][0]
 #: What :meth:`Interpreter._block` asks of the line loop: go on, or read the new source.
 _NEXT, _SWITCH = 0, 1
+#: Lines without a look for a run of straight moves after a look that found none, at most.
+_MAX_BACKOFF = 4096
 
 
 class Interpreter:
@@ -129,15 +132,29 @@ class Interpreter:
         """
         setup = self.setup
         source = LineSource.from_path(path, setup.max_program_bytes, self._budget)
-        return self._run(source)
+        return self._run(source)  # type: ignore[return-value]
 
     def run_text(self, text: str, name: str = "<string>") -> Iterator[Segment]:
         """Interpret program text held in memory; see :meth:`run_file`."""
-        return self._run(LineSource.from_text(text, name, self._budget))
+        return self._run(LineSource.from_text(text, name, self._budget))  # type: ignore[return-value]
+
+    def run_file_bulk(self, path: str | Path) -> Iterator[Segment | StraightRun]:
+        """As :meth:`run_file`, but long runs of plain ``G0``/``G1`` lines come as one
+        :class:`~cnctwin.nc.runs.StraightRun` each (for consumers that take runs, such as
+        :func:`~cnctwin.nc.summary.summarize`); their segments equal those of
+        :meth:`run_file`."""
+        setup = self.setup
+        source = LineSource.from_path(path, setup.max_program_bytes, self._budget)
+        return self._run(source, bulk=True)
+
+    def run_text_bulk(self, text: str, name: str = "<string>") -> Iterator[Segment | StraightRun]:
+        """As :meth:`run_text`, with runs; see :meth:`run_file_bulk`."""
+        return self._run(LineSource.from_text(text, name, self._budget), bulk=True)
 
     # ------------------------------------------------------------------ main loop
-    def _run(self, source: LineSource) -> Iterator[Segment]:
-        """Read the program and the subroutine files it calls, yielding segments.
+    def _run(self, source: LineSource, bulk: bool = False) -> Iterator[Segment | StraightRun]:
+        """Read the program and the subroutine files it calls, yielding segments (and, if
+        ``bulk``, runs of straight moves).
 
         One loop for every line, with the raw-line fast paths inline: this is the hot path.
         """
@@ -149,6 +166,10 @@ class Interpreter:
         out = motion.out
         sources = self._owords.sources
         sources.append(source)
+        # Runs of straight moves: looked for after a plain straight move, not again for a
+        # while (growing) after a look that found none.
+        next_look = 0
+        backoff = 0
         try:
             while sources and not executor.ended:
                 src = sources[-1]
@@ -193,6 +214,16 @@ class Interpreter:
                                     if self._segments_left < 0:
                                         raise self._too_many_segments()
                                     yield out.pop()
+                                    if bulk and lineno >= next_look and motion.plain_absolute:
+                                        run, lines = self._straight_run(src)
+                                        if run is None:
+                                            backoff = min(2 * backoff + 1, _MAX_BACKOFF)
+                                            next_look = lineno + lines + backoff
+                                        else:
+                                            backoff = 0
+                                            if main:
+                                                self.lines_read = run.last_line
+                                            yield run
                                     continue
                         else:
                             arc = _arc_words(raw, modal.motion)
@@ -236,6 +267,40 @@ class Interpreter:
             for src in sources:
                 src.close()
             source.close()
+
+    def _straight_run(self, src: LineSource) -> tuple[StraightRun | None, int]:
+        """The run of plain straight moves that follows in ``src``, taken (the source, the
+        position, the modes and the cursor move past it), and the lines it holds; ``None``
+        and the lines looked at if there is none."""
+        data = src.ahead()
+        if not data:
+            return None, 1
+        motion = self._executor.motion
+        modal = self._executor.modal
+        state = modal.state
+        run, lines, size = straight_run(
+            data,
+            file=src.name,
+            first_line=src.lineno + 1,
+            start_mm=(motion.pos[0], motion.pos[1], motion.pos[2]),
+            offsets_mm=self._executor.offsets.total,
+            factor=modal.factor,
+            motion=modal.motion,
+            state=state,
+            spindle_rpm=state.programmed_speed if state.spindle_direction else 0.0,
+            abc_deg=motion.abc,
+            feed_limit=_FEED_WORD_LIMIT,
+            max_moves=self._segments_left,
+        )
+        if run is None:
+            return None, lines
+        src.skip(size, lines)
+        self._segments_left -= lines
+        motion.pos = run.end_mm[-1].tolist()
+        modal.motion = 0 if run.rapid[-1] else 10
+        modal.state = run.end_state
+        self._cursor.line = src.lineno
+        return run, lines
 
     def _block(self, raw: str, src: LineSource, start: int) -> int:
         """Lex and execute a line that no fast path took (``start``: its byte offset).

@@ -9,9 +9,11 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from itertools import repeat
 from typing import Any
 
 from cnctwin.errors import ConfigError, NCError
+from cnctwin.nc.runs import StraightRun
 from cnctwin.nc.segments import PLANE_AXES, FeedMode, MotionKind, Segment, Vec3, arc_sweep_rad
 
 __all__ = ["ProgramSummary", "arc_extreme_points", "summarize"]
@@ -87,7 +89,7 @@ class ProgramSummary:
 
 
 def summarize(
-    segments: Iterable[Segment],
+    segments: Iterable[Segment | StraightRun],
     *,
     rapid_mm_min: float,
     travel_mm: tuple[Vec3, Vec3] | None = None,
@@ -97,7 +99,9 @@ def summarize(
     Parameters
     ----------
     segments
-        Segments from the interpreter, consumed once.
+        Segments from the interpreter, consumed once; runs of straight moves
+        (:meth:`~cnctwin.nc.interpreter.Interpreter.run_file_bulk`) are summed in bulk,
+        to the same numbers as their segments.
     rapid_mm_min
         The machine's rapid traverse rate in mm/min, > 0.
     travel_mm
@@ -126,7 +130,24 @@ def summarize(
     low_x = low_y = low_z = math.inf
     high_x = high_y = high_z = -math.inf
     dwell, rapid, arc = MotionKind.DWELL, MotionKind.RAPID, MotionKind.ARC
+    if travel_mm is not None:
+        segments = _one_by_one(segments)
     for seg in segments:
+        if isinstance(seg, StraightRun):
+            motion += len(seg)
+            if seg.state.tool:
+                tools.add(seg.state.tool)
+            rapid_length, feed_length, machining_time, run_low, run_high = _add_run(
+                seg,
+                rapid_length,
+                feed_length,
+                machining_time,
+                (low_x, low_y, low_z),
+                (high_x, high_y, high_z),
+            )
+            low_x, low_y, low_z = run_low
+            high_x, high_y, high_z = run_high
+            continue
         kind = seg.kind
         if kind is dwell:
             dwell_time += seg.dwell_s
@@ -202,6 +223,63 @@ def summarize(
         tools=tuple(sorted(tools)),
         zero_feed_moves=zero_feed,
         warnings=warnings,
+    )
+
+
+def _one_by_one(items: Iterable[Segment | StraightRun]) -> Iterator[Segment]:
+    """The segments of ``items``, runs taken apart."""
+    for item in items:
+        if isinstance(item, StraightRun):
+            yield from item.segments()
+        else:
+            yield item
+
+
+def _add_run(
+    run: StraightRun,
+    rapid_length: float,
+    feed_length: float,
+    machining_time: float,
+    low: Vec3,
+    high: Vec3,
+) -> tuple[float, float, float, Vec3, Vec3]:
+    """The totals of :func:`summarize` after the moves of ``run``: rapid and feed length
+    (mm), machining time (s) and the tool tip's box (mm), each the number the loop over the
+    run's segments gives (same operations, same order: sums are sequential, squares are
+    Python's float power)."""
+    import numpy as np
+
+    ends = run.end_mm
+    starts = np.empty_like(ends)
+    starts[0] = run.start_mm
+    starts[1:] = ends[:-1]
+    steps = (ends - starts).T.tolist()
+    x2, y2, z2 = (np.array(list(map(pow, axis, repeat(2)))) for axis in steps)
+    lengths = np.sqrt(x2 + y2 + z2)
+    rapid = run.rapid
+    if rapid.any():
+        rapid_length = float(np.add.accumulate(np.append(rapid_length, lengths[rapid]))[-1])
+    fed = ~rapid
+    if fed.any():
+        feed = lengths[fed]
+        feed_length = float(np.add.accumulate(np.append(feed_length, feed))[-1])
+        times = 60.0 * feed / run.feed_mm_min[fed]
+        machining_time = float(np.add.accumulate(np.append(machining_time, times))[-1])
+    # The first point of the lowest (highest) value wins, as in the loop: -0.0 vs 0.0.
+    points = np.empty((len(ends) + 1, 3))
+    points[0] = starts[0]
+    points[1:] = ends
+    points -= np.array(run.state.tool_offset_mm)
+    lows = points[np.argmin(points, axis=0), (0, 1, 2)].tolist()
+    highs = points[np.argmax(points, axis=0), (0, 1, 2)].tolist()
+    new_low = tuple(v if v < old else old for v, old in zip(lows, low, strict=True))
+    new_high = tuple(v if v > old else old for v, old in zip(highs, high, strict=True))
+    return (
+        rapid_length,
+        feed_length,
+        machining_time,
+        (new_low[0], new_low[1], new_low[2]),
+        (new_high[0], new_high[1], new_high[2]),
     )
 
 
