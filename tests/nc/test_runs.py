@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from cnctwin.errors import NCError
 from cnctwin.nc.interpreter import Interpreter
-from cnctwin.nc.runs import MIN_RUN_LINES, StraightRun, _numbers, _numpy
+from cnctwin.nc.runs import MIN_RUN_LINES, StraightRun
 from cnctwin.nc.segments import Segment
 from cnctwin.nc.setup import NCSetup
 from cnctwin.nc.summary import summarize
@@ -203,24 +203,3 @@ def test_summary_json_is_byte_identical() -> None:
         items = interpreter.run_text_bulk(text) if bulk else interpreter.run_text(text)
         dumps.append(json.dumps(summarize(items, rapid_mm_min=3000.0).to_dict()))
     assert dumps[0] == dumps[1]
-
-
-@settings(max_examples=200, deadline=None)
-@given(
-    st.lists(
-        st.one_of(
-            st.floats(-1e6, 1e6, allow_nan=False).map(lambda v: f"{v:.{abs(hash(v)) % 9}f}"),
-            st.from_regex(r"[-+]?([0-9]{1,9}(\.[0-9]{0,7})?|\.[0-9]{1,8})", fullmatch=True),
-        ),
-        min_size=1,
-        max_size=40,
-    )
-)
-def test_number_parser_equals_float(texts: list[str]) -> None:
-    head = "".join(f"X{t}\n" for t in texts).encode()
-    values, which, line_of, _, limit = _numbers(_numpy(), head, len(texts))
-    expected = [float(t) for t in texts]
-    assert limit == len(texts) or len(texts[limit].lstrip("+-").replace(".", "")) > 15
-    assert [repr(v) for v in values.tolist()[:limit]] == [repr(v) for v in expected[:limit]]
-    assert bytes(which.tolist()) == b"x" * len(texts)
-    assert line_of.tolist() == list(range(len(texts)))

@@ -24,6 +24,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
+from operator import itemgetter
 from typing import TYPE_CHECKING, Any
 
 from cnctwin.nc.limits import MAX_NUMBER_CHARS, MAX_POSITION_MM
@@ -40,37 +41,57 @@ MIN_RUN_LINES = 32
 #: Bytes looked at first; the window grows fourfold while every line in it belongs.
 _FIRST_WINDOW = 4096
 
-# Byte classes.
-_BAD, _LETTER, _NUMBER, _BLANK, _EOL = 0, 1, 2, 3, 4
+# Byte classes: N and G (their number follows directly), X Y Z F, number characters,
+# blanks, CR, LF.
+_BAD, _LETTER_NG, _LETTER, _NUMBER, _BLANK, _CR, _EOL = range(7)
 _LETTERS = b"GgNnXxYyZzFf"
 #: The letters of a line, in order, as the per-line fast path accepts them.
 _LINE_LETTERS = re.compile(rb"(?:[nN]?[gG]?(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])[fF]?\n)*")
 #: bytes.translate tables: keep only letters and line ends; letters to blanks.
 _ALL_BYTES = bytes(range(256))
 _NOT_LETTERS = bytes(b for b in _ALL_BYTES if b not in _LETTERS + b"\n")
+_LETTERS_TO_BLANKS = bytes.maketrans(_LETTERS, b" " * len(_LETTERS))
+#: The numbers of the G words the per-line fast path takes: G0 and G1, zeros in front.
+_G_WORDS = frozenset(b"0" * zeros + digit for zeros in range(8) for digit in (b"0", b"1"))
 _np: Any = None
 _CLASSES: Any = None
-_POW10: Any = None
+_WRONG_PAIRS: Any = None
+
+
+def _wrong_pair(before: int, after: int, apart: bool) -> bool:
+    """Whether non-blank bytes of classes ``before`` then ``after`` (``apart``: blanks
+    between them) cannot follow each other in a plain straight-move line."""
+    if _BAD in (before, after):
+        return True
+    if before in (_LETTER_NG, _LETTER):
+        return after != _NUMBER or (before == _LETTER_NG and apart)
+    if before == _NUMBER:
+        return after == _NUMBER and apart  # "X1 5"
+    if before == _CR:
+        return after != _EOL or apart
+    return after == _NUMBER  # a number at the start of a line
 
 
 def _numpy() -> Any:
     """numpy, imported on first use, and the byte class table."""
-    global _np, _CLASSES, _POW10
+    global _np, _CLASSES, _WRONG_PAIRS
     if _np is None:
         import numpy
 
         classes = numpy.full(256, _BAD, dtype=numpy.uint8)
         for b in _LETTERS:
-            classes[b] = _LETTER
+            classes[b] = _LETTER_NG if b in b"GgNn" else _LETTER
         for b in b"0123456789.+-":
             classes[b] = _NUMBER
-        for b in b" \t\r":
+        for b in b" \t":
             classes[b] = _BLANK
+        classes[ord("\r")] = _CR
         classes[ord("\n")] = _EOL
-        powers = [1.0]
-        for _ in range(22):
-            powers.append(powers[-1] * 10.0)  # exact up to 1e22
-        _np, _CLASSES, _POW10 = numpy, classes, numpy.array(powers)
+        pairs = numpy.array(
+            [_wrong_pair(k // 14, k // 2 % 7, bool(k % 2)) for k in range(98)], dtype=bool
+        )
+        _WRONG_PAIRS = pairs
+        _np, _CLASSES = numpy, classes
     return _np
 
 
@@ -178,42 +199,18 @@ def _valid_prefix(data: bytes) -> int:
     starts = np.empty_like(ends)
     starts[0] = 0
     starts[1:] = ends[:-1] + 1
-    bad_at = len(a)
-    # A CR only before its LF (a lone CR ends a line of its own).
-    cr = np.flatnonzero(a[:-1] == 13)
-    cr = cr[a[cr + 1] != 10]
-    if len(cr):
-        bad_at = int(cr[0])
-    # Each letter is followed, after blanks, by a number; each number follows, after
-    # blanks, a letter; N and G numbers follow their letter directly.
+    # Each pair of non-blank bytes in a row, with whether blanks are between them (the
+    # first byte follows a virtual line end).
     solid = np.flatnonzero(cls != _BLANK)
     seq = cls[solid]
-    after = np.empty_like(seq)
-    after[:-1] = seq[1:]
-    after[-1] = _EOL
-    before = np.empty_like(seq)
-    before[1:] = seq[:-1]
-    before[0] = _EOL
-    adjacent_before = np.empty(len(solid), dtype=bool)
-    adjacent_before[1:] = solid[1:] - 1 == solid[:-1]
-    adjacent_before[0] = False
-    number = seq == _NUMBER
-    starts_number = number & ~((before == _NUMBER) & adjacent_before)
-    letters = seq == _LETTER
-    lower = a[solid] | 0x20
-    direct = (lower == ord("n")) | (lower == ord("g"))
-    adjacent_after = np.empty(len(solid), dtype=bool)
-    adjacent_after[:-1] = adjacent_before[1:]
-    adjacent_after[-1] = False
-    wrong = (
-        (seq == _BAD)
-        | (letters & (after != _NUMBER))
-        | (starts_number & (before != _LETTER))
-        | (letters & direct & ~adjacent_after)
-    )
-    first = np.argmax(wrong) if len(wrong) else 0
-    if len(wrong) and wrong[first]:
-        bad_at = min(bad_at, int(solid[first]))
+    code = np.empty(len(solid), dtype=np.uint8)
+    code[0] = _EOL * 14 + seq[0] * 2 + (solid[0] != 0)
+    code[1:] = seq[:-1] * 14
+    code[1:] += seq[1:] * 2
+    code[1:] += np.diff(solid) != 1
+    wrong = _WRONG_PAIRS[code]
+    first = int(np.argmax(wrong))
+    bad_at = int(solid[first]) if wrong[first] else len(a)
     # No line longer than the per-line fast path takes (CR LF excluded).
     length = ends - starts - (a[np.maximum(ends - 1, 0)] == 13)
     too_long = np.flatnonzero(length > MAX_NUMBER_CHARS)
@@ -291,15 +288,18 @@ def straight_run(
     n = head.count(b"\n")
     if n < MIN_RUN_LINES:
         return None, max(n, 1), 0
-    values, which, line_of, plain, limit = _numbers(np, head, n)
-    # N and G numbers: digits only; G0 or G1.
-    for letter in b"ng":
+    numbers = _numbers(np, head, n)
+    if numbers is None:
+        return None, n, 0
+    values, which, line_of, tokens = numbers
+    limit = n
+    # N words: digits only; G words: G0 or G1 (G00, G01, ...), digits only.
+    for letter, accepted in ((ord("n"), bytes.isdigit), (ord("g"), _G_WORDS.__contains__)):
         at = np.flatnonzero(which == letter)
         if len(at) == 0:
             continue
-        fits = plain[at]
-        if letter == ord("g"):
-            fits &= (values[at] == 0.0) | (values[at] == 1.0)
+        picked = itemgetter(*at.tolist())(tokens) if len(at) > 1 else (tokens[int(at[0])],)
+        fits = np.fromiter(map(accepted, picked), dtype=bool, count=len(at))
         if not fits.all():
             limit = min(limit, int(line_of[at[np.argmin(fits)]]))
     # Motion codes, carried forward from the modal one.
@@ -359,60 +359,20 @@ def straight_run(
     return run, limit, taken
 
 
-def _numbers(np: Any, head: bytes, n: int) -> tuple[Any, Any, Any, Any, int]:
+def _numbers(np: Any, head: bytes, n: int) -> tuple[Any, Any, Any, list[bytes]] | None:
     """The numbers of the ``n`` lines ``head`` (checked by :func:`_valid_prefix`), in order:
-    their values, letters (lower case), 0-based lines, whether each is digits only, and the
-    first line holding a number this parser does not take (``n`` if none).
-
-    A number of at most 15 digits (an integer m below 2**53) with k <= 15 digits after its
-    point is m / 10**k: both exact doubles, so the one rounded division gives the double
-    nearest the decimal value, which is what ``float()`` gives (Clinger's fast path). Longer
-    numbers, two points or a sign not in front end the run (the general way reads them).
-    """
-    a = np.frombuffer(head, dtype=np.uint8)
-    cls = _CLASSES[a]
-    number = cls == _NUMBER
-    previous = np.empty_like(number)
-    previous[0] = False
-    previous[1:] = number[:-1]
-    following = np.empty_like(number)
-    following[-1] = False
-    following[:-1] = number[1:]
-    firsts = np.flatnonzero(number & ~previous)
-    lasts = np.flatnonzero(number & ~following)
-    count = len(firsts)
-    inside = np.flatnonzero(number)
-    token = np.cumsum(number & ~previous)[inside] - 1
-    c = a[inside]
-    digit = (c >= 48) & (c <= 57)
-    dot = c == 46
-    sign = ~digit & ~dot
-    digits = np.bincount(token[digit], minlength=count)
-    dots = np.bincount(token[dot], minlength=count)
-    signs = np.bincount(token[sign], minlength=count)
-    lead = a[firsts]
-    negative = lead == 45
-    signed = negative | (lead == 43)
-    dot_at = np.full(count, -1, dtype=np.intp)
-    dot_at[token[dot]] = inside[dot]
-    has_dot = dots > 0
-    fraction = np.where(has_dot, lasts - dot_at, 0)
-    good = (digits >= 1) & (digits <= 15) & (dots <= 1) & (signs == signed)
-    # Each digit's place: digits after it in its number.
-    where = inside[digit]
-    owner = token[digit]
-    place = lasts[owner] - where - (has_dot[owner] & (dot_at[owner] > where))
-    np.minimum(place, 22, out=place)
-    mantissa = np.bincount(owner, weights=(c[digit] - 48) * _POW10[place], minlength=count)
-    values = mantissa / _POW10[np.minimum(fraction, 22)]
-    np.negative(values, out=values, where=negative)
-    line_ends = np.flatnonzero(a == 10)
-    line_of = np.searchsorted(line_ends, firsts)
-    letters = np.flatnonzero(cls == _LETTER)
-    which = a[letters] | 0x20
-    wrong = np.flatnonzero(~good)
-    limit = int(line_of[wrong[0]]) if len(wrong) else n
-    return values, which, line_of, good & ~signed & ~has_dot, limit
+    their values (``float`` of their text, as on the line-by-line path), letters (lower
+    case), 0-based lines and texts; ``None`` if one is not a number (such as ``1.2.3``)."""
+    tokens = head.translate(_LETTERS_TO_BLANKS).split()
+    try:
+        values = np.array(list(map(float, tokens)))
+    except ValueError:
+        return None
+    layout = head.translate(None, _NOT_LETTERS)
+    which = np.frombuffer(layout.replace(b"\n", b""), dtype=np.uint8) | 0x20
+    per_line = np.diff(np.flatnonzero(np.frombuffer(layout, dtype=np.uint8) == 10), prepend=-1)
+    line_of = np.repeat(np.arange(n), per_line - 1)
+    return values, which, line_of, tokens
 
 
 def _carry(np: Any, column: Any, given: Any, index: Any) -> Any:

@@ -253,8 +253,10 @@ def _add_run(
     starts = np.empty_like(ends)
     starts[0] = run.start_mm
     starts[1:] = ends[:-1]
-    steps = (ends - starts).T.tolist()
-    x2, y2, z2 = (np.array(list(map(pow, axis, repeat(2)))) for axis in steps)
+    x2, y2, z2 = (
+        np.array(list(map(pow, steps.tolist(), repeat(2)))) if steps.any() else steps
+        for steps in (ends - starts).T
+    )
     lengths = np.sqrt(x2 + y2 + z2)
     rapid = run.rapid
     if rapid.any():
