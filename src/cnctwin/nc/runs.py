@@ -41,21 +41,48 @@ MIN_RUN_LINES = 32
 #: Bytes looked at first; the window grows fourfold while every line in it belongs.
 _FIRST_WINDOW = 4096
 
-# Byte classes: N and G (their number follows directly), X Y Z F, number characters,
+# Byte classes: N and G (their number follows directly), other letters, number characters,
 # blanks, CR, LF.
 _BAD, _LETTER_NG, _LETTER, _NUMBER, _BLANK, _CR, _EOL = range(7)
-_LETTERS = b"GgNnXxYyZzFf"
-#: The letters of a line, in order, as the per-line fast path accepts them.
-_LINE_LETTERS = re.compile(rb"(?:[nN]?[gG]?(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])[fF]?\n)*")
-#: bytes.translate tables: keep only letters and line ends; letters to blanks.
 _ALL_BYTES = bytes(range(256))
-_NOT_LETTERS = bytes(b for b in _ALL_BYTES if b not in _LETTERS + b"\n")
-_LETTERS_TO_BLANKS = bytes.maketrans(_LETTERS, b" " * len(_LETTERS))
-#: The numbers of the G words the per-line fast path takes: G0 and G1, zeros in front.
-_G_WORDS = frozenset(b"0" * zeros + digit for zeros in range(8) for digit in (b"0", b"1"))
 _np: Any = None
-_CLASSES: Any = None
 _WRONG_PAIRS: Any = None
+
+
+class _Grammar:
+    """The lines of one kind of run: their letters, word order and G words."""
+
+    def __init__(self, letters: bytes, order: bytes, g_words: tuple[bytes, ...]) -> None:
+        self.letters = letters + letters.lower()
+        #: The letters of a line, in order, as the per-line fast path accepts them.
+        self.order = re.compile(rb"(?:" + order + rb"\n)*")
+        #: bytes.translate tables: keep only letters and line ends; letters to blanks.
+        self.not_letters = bytes(b for b in _ALL_BYTES if b not in self.letters + b"\n")
+        self.to_blanks = bytes.maketrans(self.letters, b" " * len(self.letters))
+        #: The numbers of the G words taken: the codes, zeros in front.
+        self.g_words = frozenset(b"0" * zeros + g for zeros in range(8) for g in g_words)
+        self.classes: Any = None
+
+    def byte_classes(self, np: Any) -> Any:
+        """The class of each byte value (numpy array)."""
+        if self.classes is None:
+            classes = np.full(256, _BAD, dtype=np.uint8)
+            for b in self.letters:
+                classes[b] = _LETTER_NG if b in b"GgNn" else _LETTER
+            for b in b"0123456789.+-":
+                classes[b] = _NUMBER
+            for b in b" \t":
+                classes[b] = _BLANK
+            classes[ord("\r")] = _CR
+            classes[ord("\n")] = _EOL
+            self.classes = classes
+        return self.classes
+
+
+#: Straight moves: (N) (G0/G1) X Y Z (F), one of X Y Z at least.
+_STRAIGHT = _Grammar(b"GNXYZF", rb"[nN]?[gG]?(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])[fF]?", (b"0", b"1"))
+#: Arcs in the XY plane: (N) (G2/G3) X Y Z I J, one of I J at least.
+_ARC = _Grammar(b"GNXYZIJ", rb"[nN]?[gG]?[xX]?[yY]?[zZ]?(?:[iI][jJ]?|[jJ])", (b"2", b"3"))
 
 
 def _wrong_pair(before: int, after: int, apart: bool) -> bool:
@@ -73,25 +100,15 @@ def _wrong_pair(before: int, after: int, apart: bool) -> bool:
 
 
 def _numpy() -> Any:
-    """numpy, imported on first use, and the byte class table."""
-    global _np, _CLASSES, _WRONG_PAIRS
+    """numpy, imported on first use."""
+    global _np, _WRONG_PAIRS
     if _np is None:
         import numpy
 
-        classes = numpy.full(256, _BAD, dtype=numpy.uint8)
-        for b in _LETTERS:
-            classes[b] = _LETTER_NG if b in b"GgNn" else _LETTER
-        for b in b"0123456789.+-":
-            classes[b] = _NUMBER
-        for b in b" \t":
-            classes[b] = _BLANK
-        classes[ord("\r")] = _CR
-        classes[ord("\n")] = _EOL
-        pairs = numpy.array(
+        _WRONG_PAIRS = numpy.array(
             [_wrong_pair(k // 14, k // 2 % 7, bool(k % 2)) for k in range(98)], dtype=bool
         )
-        _WRONG_PAIRS = pairs
-        _np, _CLASSES = numpy, classes
+        _np = numpy
     return _np
 
 
@@ -187,12 +204,12 @@ class StraightRun:
             line += 1
 
 
-def _valid_prefix(data: bytes) -> int:
+def _valid_prefix(grammar: _Grammar, data: bytes) -> int:
     """Bytes of the longest prefix of complete lines of ``data`` whose characters and word
-    structure are those of a plain straight-move line (numbers not yet converted)."""
+    structure are those of ``grammar`` (numbers not yet converted)."""
     np = _numpy()
     a = np.frombuffer(data, dtype=np.uint8)
-    cls = _CLASSES[a]
+    cls = grammar.byte_classes(np)[a]
     ends = np.flatnonzero(a == 10)
     if len(ends) == 0:
         return 0
@@ -221,8 +238,8 @@ def _valid_prefix(data: bytes) -> int:
     if lines == 0:
         return 0
     head = data[: int(ends[lines - 1]) + 1]
-    order = head.translate(None, _NOT_LETTERS)
-    matched = _LINE_LETTERS.match(order)
+    order = head.translate(None, grammar.not_letters)
+    matched = grammar.order.match(order)
     good = order.count(b"\n", 0, matched.end()) if matched is not None else 0
     return int(ends[good - 1]) + 1 if good else 0
 
@@ -276,40 +293,12 @@ def straight_run(
         looked at that would not have made one.
     """
     np = _numpy()
-    window = _FIRST_WINDOW
-    while True:
-        part = data[:window]
-        cut = part.rfind(b"\n") + 1
-        size = _valid_prefix(part[:cut])
-        if size < cut or window >= len(data):
-            break
-        window *= 4
-    head = data[:size]
-    n = head.count(b"\n")
-    if n < MIN_RUN_LINES:
-        return None, max(n, 1), 0
-    numbers = _numbers(np, head, n)
-    if numbers is None:
-        return None, n, 0
-    values, which, line_of, tokens = numbers
-    limit = n
-    # N words: digits only; G words: G0 or G1 (G00, G01, ...), digits only.
-    for letter, accepted in ((ord("n"), bytes.isdigit), (ord("g"), _G_WORDS.__contains__)):
-        at = np.flatnonzero(which == letter)
-        if len(at) == 0:
-            continue
-        picked = itemgetter(*at.tolist())(tokens) if len(at) > 1 else (tokens[int(at[0])],)
-        fits = np.fromiter(map(accepted, picked), dtype=bool, count=len(at))
-        if not fits.all():
-            limit = min(limit, int(line_of[at[np.argmin(fits)]]))
-    # Motion codes, carried forward from the modal one.
+    words = _words(_STRAIGHT, data)
+    if isinstance(words, int):
+        return None, words, 0
+    head, n, values, which, line_of, limit = words
     index = np.arange(1, n + 1)
-    g = which == ord("g")
-    codes = np.empty(n + 1)
-    codes[0] = -1.0 if motion not in (0, 10) else motion
-    g_lines = line_of[g]
-    codes[g_lines + 1] = values[g] * 10.0
-    codes = _carry(np, codes, g_lines, index)
+    codes = _codes(np, motion, (0, 10), values, which, line_of, index)
     if codes[0] < 0:  # no motion mode before the first G word: the general way
         limit = 0
     # Feeds: F > 0 and within its bound; a feed move needs a feed rate.
@@ -326,15 +315,7 @@ def straight_run(
     unfed = np.flatnonzero((codes == 10.0) & ~(programmed > 0.0))
     if len(unfed):
         limit = min(limit, int(unfed[0]))
-    # Positions: program value * factor + offset, absent axes where they were.
-    ends = np.empty((n, 3))
-    for axis, letter in enumerate(b"xyz"):
-        mask = which == letter
-        lines = line_of[mask]
-        column = np.empty(n + 1)
-        column[0] = start_mm[axis]
-        column[lines + 1] = values[mask] * factor + offsets_mm[axis]
-        ends[:, axis] = _carry(np, column, lines, index)
+    ends = _positions(np, values, which, line_of, index, start_mm, offsets_mm, factor)
     outside = np.flatnonzero(~(np.abs(ends) <= MAX_POSITION_MM).all(axis=1))
     if len(outside):
         limit = min(limit, int(outside[0]))
@@ -355,24 +336,95 @@ def straight_run(
         spindle_rpm=spindle_rpm,
         abc_deg=abc_deg,
     )
-    taken = int(np.flatnonzero(np.frombuffer(head, dtype=np.uint8) == 10)[limit - 1]) + 1
-    return run, limit, taken
+    return run, limit, _line_end(np, head, limit)
 
 
-def _numbers(np: Any, head: bytes, n: int) -> tuple[Any, Any, Any, list[bytes]] | None:
-    """The numbers of the ``n`` lines ``head`` (checked by :func:`_valid_prefix`), in order:
-    their values (``float`` of their text, as on the line-by-line path), letters (lower
-    case), 0-based lines and texts; ``None`` if one is not a number (such as ``1.2.3``)."""
-    tokens = head.translate(_LETTERS_TO_BLANKS).split()
+def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, int] | int:
+    """The longest run of lines of ``grammar`` at the start of ``data``: its bytes, its
+    line count, the values of its words (``float`` of their text, as on the line-by-line
+    path), their letters (lower case) and 0-based lines, and the lines before the first
+    with an N or G word the fast path would not take. Only the lines looked at, if fewer
+    than :data:`MIN_RUN_LINES` or a number that is none (such as ``1.2.3``)."""
+    np = _numpy()
+    window = _FIRST_WINDOW
+    while True:
+        part = data[:window]
+        cut = part.rfind(b"\n") + 1
+        size = _valid_prefix(grammar, part[:cut])
+        if size < cut or window >= len(data):
+            break
+        window *= 4
+    head = data[:size]
+    n = head.count(b"\n")
+    if n < MIN_RUN_LINES:
+        return max(n, 1)
+    tokens = head.translate(grammar.to_blanks).split()
     try:
         values = np.array(list(map(float, tokens)))
     except ValueError:
-        return None
-    layout = head.translate(None, _NOT_LETTERS)
+        return n
+    layout = head.translate(None, grammar.not_letters)
     which = np.frombuffer(layout.replace(b"\n", b""), dtype=np.uint8) | 0x20
     per_line = np.diff(np.flatnonzero(np.frombuffer(layout, dtype=np.uint8) == 10), prepend=-1)
     line_of = np.repeat(np.arange(n), per_line - 1)
-    return values, which, line_of, tokens
+    limit = n
+    # N words: digits only; G words: those of the grammar, digits only.
+    for letter, accepted in ((ord("n"), bytes.isdigit), (ord("g"), grammar.g_words.__contains__)):
+        at = np.flatnonzero(which == letter)
+        if len(at) == 0:
+            continue
+        picked = itemgetter(*at.tolist())(tokens) if len(at) > 1 else (tokens[int(at[0])],)
+        fits = np.fromiter(map(accepted, picked), dtype=bool, count=len(at))
+        if not fits.all():
+            limit = min(limit, int(line_of[at[np.argmin(fits)]]))
+    return head, n, values, which, line_of, limit
+
+
+def _codes(
+    np: Any,
+    motion: int | None,
+    taken: tuple[int, int],
+    values: Any,
+    which: Any,
+    line_of: Any,
+    index: Any,
+) -> Any:
+    """The motion code (G-code key, 10 * G number) of each line, carried forward from the
+    modal ``motion``; -1 before the first G word if ``motion`` is not one of ``taken``."""
+    g = which == ord("g")
+    codes = np.empty(len(index) + 1)
+    codes[0] = motion if motion in taken else -1.0
+    g_lines = line_of[g]
+    codes[g_lines + 1] = values[g] * 10.0
+    return _carry(np, codes, g_lines, index)
+
+
+def _positions(
+    np: Any,
+    values: Any,
+    which: Any,
+    line_of: Any,
+    index: Any,
+    start_mm: Vec3,
+    offsets_mm: list[float],
+    factor: float,
+) -> Any:
+    """(n, 3) machine positions, mm: X, Y, Z words * ``factor`` + offset (as
+    :meth:`~cnctwin.nc.motion.Motion.xyz_move` and ``target``), absent axes where they were."""
+    ends = np.empty((len(index), 3))
+    for axis, letter in enumerate(b"xyz"):
+        mask = which == letter
+        lines = line_of[mask]
+        column = np.empty(len(index) + 1)
+        column[0] = start_mm[axis]
+        column[lines + 1] = values[mask] * factor + offsets_mm[axis]
+        ends[:, axis] = _carry(np, column, lines, index)
+    return ends
+
+
+def _line_end(np: Any, head: bytes, lines: int) -> int:
+    """Bytes of the first ``lines`` lines of ``head``."""
+    return int(np.flatnonzero(np.frombuffer(head, dtype=np.uint8) == 10)[lines - 1]) + 1
 
 
 def _carry(np: Any, column: Any, given: Any, index: Any) -> Any:
