@@ -25,7 +25,7 @@ from cnctwin.nc import (
 )
 
 if TYPE_CHECKING:
-    from cnctwin.nc.runs import StraightRun
+    from cnctwin.nc.runs import ArcRun, StraightRun
 
 __all__ = ["app", "inspect", "inspect_report", "report_table", "trace"]
 
@@ -129,7 +129,7 @@ def inspect_report(
     from cnctwin.nc import Interpreter  # the interpreter is heavy to import
 
     interpreter = Interpreter(setup if setup is not None else config.nc_setup())
-    segments: Iterable[Segment | StraightRun]
+    segments: Iterable[Segment | StraightRun | ArcRun]
     if on_segment is not None:
         segments = _tap(interpreter.run_file(program), on_segment)
     else:

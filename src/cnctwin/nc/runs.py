@@ -21,12 +21,22 @@ numpy is imported on the first call, so reading a short program does not import 
 
 from __future__ import annotations
 
+import math
+import operator
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
+from itertools import repeat
 from operator import itemgetter
 from typing import TYPE_CHECKING, Any
 
+from cnctwin.nc.arcs import (
+    ARC_END_TOLERANCE_INCH,
+    ARC_END_TOLERANCE_MM,
+    ARC_RADIUS_LIMIT_FACTOR,
+    ARC_RADIUS_TOLERANCE_REL,
+    MM_PER_INCH,
+)
 from cnctwin.nc.limits import MAX_NUMBER_CHARS, MAX_POSITION_MM
 from cnctwin.nc.segments import MachineState, MotionKind, Segment, Vec3
 
@@ -34,7 +44,7 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
-__all__ = ["MIN_RUN_LINES", "StraightRun", "straight_run"]
+__all__ = ["MIN_RUN_LINES", "ArcRun", "StraightRun", "arc_run", "arc_sweeps", "straight_run"]
 
 #: Fewer lines than this are not worth a run (numpy's fixed cost per call).
 MIN_RUN_LINES = 32
@@ -45,6 +55,7 @@ _FIRST_WINDOW = 4096
 # blanks, CR, LF.
 _BAD, _LETTER_NG, _LETTER, _NUMBER, _BLANK, _CR, _EOL = range(7)
 _ALL_BYTES = bytes(range(256))
+_TWO_PI = 2.0 * math.pi
 _np: Any = None
 _WRONG_PAIRS: Any = None
 
@@ -204,6 +215,108 @@ class StraightRun:
             line += 1
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class ArcRun:
+    """Consecutive arcs (``G2``/``G3`` with I, J centres, XY plane) of consecutive lines,
+    in one state.
+
+    Attributes
+    ----------
+    file
+        Source file name.
+    first_line
+        1-based line of the first arc; arc ``i`` is on line ``first_line + i``.
+    start_mm
+        Machine position (x, y, z) of the controlled point before the run, mm.
+    end_mm, center_mm
+        (n, 3) machine positions after each arc and centres, mm (a centre's Z is its
+        arc's start Z).
+    turns
+        (n,) 1 for G3, -1 for G2.
+    feed_mm_min
+        Path feed, mm/min.
+    state
+        The modal state of the run.
+    spindle_rpm, abc_deg
+        Spindle speed (rpm) and rotary axes A, B, C (degrees) during the run.
+    """
+
+    file: str
+    first_line: int
+    start_mm: Vec3
+    end_mm: NDArray[np.float64]
+    center_mm: NDArray[np.float64]
+    turns: NDArray[np.int64]
+    feed_mm_min: float
+    state: MachineState
+    spindle_rpm: float
+    abc_deg: Vec3
+
+    def __len__(self) -> int:
+        return len(self.turns)
+
+    @property
+    def last_line(self) -> int:
+        """1-based line of the last arc."""
+        return self.first_line + len(self.turns) - 1
+
+    def segments(self) -> Iterator[Segment]:
+        """The segments of the run, equal to those the line-by-line path makes."""
+        start = self.start_mm
+        line = self.first_line
+        abc, rpm, file, feed, state = (
+            self.abc_deg,
+            self.spindle_rpm,
+            self.file,
+            self.feed_mm_min,
+            self.state,
+        )
+        for end, center, turns in zip(
+            map(tuple, self.end_mm.tolist()),
+            map(tuple, self.center_mm.tolist()),
+            self.turns.tolist(),
+            strict=True,
+        ):
+            yield Segment(
+                MotionKind.ARC,
+                line,
+                start,
+                end,
+                feed,
+                rpm,
+                state,
+                center,
+                turns,
+                0.0,
+                abc,
+                abc,
+                file,
+            )
+            start = end
+            line += 1
+
+
+def arc_sweeps(start: Any, end: Any, center: Any, turns: Any) -> tuple[Any, Any, Any]:
+    """:func:`~cnctwin.nc.segments.arc_sweep_rad` of many XY-plane arcs of one turn at
+    most (``turns`` +-1): (n, 3) start, end and centre points (mm, numpy) to radius (mm),
+    start angle and sweep (rad), each (n,), with the same operations (``math.atan2``,
+    ``math.hypot``, Python's ``%``) as the one-arc function."""
+    np = _numpy()
+    u0 = (start[:, 0] - center[:, 0]).tolist()
+    v0 = (start[:, 1] - center[:, 1]).tolist()
+    u1 = (end[:, 0] - center[:, 0]).tolist()
+    v1 = (end[:, 1] - center[:, 1]).tolist()
+    a0 = np.array(list(map(math.atan2, v0, u0)))
+    a1 = np.array(list(map(math.atan2, v1, u1)))
+    radius = np.array(list(map(math.hypot, u0, v0)))
+    ccw = np.array(list(map(operator.mod, (a1 - a0).tolist(), repeat(_TWO_PI))))
+    cw = _TWO_PI - ccw
+    ccw[(ccw <= 1e-12) | (ccw >= _TWO_PI - 1e-12)] = _TWO_PI
+    cw[(cw <= 1e-12) | (cw >= _TWO_PI - 1e-12)] = _TWO_PI
+    sweep = np.where(turns > 0, ccw + 0.0, -(cw + 0.0))
+    return radius, a0, sweep
+
+
 def _valid_prefix(grammar: _Grammar, data: bytes) -> int:
     """Bytes of the longest prefix of complete lines of ``data`` whose characters and word
     structure are those of ``grammar`` (numbers not yet converted)."""
@@ -256,7 +369,7 @@ def straight_run(
     state: MachineState,
     spindle_rpm: float,
     abc_deg: Vec3,
-    feed_limit: float,
+    word_limit: float,
     max_moves: int,
 ) -> tuple[StraightRun | None, int, int]:
     """The run of plain straight moves at the start of ``data``.
@@ -280,7 +393,7 @@ def straight_run(
         compensation, rotation, diameter mode or constant surface speed (the caller checks).
     spindle_rpm, abc_deg
         Spindle speed (rpm) and rotary axes (degrees) during the run.
-    feed_limit
+    word_limit
         Largest F word accepted, program units per minute.
     max_moves
         Most moves the run may hold (the segments left before the segment limit).
@@ -305,7 +418,7 @@ def straight_run(
     f = which == ord("f")
     f_lines = line_of[f]
     feeds_given = values[f]
-    wrong_feed = f_lines[(feeds_given <= 0.0) | (feeds_given > feed_limit)]
+    wrong_feed = f_lines[(feeds_given <= 0.0) | (feeds_given > word_limit)]
     if len(wrong_feed):
         limit = min(limit, int(wrong_feed[0]))
     programmed = np.empty(n + 1)
@@ -332,6 +445,100 @@ def straight_run(
         rapid=rapid,
         feed_mm_min=np.where(rapid, 0.0, programmed * factor),
         programmed_feed=programmed,
+        state=state,
+        spindle_rpm=spindle_rpm,
+        abc_deg=abc_deg,
+    )
+    return run, limit, _line_end(np, head, limit)
+
+
+def arc_run(
+    data: bytes,
+    *,
+    file: str,
+    first_line: int,
+    start_mm: Vec3,
+    offsets_mm: list[float],
+    factor: float,
+    motion: int | None,
+    state: MachineState,
+    spindle_rpm: float,
+    abc_deg: Vec3,
+    word_limit: float,
+    max_moves: int,
+) -> tuple[ArcRun | None, int, int]:
+    """The run of plain arcs at the start of ``data``; see :func:`straight_run`.
+
+    ``motion`` is the modal motion code (20 for G2, 30 for G3) before the run; ``state``
+    must be in the XY plane, absolute distances and arc centres, feed per minute with a
+    feed rate > 0 (the caller checks); ``word_limit`` bounds the words' values (program
+    units). Centres and the end-radius test are those of
+    :meth:`~cnctwin.nc.motion.Motion.arc`.
+    """
+    np = _numpy()
+    words = _words(_ARC, data)
+    if isinstance(words, int):
+        return None, words, 0
+    head, n, values, which, line_of, limit = words
+    wrong = line_of[~(np.abs(values) <= word_limit)]
+    if len(wrong):
+        limit = min(limit, int(wrong[0]))
+    index = np.arange(1, n + 1)
+    codes = _codes(np, motion, (20, 30), values, which, line_of, index)
+    if codes[0] < 0:
+        limit = 0
+    ends = _positions(np, values, which, line_of, index, start_mm, offsets_mm, factor)
+    starts = np.empty_like(ends)
+    starts[0] = start_mm
+    starts[1:] = ends[:-1]
+    centers = starts.copy()
+    for axis, letter in enumerate(b"ij"):
+        mask = which == letter
+        offset = np.zeros(n)
+        offset[line_of[mask]] = values[mask] * factor
+        centers[:, axis] = starts[:, axis] + offset
+    r0 = np.array(
+        list(
+            map(
+                math.hypot,
+                (starts[:, 0] - centers[:, 0]).tolist(),
+                (starts[:, 1] - centers[:, 1]).tolist(),
+            )
+        )
+    )
+    r1 = np.array(
+        list(
+            map(
+                math.hypot,
+                (ends[:, 0] - centers[:, 0]).tolist(),
+                (ends[:, 1] - centers[:, 1]).tolist(),
+            )
+        )
+    )
+    tolerance = (
+        ARC_END_TOLERANCE_INCH * MM_PER_INCH if state.units == "inch" else ARC_END_TOLERANCE_MM
+    )
+    error = np.abs(r1 - r0)
+    refused = (error > ARC_RADIUS_LIMIT_FACTOR * tolerance) | (
+        (error > tolerance) & (error > ARC_RADIUS_TOLERANCE_REL * np.maximum(r0, r1))
+    )
+    inside = (np.abs(ends) <= MAX_POSITION_MM).all(axis=1) & (
+        np.abs(centers) <= MAX_POSITION_MM
+    ).all(axis=1)
+    wrong = np.flatnonzero(refused | ~(r0 > 0.0) | ~inside)
+    if len(wrong):
+        limit = min(limit, int(wrong[0]))
+    limit = min(limit, max_moves)
+    if limit < MIN_RUN_LINES:
+        return None, max(limit, 1), 0
+    run = ArcRun(
+        file=file,
+        first_line=first_line,
+        start_mm=start_mm,
+        end_mm=ends[:limit],
+        center_mm=centers[:limit],
+        turns=np.where(codes[:limit] == 30.0, 1, -1),
+        feed_mm_min=state.programmed_feed * factor,
         state=state,
         spindle_rpm=spindle_rpm,
         abc_deg=abc_deg,
