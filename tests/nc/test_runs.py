@@ -12,6 +12,7 @@ so that -0.0 and 0.0 differ). The number parser is checked against Python's ``fl
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -19,7 +20,7 @@ from hypothesis import strategies as st
 
 from cnctwin.errors import NCError
 from cnctwin.nc.interpreter import Interpreter
-from cnctwin.nc.runs import MIN_RUN_LINES, StraightRun
+from cnctwin.nc.runs import MIN_RUN_LINES, ArcRun, StraightRun
 from cnctwin.nc.segments import Segment
 from cnctwin.nc.setup import NCSetup
 from cnctwin.nc.summary import summarize
@@ -43,17 +44,10 @@ breakers = st.sampled_from(
         "G90",
         "G20",
         "G21",
-        "G93",
         "G94",
-        "F0",
-        "G1 X2 F0",
-        "G0 X1 F-3",
-        "X1.2.3",
         "X1 5",
         "N 10 X1",
         "G 1 X2",
-        "G2 X1 Y0 I0.5 J0",
-        "G1X1234567890123456.5",
         "X0.12345678901234567",
         "G1 X1 Y2 Z3 A4",
         "/G1 X5",
@@ -69,9 +63,31 @@ breakers = st.sampled_from(
         "G1 X[#1]",
         "X1\tY2",
         "x1 y2",
-        "G1 X2000000",
         "G80",
         "G4 P0.1",
+        "G17",
+        "G18",
+        "G90.1",
+        "G91.1",
+        "G43 H1",
+    ]
+)
+
+
+#: Lines that stop the program with an error (the same one both ways, at the same line).
+errors = st.sampled_from(
+    [
+        "G1 X2 F0",
+        "G0 X1 F-3",
+        "X1.2.3",
+        "G2 X1 Y0 I0.5 J0",
+        "G1X1234567890123456.5",
+        "G1 X2000000",
+        "G3 X0 Y0 I1 J0 K1",
+        "G2 X3 Y0 I1 J0 P2",
+        "G2 X1 Y1 R1",
+        "G93",
+        "F0",
     ]
 )
 
@@ -96,11 +112,47 @@ def plain_line(draw: st.DrawFn) -> str:
 
 
 @st.composite
+def arc_lines(draw: st.DrawFn) -> list[str]:
+    """A rapid to a start point, then arcs from there (I J centres, end on the circle to
+    four decimals; now and then a Z rise, an N word, a modal arc, or a wrong radius)."""
+    x, y = draw(st.integers(-50, 50)), draw(st.integers(-50, 50))
+    lines = [f"G90 G91.1 G17 G0 X{x} Y{y}"]
+    for _ in range(draw(st.sampled_from([0, 5, MIN_RUN_LINES, 2 * MIN_RUN_LINES + 3]))):
+        i, j = draw(st.sampled_from([(1.5, 0.0), (0.0, -2.0), (-0.75, 0.5), (3.0, 4.0)]))
+        angle = draw(st.floats(-3.1, 3.1))
+        radius = math.hypot(i, j) * draw(st.sampled_from([1.0] * 199 + [1.2]))
+        cx, cy = x + i, y + j
+        ex, ey = round(cx + radius * math.cos(angle), 4), round(cy + radius * math.sin(angle), 4)
+        words = [
+            draw(st.sampled_from(["G2", "G3", "G02", "g3"] + ([""] if len(lines) > 1 else [])))
+        ]
+        if draw(st.integers(0, 9)) == 0:
+            words.insert(0, "N5")
+        words += [f"X{ex:.4f}", f"Y{ey:.4f}"]
+        if draw(st.integers(0, 4)) == 0:
+            words.append(f"Z{draw(st.integers(-5, 5)) / 4}")
+        if i or draw(st.booleans()):
+            words.append(f"I{i}")
+        if j or not i:
+            words.append(f"J{j}")
+        lines.append(" ".join(w for w in words if w))
+        x, y = ex, ey
+    return lines
+
+
+@st.composite
 def program(draw: st.DrawFn) -> str:
     blocks = []
     for _ in range(draw(st.integers(1, 4))):
-        blocks.extend(draw(st.lists(plain_line(), min_size=0, max_size=3 * MIN_RUN_LINES)))
+        if draw(st.booleans()):
+            blocks.extend(draw(arc_lines()))
+        else:
+            size = draw(st.sampled_from([0, MIN_RUN_LINES - 1, MIN_RUN_LINES, 2 * MIN_RUN_LINES]))
+            blocks.append(draw(st.sampled_from(["G0 X1", "G1 Y2", "G90 G1 Z0"])))
+            blocks.extend(draw(st.lists(plain_line(), min_size=size, max_size=size + 8)))
         blocks.extend(draw(st.lists(breakers, min_size=0, max_size=2)))
+    if draw(st.sampled_from([False] * 7 + [True])):
+        blocks.insert(draw(st.integers(0, len(blocks))), draw(errors))
     eol = draw(st.sampled_from(["\n", "\r\n"]))
     end = draw(st.sampled_from(["M2", "M2\n", ""]))
     return HEADER.replace("\n", eol) + eol.join(blocks) + eol + end
@@ -126,7 +178,7 @@ def both_ways(text: str, setup: NCSetup | None = None) -> tuple[object, object, 
     in_runs = 0
     for bulk in (False, True):
         interpreter = Interpreter(setup)
-        items: list[Segment | StraightRun] = []
+        items: list[Segment | StraightRun | ArcRun] = []
         try:
             stream = (
                 interpreter.run_text_bulk(text, "p.ngc")
@@ -139,12 +191,14 @@ def both_ways(text: str, setup: NCSetup | None = None) -> tuple[object, object, 
             results.append(str(err))
         else:
             segments = [
-                s for i in items for s in (i.segments() if isinstance(i, StraightRun) else [i])
+                s
+                for i in items
+                for s in (i.segments() if isinstance(i, StraightRun | ArcRun) else [i])
             ]
             summary = summarize(items, rapid_mm_min=5000.0).to_dict()
             results.append(_repr([segments, interpreter.warnings, interpreter.lines_read, summary]))
         if bulk:
-            in_runs = sum(len(i) for i in items if isinstance(i, StraightRun))
+            in_runs = sum(len(i) for i in items if isinstance(i, StraightRun | ArcRun))
     return results[0], results[1], in_runs
 
 
@@ -203,3 +257,18 @@ def test_summary_json_is_byte_identical() -> None:
         items = interpreter.run_text_bulk(text) if bulk else interpreter.run_text(text)
         dumps.append(json.dumps(summarize(items, rapid_mm_min=3000.0).to_dict()))
     assert dumps[0] == dumps[1]
+
+
+@pytest.mark.parametrize("offset", ["", "G10 L2 P1 X2 Y-3 Z1\nG43 H1\n", "G20\n"])
+def test_long_arc_runs_are_taken_and_match(offset: str) -> None:
+    """Half circles out and back (the benchmark's arcs), with a helix now and then, under
+    work and tool offsets and in inches."""
+    lines = []
+    for n in range(1500):
+        r = 1.0 + (n * 7919 % 1000) / 500.0
+        lift = f" Z{-(n % 3) / 4}" if n % 5 == 0 else ""
+        lines += [f"G3 X{2 * r:.4f} Y0{lift} I{r:.4f} J0", f"G2 X0 Y0 I{-r:.4f} J0"]
+    text = "G21 G90 G17 G94 F300\nT1 M6\n" + offset + "G0 X0 Y0\n" + "\n".join(lines) + "\nM2\n"
+    one_by_one, bulk, in_runs = both_ways(text)
+    assert in_runs > 2900
+    assert bulk == one_by_one
