@@ -22,7 +22,7 @@ from cnctwin.errors import NCError
 from cnctwin.nc.interpreter import Interpreter
 from cnctwin.nc.runs import MIN_RUN_LINES, ArcRun, StraightRun
 from cnctwin.nc.segments import Segment
-from cnctwin.nc.setup import NCSetup
+from cnctwin.nc.setup import NCSetup, ToolEntry
 from cnctwin.nc.summary import summarize
 
 HEADER = "G21 G90 G17 G94\nT1 M6\nS1000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F300\n"
@@ -236,10 +236,11 @@ def test_offsets_inch_and_the_segment_limit() -> None:
     segment limit (the error names the same line both ways)."""
     body = "\n".join(f"X{i * 0.01:.2f} Y{(i % 13) * 0.1:.1f}" for i in range(400))
     text = "G20 G90 G10 L2 P1 X1.5 Y-2 Z0.25\nG54 T1 M6 G43 H1\nG1 X0 Y0 F20\n" + body + "\nM2\n"
-    one_by_one, bulk, in_runs = both_ways(text)
+    tools = NCSetup(tools={1: ToolEntry(1, length_mm=42.125, diameter_mm=6.0)})
+    one_by_one, bulk, in_runs = both_ways(text, tools)
     assert in_runs > 300
     assert bulk == one_by_one
-    limited = NCSetup(max_segments=250)
+    limited = NCSetup(tools=tools.tools, max_segments=250)
     one_by_one, bulk, _ = both_ways(text, limited)
     assert isinstance(bulk, str) and bulk == one_by_one
 
@@ -269,6 +270,7 @@ def test_long_arc_runs_are_taken_and_match(offset: str) -> None:
         lift = f" Z{-(n % 3) / 4}" if n % 5 == 0 else ""
         lines += [f"G3 X{2 * r:.4f} Y0{lift} I{r:.4f} J0", f"G2 X0 Y0 I{-r:.4f} J0"]
     text = "G21 G90 G17 G94 F300\nT1 M6\n" + offset + "G0 X0 Y0\n" + "\n".join(lines) + "\nM2\n"
-    one_by_one, bulk, in_runs = both_ways(text)
+    tools = NCSetup(tools={1: ToolEntry(1, length_mm=42.125, diameter_mm=6.0)})
+    one_by_one, bulk, in_runs = both_ways(text, tools)
     assert in_runs > 2900
     assert bulk == one_by_one
