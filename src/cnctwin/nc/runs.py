@@ -70,8 +70,8 @@ class _Grammar:
         #: bytes.translate tables: keep only letters and line ends; letters to blanks.
         self.not_letters = bytes(b for b in _ALL_BYTES if b not in self.letters + b"\n")
         self.to_blanks = bytes.maketrans(self.letters, b" " * len(self.letters))
-        #: The numbers of the G words taken: the codes, zeros in front.
-        self.g_words = frozenset(b"0" * zeros + g for zeros in range(8) for g in g_words)
+        #: The numbers of the G words taken (the codes, zeros in front), and their values.
+        self.g_words = {b"0" * zeros + g: float(g) for zeros in range(8) for g in g_words}
         self.classes: Any = None
 
     def byte_classes(self, np: Any) -> Any:
@@ -405,10 +405,10 @@ def straight_run(
         lines and bytes it takes; ``lines`` also counts, when there is no run, the lines
         looked at that would not have made one.
     """
-    np = _numpy()
     words = _words(_STRAIGHT, data)
     if isinstance(words, int):
         return None, words, 0
+    np = _numpy()
     head, n, values, which, line_of, limit = words
     index = np.arange(1, n + 1)
     codes = _codes(np, motion, (0, 10), values, which, line_of, index)
@@ -475,10 +475,10 @@ def arc_run(
     units). Centres and the end-radius test are those of
     :meth:`~cnctwin.nc.motion.Motion.arc`.
     """
-    np = _numpy()
     words = _words(_ARC, data)
     if isinstance(words, int):
         return None, words, 0
+    np = _numpy()
     head, n, values, which, line_of, limit = words
     wrong = line_of[~(np.abs(values) <= word_limit)]
     if len(wrong):
@@ -552,6 +552,8 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
     path), their letters (lower case) and 0-based lines, and the lines before the first
     with an N or G word the fast path would not take. Only the lines looked at, if fewer
     than :data:`MIN_RUN_LINES` or a number that is none (such as ``1.2.3``)."""
+    if data.count(b"\n", 0, MIN_RUN_LINES * (MAX_NUMBER_CHARS + 2)) < MIN_RUN_LINES:
+        return 1  # too few lines for a run: numpy is not even imported
     np = _numpy()
     window = _FIRST_WINDOW
     while True:
@@ -566,25 +568,42 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
     if n < MIN_RUN_LINES:
         return max(n, 1)
     tokens = head.translate(grammar.to_blanks).split()
-    try:
-        values = np.array(list(map(float, tokens)))
-    except ValueError:
-        return n
     layout = head.translate(None, grammar.not_letters)
     which = np.frombuffer(layout.replace(b"\n", b""), dtype=np.uint8) | 0x20
     per_line = np.diff(np.flatnonzero(np.frombuffer(layout, dtype=np.uint8) == 10), prepend=-1)
     line_of = np.repeat(np.arange(n), per_line - 1)
     limit = n
-    # N words: digits only; G words: those of the grammar, digits only.
-    for letter, accepted in ((ord("n"), bytes.isdigit), (ord("g"), grammar.g_words.__contains__)):
-        at = np.flatnonzero(which == letter)
+    values = np.zeros(len(tokens))
+    # G words: those of the grammar (their G number as value), digits only; N words: digits
+    # only (value 0); the other words: float() of their text.
+    g_at = np.flatnonzero(which == ord("g"))
+    n_at = np.flatnonzero(which == ord("n"))
+    for at, accepted in ((g_at, grammar.g_words.__contains__), (n_at, bytes.isdigit)):
         if len(at) == 0:
             continue
-        picked = itemgetter(*at.tolist())(tokens) if len(at) > 1 else (tokens[int(at[0])],)
+        picked = _pick(tokens, at)
         fits = np.fromiter(map(accepted, picked), dtype=bool, count=len(at))
         if not fits.all():
             limit = min(limit, int(line_of[at[np.argmin(fits)]]))
+        if at is g_at:
+            values[at] = np.fromiter(
+                map(grammar.g_words.get, picked, repeat(-1.0)), dtype=float, count=len(at)
+            )
+    rest = np.flatnonzero((which != ord("g")) & (which != ord("n")))
+    try:
+        values[rest] = np.array(list(map(float, _pick(tokens, rest))))
+    except ValueError:
+        return n
     return head, n, values, which, line_of, limit
+
+
+def _pick(tokens: list[bytes], at: Any) -> tuple[bytes, ...] | list[bytes]:
+    """``tokens`` at the indices ``at`` (a numpy array)."""
+    if len(at) == len(tokens):
+        return tokens
+    if len(at) == 1:
+        return [tokens[int(at[0])]]
+    return itemgetter(*at.tolist())(tokens)  # type: ignore[no-any-return]
 
 
 def _codes(
