@@ -70,6 +70,8 @@ class _Grammar:
         #: bytes.translate tables: keep only letters and line ends; letters to blanks.
         self.not_letters = bytes(b for b in _ALL_BYTES if b not in self.letters + b"\n")
         self.to_blanks = bytes.maketrans(self.letters, b" " * len(self.letters))
+        #: Every byte such a line may hold, but its LF.
+        self.alphabet = self.letters + b"0123456789.+- \t\r"
         #: The numbers of the G words taken (the codes, zeros in front), and their values.
         self.g_words = {b"0" * zeros + g: float(g) for zeros in range(8) for g in g_words}
         self.classes: Any = None
@@ -552,8 +554,11 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
     path), their letters (lower case) and 0-based lines, and the lines before the first
     with an N or G word the fast path would not take. Only the lines looked at, if fewer
     than :data:`MIN_RUN_LINES` or a number that is none (such as ``1.2.3``)."""
-    if data.count(b"\n", 0, MIN_RUN_LINES * (MAX_NUMBER_CHARS + 2)) < MIN_RUN_LINES:
-        return 1  # too few lines for a run: numpy is not even imported
+    # Too few lines, or a character no such line has within the first lines, make no run:
+    # numpy is not even imported.
+    first = data[: MIN_RUN_LINES * (MAX_NUMBER_CHARS + 2)].split(b"\n", MIN_RUN_LINES)
+    if len(first) <= MIN_RUN_LINES or b"".join(first[:-1]).translate(None, grammar.alphabet):
+        return 1
     np = _numpy()
     window = _FIRST_WINDOW
     while True:
