@@ -13,7 +13,9 @@ paths that skip the lexer; other lines are lexed and handed to the O-word contro
 (:mod:`cnctwin.nc.owords`) or the block executor (:mod:`cnctwin.nc.executor`), which acts
 through the modal state (:mod:`~cnctwin.nc.modal`), offsets (:mod:`~cnctwin.nc.offsets`),
 tool state (:mod:`~cnctwin.nc.tool_state`), drilling cycles
-(:mod:`~cnctwin.nc.canned_cycles`) and motion (:mod:`~cnctwin.nc.motion`).
+(:mod:`~cnctwin.nc.canned_cycles`) and motion (:mod:`~cnctwin.nc.motion`). Reading in bulk
+(:meth:`Interpreter.run_file_bulk`), long runs of such plain lines are taken as one piece by
+:mod:`cnctwin.nc.runs`.
 """
 
 from __future__ import annotations
@@ -142,9 +144,10 @@ class Interpreter:
         return self._run(LineSource.from_text(text, name, self._budget))  # type: ignore[return-value]
 
     def run_file_bulk(self, path: str | Path) -> Iterator[Segment | StraightRun | ArcRun]:
-        """As :meth:`run_file`, but long runs of plain ``G0``/``G1`` lines come as one
-        :class:`~cnctwin.nc.runs.StraightRun` each (for consumers that take runs, such as
-        :func:`~cnctwin.nc.summary.summarize`); their segments equal those of
+        """As :meth:`run_file`, but long runs of plain ``G0``/``G1`` lines (plain ``G2``/``G3``
+        lines) come as one :class:`~cnctwin.nc.runs.StraightRun`
+        (:class:`~cnctwin.nc.runs.ArcRun`) each, for consumers that take runs such as
+        :func:`~cnctwin.nc.summary.summarize`; their segments equal those of
         :meth:`run_file`."""
         setup = self.setup
         source = LineSource.from_path(path, setup.max_program_bytes, self._budget)

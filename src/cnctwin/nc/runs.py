@@ -1,22 +1,28 @@
-"""Runs of plain straight moves, read in bulk: many consecutive ``G0``/``G1`` lines at once.
+"""Runs of plain moves read in bulk: many consecutive ``G0``/``G1`` (or ``G2``/``G3``) lines
+at once.
 
 CAM output is mostly long runs of lines such as ``G1 X12.5 Y-3.25``. The interpreter hands
-the bytes that follow such a line to :func:`straight_run`, which takes the longest run of
-complete lines of only an optional N word, an optional G0/G1, X, Y, Z and F words (at least
-one of X, Y, Z), in that order (the lines the interpreter's per-line fast path takes, see
-``_XYZ_LINE`` in :mod:`cnctwin.nc.interpreter`), and computes the machine positions and feeds
-of the whole run with numpy. :func:`cnctwin.nc.summary.summarize` sums a run without making
-a segment per line; :meth:`StraightRun.segments` gives the segments the line-by-line path
-gives. Every number is computed with the same floating-point operations in the same order as
-on the line-by-line path, so the results are equal to the bit (``tests/nc/test_runs.py``).
+the bytes that follow such a line to :func:`straight_run` (or, after a plain arc line, to
+:func:`arc_run`), which takes the longest run of complete lines of only an optional N word,
+an optional G0/G1, X, Y, Z and F words (at least one of X, Y, Z), in that order, or of an
+optional N word, an optional G2/G3, X, Y, Z, I, J words (I or J at least; XY plane): lines
+the interpreter's per-line fast paths take (``_XYZ_LINE`` and ``_ARC_LINE`` in
+:mod:`cnctwin.nc.interpreter`). It checks them with numpy over the bytes, converts their
+words with ``float()`` and computes the machine positions, feeds and arc centres of the whole
+run. :func:`cnctwin.nc.summary.summarize` sums a run without making a segment per line;
+``segments()`` gives the segments the line-by-line path gives. Every number is computed with
+the same floating-point operations in the same order as on the line-by-line path (Motion.
+xyz_move, Motion.arc, ``arc_sweep_rad``), so the results are equal to the bit
+(``tests/nc/test_runs.py`` compares both ways).
 
 A run ends before the first line that is not such a line, that the line-by-line path would
-refuse or treat otherwise (a number too long, F <= 0 or beyond its bound, a feed move
-without a feed rate, a position beyond :data:`~cnctwin.nc.limits.MAX_POSITION_MM`) or that
+refuse or treat otherwise (a line over :data:`~cnctwin.nc.limits.MAX_NUMBER_CHARS`
+characters, F <= 0 or beyond its bound, a feed move without a feed rate, a position beyond
+:data:`~cnctwin.nc.limits.MAX_POSITION_MM`, an arc whose end radius LinuxCNC refuses) or that
 would pass the segment limit: that line goes the general way and meets its error there.
-Lengths are in mm, feeds in mm/min.
+Lengths are in mm, feeds in mm/min, angles in rad.
 
-numpy is imported on the first call, so reading a short program does not import it.
+numpy is imported only when a run may follow, so reading a short program does not import it.
 """
 
 from __future__ import annotations
