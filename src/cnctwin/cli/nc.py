@@ -7,7 +7,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import replace
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
@@ -23,6 +23,9 @@ from cnctwin.nc import (
     Segment,
     summarize,
 )
+
+if TYPE_CHECKING:
+    from cnctwin.nc.runs import ArcRun, StraightRun
 
 __all__ = ["app", "inspect", "inspect_report", "report_table", "trace"]
 
@@ -126,9 +129,11 @@ def inspect_report(
     from cnctwin.nc import Interpreter  # the interpreter is heavy to import
 
     interpreter = Interpreter(setup if setup is not None else config.nc_setup())
-    segments: Iterable[Segment] = interpreter.run_file(program)
+    segments: Iterable[Segment | StraightRun | ArcRun]
     if on_segment is not None:
-        segments = _tap(segments, on_segment)
+        segments = _tap(interpreter.run_file(program), on_segment)
+    else:
+        segments = interpreter.run_file_bulk(program)  # runs of moves summed in bulk
     axes = config.machine.axes
     travel = (
         (

@@ -13,13 +13,15 @@ paths that skip the lexer; other lines are lexed and handed to the O-word contro
 (:mod:`cnctwin.nc.owords`) or the block executor (:mod:`cnctwin.nc.executor`), which acts
 through the modal state (:mod:`~cnctwin.nc.modal`), offsets (:mod:`~cnctwin.nc.offsets`),
 tool state (:mod:`~cnctwin.nc.tool_state`), drilling cycles
-(:mod:`~cnctwin.nc.canned_cycles`) and motion (:mod:`~cnctwin.nc.motion`).
+(:mod:`~cnctwin.nc.canned_cycles`) and motion (:mod:`~cnctwin.nc.motion`). Reading in bulk
+(:meth:`Interpreter.run_file_bulk`), long runs of such plain lines are taken as one piece by
+:mod:`cnctwin.nc.runs`.
 """
 
 from __future__ import annotations
 
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from cnctwin.errors import NCError
@@ -29,7 +31,8 @@ from cnctwin.nc.expressions import Parameters
 from cnctwin.nc.lexer import lex_block
 from cnctwin.nc.limits import MAX_NUMBER_CHARS, WORD_LIMITS
 from cnctwin.nc.owords import OWordControl
-from cnctwin.nc.segments import Segment
+from cnctwin.nc.runs import ArcRun, StraightRun, arc_run, straight_run
+from cnctwin.nc.segments import Plane, Segment
 from cnctwin.nc.setup import NCSetup
 from cnctwin.nc.source import LineSource, RepeatBudget
 
@@ -56,6 +59,8 @@ _LENGTH_WORD_LIMIT = WORD_LIMITS["x"][0]
 _FEED_WORD_LIMIT = WORD_LIMITS["f"][0]
 #: What :meth:`Interpreter._block` asks of the line loop: go on, or read the new source.
 _NEXT, _SWITCH = 0, 1
+#: Lines without a look for a run of straight moves after a look that found none, at most.
+_MAX_BACKOFF = 4096
 
 
 class Interpreter:
@@ -99,6 +104,9 @@ class Interpreter:
         self._started = False
         self._budget = RepeatBudget(self.setup.max_repeated_lines)
         self._segments_left = self.setup.max_segments
+        # Runs (bulk reading only): not looked for before line _next_look of a source.
+        self._next_look = 0
+        self._backoff = 0
 
     @property
     def units(self) -> str | None:
@@ -129,15 +137,34 @@ class Interpreter:
         """
         setup = self.setup
         source = LineSource.from_path(path, setup.max_program_bytes, self._budget)
-        return self._run(source)
+        return self._run(source)  # type: ignore[return-value]
 
     def run_text(self, text: str, name: str = "<string>") -> Iterator[Segment]:
         """Interpret program text held in memory; see :meth:`run_file`."""
-        return self._run(LineSource.from_text(text, name, self._budget))
+        return self._run(LineSource.from_text(text, name, self._budget))  # type: ignore[return-value]
+
+    def run_file_bulk(self, path: str | Path) -> Iterator[Segment | StraightRun | ArcRun]:
+        """As :meth:`run_file`, but long runs of plain ``G0``/``G1`` lines (plain ``G2``/``G3``
+        lines) come as one :class:`~cnctwin.nc.runs.StraightRun`
+        (:class:`~cnctwin.nc.runs.ArcRun`) each, for consumers that take runs such as
+        :func:`~cnctwin.nc.summary.summarize`; their segments equal those of
+        :meth:`run_file`."""
+        setup = self.setup
+        source = LineSource.from_path(path, setup.max_program_bytes, self._budget)
+        return self._run(source, bulk=True)
+
+    def run_text_bulk(
+        self, text: str, name: str = "<string>"
+    ) -> Iterator[Segment | StraightRun | ArcRun]:
+        """As :meth:`run_text`, with runs; see :meth:`run_file_bulk`."""
+        return self._run(LineSource.from_text(text, name, self._budget), bulk=True)
 
     # ------------------------------------------------------------------ main loop
-    def _run(self, source: LineSource) -> Iterator[Segment]:
-        """Read the program and the subroutine files it calls, yielding segments.
+    def _run(
+        self, source: LineSource, bulk: bool = False
+    ) -> Iterator[Segment | StraightRun | ArcRun]:
+        """Read the program and the subroutine files it calls, yielding segments (and, if
+        ``bulk``, runs of straight moves).
 
         One loop for every line, with the raw-line fast paths inline: this is the hot path.
         """
@@ -193,6 +220,10 @@ class Interpreter:
                                     if self._segments_left < 0:
                                         raise self._too_many_segments()
                                     yield out.pop()
+                                    if bulk and lineno >= self._next_look:
+                                        run = self._run_after(src, main, arcs=False)
+                                        if run is not None:
+                                            yield run
                                     continue
                         else:
                             arc = _arc_words(raw, modal.motion)
@@ -210,6 +241,10 @@ class Interpreter:
                                 if self._segments_left < 0:
                                     raise self._too_many_segments()
                                 yield out.pop()
+                                if bulk and lineno >= self._next_look:
+                                    run = self._run_after(src, main, arcs=True)
+                                    if run is not None:
+                                        yield run
                                 continue
                     if self._block(raw, src, start) == _SWITCH:
                         finished = False
@@ -236,6 +271,57 @@ class Interpreter:
             for src in sources:
                 src.close()
             source.close()
+
+    def _run_after(self, src: LineSource, main: bool, arcs: bool) -> StraightRun | ArcRun | None:
+        """The run of plain straight moves (or, if ``arcs``, of plain arcs) that follows in
+        ``src``, taken: the source, the position, the modes and the cursor move past it.
+        ``None`` if there is none (or the modes do not allow one); then none is looked for
+        again for a while, longer after each look that finds none."""
+        motion = self._executor.motion
+        modal = self._executor.modal
+        state = modal.state
+        run: StraightRun | ArcRun | None
+        data = src.ahead()
+        if not data or not motion.plain_absolute:
+            run, lines = None, 1
+        elif arcs and (
+            state.plane != Plane.XY or modal.arc_absolute or not state.programmed_feed > 0.0
+        ):
+            run, lines = None, 1
+        else:
+            build: Callable[..., tuple[StraightRun | ArcRun | None, int, int]]
+            build = arc_run if arcs else straight_run
+            run, lines, size = build(
+                data,
+                file=src.name,
+                first_line=src.lineno + 1,
+                start_mm=(motion.pos[0], motion.pos[1], motion.pos[2]),
+                offsets_mm=self._executor.offsets.total,
+                factor=modal.factor,
+                motion=modal.motion,
+                state=state,
+                spindle_rpm=state.programmed_speed if state.spindle_direction else 0.0,
+                abc_deg=motion.abc,
+                word_limit=_LENGTH_WORD_LIMIT if arcs else _FEED_WORD_LIMIT,
+                max_moves=self._segments_left,
+            )
+        if run is None:
+            self._backoff = min(2 * self._backoff + 1, _MAX_BACKOFF)
+            self._next_look = src.lineno + lines + self._backoff
+            return None
+        self._backoff = 0
+        src.skip(size, lines)
+        self._segments_left -= lines
+        motion.pos = run.end_mm[-1].tolist()
+        if isinstance(run, StraightRun):
+            modal.motion = 0 if run.rapid[-1] else 10
+            modal.state = run.end_state
+        else:
+            modal.motion = 30 if run.turns[-1] > 0 else 20
+        self._cursor.line = src.lineno
+        if main:
+            self.lines_read = src.lineno
+        return run
 
     def _block(self, raw: str, src: LineSource, start: int) -> int:
         """Lex and execute a line that no fast path took (``start``: its byte offset).

@@ -181,6 +181,22 @@ class Motion:
         )
         self.pos = [x, y, z]
 
+    @property
+    def plain_absolute(self) -> bool:
+        """Straight moves take :meth:`xyz_move`'s inlined path, in absolute distances and
+        feed per minute, without cutter compensation: what runs of straight moves
+        (:mod:`cnctwin.nc.runs`) assume."""
+        modal = self._modal
+        state = modal.state
+        return not (
+            modal.diameter_mode
+            or modal.incremental
+            or state.xy_rotation_deg
+            or state.css
+            or self._exit_base
+            or self.comp is not None
+        ) and (state.feed_mode == FeedMode.UNITS_PER_MINUTE)
+
     # ------------------------------------------------------------------ targets
     def target(self, words: dict[str, float], g53: bool = False) -> list[float]:
         """Machine target (x, y, z) in mm of the axis words of a block (program units).

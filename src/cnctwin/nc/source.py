@@ -160,6 +160,24 @@ class LineSource:
         """Continue at byte ``offset``, which starts line ``lineno + 1``."""
         self._pending = (offset, lineno)
 
+    def ahead(self) -> bytes | None:
+        """The bytes read from the file after the current line (the next lines, the last
+        perhaps incomplete), when they are read for the first time and no seek is pending;
+        else ``None``. See :meth:`skip`."""
+        if self._pending is not None or self.offset < self._seen_to:
+            return None
+        at = self.offset - self._cache_base
+        if not 0 <= at <= len(self._cache):
+            return None
+        return self._cache[at:]
+
+    def skip(self, size: int, lines: int) -> None:
+        """Go on ``size`` bytes, ``lines`` complete lines, further (taken from
+        :meth:`ahead` and handled by the caller)."""
+        self.offset += size
+        self.lineno += lines
+        self._seen_to = self.offset
+
     def _read(self, at: int) -> bytes:
         """The next chunk, which starts at byte ``at``; checked for size and NUL bytes."""
         chunk = self._stream.read(CHUNK_BYTES)

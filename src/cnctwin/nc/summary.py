@@ -9,9 +9,11 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from itertools import repeat
 from typing import Any
 
 from cnctwin.errors import ConfigError, NCError
+from cnctwin.nc.runs import ArcRun, StraightRun, arc_sweeps
 from cnctwin.nc.segments import PLANE_AXES, FeedMode, MotionKind, Segment, Vec3, arc_sweep_rad
 
 __all__ = ["ProgramSummary", "arc_extreme_points", "summarize"]
@@ -87,7 +89,7 @@ class ProgramSummary:
 
 
 def summarize(
-    segments: Iterable[Segment],
+    segments: Iterable[Segment | StraightRun | ArcRun],
     *,
     rapid_mm_min: float,
     travel_mm: tuple[Vec3, Vec3] | None = None,
@@ -97,7 +99,9 @@ def summarize(
     Parameters
     ----------
     segments
-        Segments from the interpreter, consumed once.
+        Segments from the interpreter, consumed once; runs of straight moves
+        (:meth:`~cnctwin.nc.interpreter.Interpreter.run_file_bulk`) are summed in bulk,
+        to the same numbers as their segments.
     rapid_mm_min
         The machine's rapid traverse rate in mm/min, > 0.
     travel_mm
@@ -126,7 +130,34 @@ def summarize(
     low_x = low_y = low_z = math.inf
     high_x = high_y = high_z = -math.inf
     dwell, rapid, arc = MotionKind.DWELL, MotionKind.RAPID, MotionKind.ARC
+    if travel_mm is not None:
+        segments = _one_by_one(segments)
     for seg in segments:
+        if isinstance(seg, StraightRun):
+            motion += len(seg)
+            if seg.state.tool:
+                tools.add(seg.state.tool)
+            rapid_length, feed_length, machining_time, run_low, run_high = _add_run(
+                seg,
+                rapid_length,
+                feed_length,
+                machining_time,
+                (low_x, low_y, low_z),
+                (high_x, high_y, high_z),
+            )
+            low_x, low_y, low_z = run_low
+            high_x, high_y, high_z = run_high
+            continue
+        if isinstance(seg, ArcRun):
+            motion += len(seg)
+            if seg.state.tool:
+                tools.add(seg.state.tool)
+            feed_length, machining_time, run_low, run_high = _add_arc_run(
+                seg, feed_length, machining_time, (low_x, low_y, low_z), (high_x, high_y, high_z)
+            )
+            low_x, low_y, low_z = run_low
+            high_x, high_y, high_z = run_high
+            continue
         kind = seg.kind
         if kind is dwell:
             dwell_time += seg.dwell_s
@@ -203,6 +234,117 @@ def summarize(
         zero_feed_moves=zero_feed,
         warnings=warnings,
     )
+
+
+def _one_by_one(items: Iterable[Segment | StraightRun | ArcRun]) -> Iterator[Segment]:
+    """The segments of ``items``, runs taken apart."""
+    for item in items:
+        if isinstance(item, StraightRun | ArcRun):
+            yield from item.segments()
+        else:
+            yield item
+
+
+def _add_run(
+    run: StraightRun,
+    rapid_length: float,
+    feed_length: float,
+    machining_time: float,
+    low: Vec3,
+    high: Vec3,
+) -> tuple[float, float, float, Vec3, Vec3]:
+    """The totals of :func:`summarize` after the moves of ``run``: rapid and feed length
+    (mm), machining time (s) and the tool tip's box (mm), each the number the loop over the
+    run's segments gives (same operations, same order: sums are sequential, squares are
+    Python's float power)."""
+    import numpy as np
+
+    ends = run.end_mm
+    starts = np.empty_like(ends)
+    starts[0] = run.start_mm
+    starts[1:] = ends[:-1]
+    x2, y2, z2 = (
+        np.array(list(map(pow, steps.tolist(), repeat(2)))) if steps.any() else steps
+        for steps in (ends - starts).T
+    )
+    lengths = np.sqrt(x2 + y2 + z2)
+    rapid = run.rapid
+    if rapid.any():
+        rapid_length = float(np.add.accumulate(np.append(rapid_length, lengths[rapid]))[-1])
+    fed = ~rapid
+    if fed.any():
+        feed = lengths[fed]
+        feed_length = float(np.add.accumulate(np.append(feed_length, feed))[-1])
+        times = 60.0 * feed / run.feed_mm_min[fed]
+        machining_time = float(np.add.accumulate(np.append(machining_time, times))[-1])
+    points = np.empty((len(ends) + 1, 3))
+    points[0] = starts[0]
+    points[1:] = ends
+    points -= np.array(run.state.tool_offset_mm)
+    low, high = _box(points, None, low, high)
+    return rapid_length, feed_length, machining_time, low, high
+
+
+def _box(points: Any, valid: Any, low: Vec3, high: Vec3) -> tuple[Vec3, Vec3]:
+    """The box ``low``, ``high`` (mm) grown by the (n, 3) ``points`` (those rows where
+    ``valid``, if given) in order, as the loop of :func:`summarize` grows it: the first
+    point of the lowest (highest) value wins (-0.0 against 0.0)."""
+    import numpy as np
+
+    below = points if valid is None else np.where(valid[:, None], points, np.inf)
+    above = points if valid is None else np.where(valid[:, None], points, -np.inf)
+    lows = below[np.argmin(below, axis=0), (0, 1, 2)].tolist()
+    highs = above[np.argmax(above, axis=0), (0, 1, 2)].tolist()
+    new_low = [v if v < old else old for v, old in zip(lows, low, strict=True)]
+    new_high = [v if v > old else old for v, old in zip(highs, high, strict=True)]
+    return (new_low[0], new_low[1], new_low[2]), (new_high[0], new_high[1], new_high[2])
+
+
+def _add_arc_run(
+    run: ArcRun, feed_length: float, machining_time: float, low: Vec3, high: Vec3
+) -> tuple[float, float, Vec3, Vec3]:
+    """The totals of :func:`summarize` after the arcs of ``run``: feed length (mm),
+    machining time (s) and the tool tip's box (mm), each the number the loop over the
+    run's segments gives (same operations in the same order; see :func:`_add_run`)."""
+    import numpy as np
+
+    ends = run.end_mm
+    starts = np.empty_like(ends)
+    starts[0] = run.start_mm
+    starts[1:] = ends[:-1]
+    radius, a0, sweep = arc_sweeps(starts, ends, run.center_mm, run.turns)
+    rise = (ends[:, 2] - starts[:, 2]).tolist()
+    lengths = np.array(list(map(math.hypot, (radius * sweep).tolist(), rise)))
+    feed_length = float(np.add.accumulate(np.append(feed_length, lengths))[-1])
+    if run.feed_mm_min > 0:
+        times = 60.0 * lengths / run.feed_mm_min
+        machining_time = float(np.add.accumulate(np.append(machining_time, times))[-1])
+    offset = np.array(run.state.tool_offset_mm)
+    tcp_start, tcp_end, center = starts - offset, ends - offset, run.center_mm - offset
+    if run.state.tool_offset_mm != _ZERO3:
+        radius, a0, sweep = arc_sweeps(tcp_start, tcp_end, center, run.turns)
+    # Each arc's points in the loop's order: start, end, up to four extremes.
+    n = len(ends)
+    points = np.empty((n, 6, 3))
+    points[:, 0] = tcp_start
+    points[:, 1] = tcp_end
+    lo = np.minimum(a0, a0 + sweep)
+    hi = np.maximum(a0, a0 + sweep)
+    k_first = np.ceil(lo / _QUARTER)
+    k_last = np.minimum(np.floor(hi / _QUARTER), k_first + 3)
+    quadrant_cos, quadrant_sin = np.array(_COS), np.array(_SIN)
+    valid = np.ones((n, 6), dtype=bool)
+    for slot in range(4):
+        k = k_first + slot
+        quadrant = np.mod(k, 4).astype(np.intp)
+        fraction = (k * _QUARTER - a0) / sweep
+        extreme = points[:, 2 + slot]
+        extreme[:, 0] = center[:, 0] + radius * quadrant_cos[quadrant]
+        extreme[:, 1] = center[:, 1] + radius * quadrant_sin[quadrant]
+        extreme[:, 2] = tcp_start[:, 2] + fraction * (tcp_end[:, 2] - tcp_start[:, 2])
+        valid[:, 2 + slot] = k <= k_last
+    low, high = _box(points.reshape(-1, 3), valid.reshape(-1), low, high)
+    return feed_length, machining_time, low, high
 
 
 def _rotary_distance_deg(seg: Segment) -> float:

@@ -1,0 +1,673 @@
+"""Runs of plain moves read in bulk: many consecutive ``G0``/``G1`` (or ``G2``/``G3``) lines
+at once.
+
+CAM output is mostly long runs of lines such as ``G1 X12.5 Y-3.25``. The interpreter hands
+the bytes that follow such a line to :func:`straight_run` (or, after a plain arc line, to
+:func:`arc_run`), which takes the longest run of complete lines of only an optional N word,
+an optional G0/G1, X, Y, Z and F words (at least one of X, Y, Z), in that order, or of an
+optional N word, an optional G2/G3, X, Y, Z, I, J words (I or J at least; XY plane): lines
+the interpreter's per-line fast paths take (``_XYZ_LINE`` and ``_ARC_LINE`` in
+:mod:`cnctwin.nc.interpreter`). It checks them with numpy over the bytes, converts their
+words with ``float()`` and computes the machine positions, feeds and arc centres of the whole
+run. :func:`cnctwin.nc.summary.summarize` sums a run without making a segment per line;
+``segments()`` gives the segments the line-by-line path gives. Every number is computed with
+the same floating-point operations in the same order as on the line-by-line path (Motion.
+xyz_move, Motion.arc, ``arc_sweep_rad``), so the results are equal to the bit
+(``tests/nc/test_runs.py`` compares both ways).
+
+A run ends before the first line that is not such a line, that the line-by-line path would
+refuse or treat otherwise (a line over :data:`~cnctwin.nc.limits.MAX_NUMBER_CHARS`
+characters, F <= 0 or beyond its bound, a feed move without a feed rate, a position beyond
+:data:`~cnctwin.nc.limits.MAX_POSITION_MM`, an arc whose end radius LinuxCNC refuses) or that
+would pass the segment limit: that line goes the general way and meets its error there.
+Lengths are in mm, feeds in mm/min, angles in rad.
+
+numpy is imported only when a run may follow, so reading a short program does not import it.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass, replace
+from itertools import repeat
+from operator import itemgetter
+from typing import TYPE_CHECKING, Any
+
+from cnctwin.nc.arcs import (
+    ARC_END_TOLERANCE_INCH,
+    ARC_END_TOLERANCE_MM,
+    ARC_RADIUS_LIMIT_FACTOR,
+    ARC_RADIUS_TOLERANCE_REL,
+    MM_PER_INCH,
+)
+from cnctwin.nc.limits import MAX_NUMBER_CHARS, MAX_POSITION_MM
+from cnctwin.nc.segments import MachineState, MotionKind, Segment, Vec3
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
+__all__ = ["MIN_RUN_LINES", "ArcRun", "StraightRun", "arc_run", "arc_sweeps", "straight_run"]
+
+#: Fewer lines than this are not worth a run (numpy's fixed cost per call).
+MIN_RUN_LINES = 32
+#: Bytes looked at first; the window grows fourfold while every line in it belongs.
+_FIRST_WINDOW = 4096
+
+# Byte classes: N and G (their number follows directly), other letters, number characters,
+# blanks, CR, LF.
+_BAD, _LETTER_NG, _LETTER, _NUMBER, _BLANK, _CR, _EOL = range(7)
+_ALL_BYTES = bytes(range(256))
+_TWO_PI = 2.0 * math.pi
+_np: Any = None
+_WRONG_PAIRS: Any = None
+
+
+class _Grammar:
+    """The lines of one kind of run: their letters, word order and G words."""
+
+    def __init__(self, letters: bytes, order: bytes, g_words: tuple[bytes, ...]) -> None:
+        self.letters = letters + letters.lower()
+        #: The letters of a line, in order, as the per-line fast path accepts them.
+        self.order = re.compile(rb"(?:" + order + rb"\n)*")
+        #: bytes.translate tables: keep only letters and line ends; letters to blanks.
+        self.not_letters = bytes(b for b in _ALL_BYTES if b not in self.letters + b"\n")
+        self.to_blanks = bytes.maketrans(self.letters, b" " * len(self.letters))
+        #: Every byte such a line may hold, but its LF.
+        self.alphabet = self.letters + b"0123456789.+- \t\r"
+        #: The numbers of the G words taken (the codes, zeros in front), and their values.
+        self.g_words = {b"0" * zeros + g: float(g) for zeros in range(8) for g in g_words}
+        self.classes: Any = None
+
+    def byte_classes(self, np: Any) -> Any:
+        """The class of each byte value (numpy array)."""
+        if self.classes is None:
+            classes = np.full(256, _BAD, dtype=np.uint8)
+            for b in self.letters:
+                classes[b] = _LETTER_NG if b in b"GgNn" else _LETTER
+            for b in b"0123456789.+-":
+                classes[b] = _NUMBER
+            for b in b" \t":
+                classes[b] = _BLANK
+            classes[ord("\r")] = _CR
+            classes[ord("\n")] = _EOL
+            self.classes = classes
+        return self.classes
+
+
+#: Straight moves: (N) (G0/G1) X Y Z (F), one of X Y Z at least.
+_STRAIGHT = _Grammar(b"GNXYZF", rb"[nN]?[gG]?(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])[fF]?", (b"0", b"1"))
+#: Arcs in the XY plane: (N) (G2/G3) X Y Z I J, one of I J at least.
+_ARC = _Grammar(b"GNXYZIJ", rb"[nN]?[gG]?[xX]?[yY]?[zZ]?(?:[iI][jJ]?|[jJ])", (b"2", b"3"))
+
+
+def _wrong_pair(before: int, after: int, apart: bool) -> bool:
+    """Whether non-blank bytes of classes ``before`` then ``after`` (``apart``: blanks
+    between them) cannot follow each other in a plain straight-move line."""
+    if _BAD in (before, after):
+        return True
+    if before in (_LETTER_NG, _LETTER):
+        return after != _NUMBER or (before == _LETTER_NG and apart)
+    if before == _NUMBER:
+        return after == _NUMBER and apart  # "X1 5"
+    if before == _CR:
+        return after != _EOL or apart
+    return after == _NUMBER  # a number at the start of a line
+
+
+def _numpy() -> Any:
+    """numpy, imported on first use."""
+    global _np, _WRONG_PAIRS
+    if _np is None:
+        import numpy
+
+        _WRONG_PAIRS = numpy.array(
+            [_wrong_pair(k // 14, k // 2 % 7, bool(k % 2)) for k in range(98)], dtype=bool
+        )
+        _np = numpy
+    return _np
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class StraightRun:
+    """Consecutive straight moves (``G0``/``G1``) of consecutive lines, in one state but
+    the feed.
+
+    Attributes
+    ----------
+    file
+        Source file name.
+    first_line
+        1-based line of the first move; move ``i`` is on line ``first_line + i``.
+    start_mm
+        Machine position (x, y, z) of the controlled point before the run, mm.
+    end_mm
+        (n, 3) machine positions after each move, mm.
+    rapid
+        (n,) True for G0 moves.
+    feed_mm_min
+        (n,) path feed of each move, mm/min (0 for rapids).
+    programmed_feed
+        (n,) the F in force at each move, program units per minute.
+    state
+        The modal state before the run; each move's is this one with its
+        ``programmed_feed``.
+    spindle_rpm
+        Spindle speed during the run, rpm.
+    abc_deg
+        Rotary axes A, B, C during the run, degrees.
+    """
+
+    file: str
+    first_line: int
+    start_mm: Vec3
+    end_mm: NDArray[np.float64]
+    rapid: NDArray[np.bool_]
+    feed_mm_min: NDArray[np.float64]
+    programmed_feed: NDArray[np.float64]
+    state: MachineState
+    spindle_rpm: float
+    abc_deg: Vec3
+
+    def __len__(self) -> int:
+        return len(self.rapid)
+
+    @property
+    def last_line(self) -> int:
+        """1-based line of the last move."""
+        return self.first_line + len(self.rapid) - 1
+
+    @property
+    def end_state(self) -> MachineState:
+        """The modal state after the run."""
+        return self._state(float(self.programmed_feed[-1]), self.state)
+
+    def _state(self, feed: float, state: MachineState) -> MachineState:
+        # As ModalState.set_feed: a new state only when the feed differs.
+        return state if feed == state.programmed_feed else replace(state, programmed_feed=feed)
+
+    def segments(self) -> Iterator[Segment]:
+        """The segments of the run, equal to those the line-by-line path makes."""
+        state = self.state
+        start = self.start_mm
+        line = self.first_line
+        abc, rpm, file = self.abc_deg, self.spindle_rpm, self.file
+        rapid, linear = MotionKind.RAPID, MotionKind.LINEAR
+        for end, fast, feed, programmed in zip(
+            map(tuple, self.end_mm.tolist()),
+            self.rapid.tolist(),
+            self.feed_mm_min.tolist(),
+            self.programmed_feed.tolist(),
+            strict=True,
+        ):
+            state = self._state(programmed, state)
+            yield Segment(
+                rapid if fast else linear,
+                line,
+                start,
+                end,
+                feed,
+                rpm,
+                state,
+                None,
+                0,
+                0.0,
+                abc,
+                abc,
+                file,
+            )
+            start = end
+            line += 1
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ArcRun:
+    """Consecutive arcs (``G2``/``G3`` with I, J centres, XY plane) of consecutive lines,
+    in one state.
+
+    Attributes
+    ----------
+    file
+        Source file name.
+    first_line
+        1-based line of the first arc; arc ``i`` is on line ``first_line + i``.
+    start_mm
+        Machine position (x, y, z) of the controlled point before the run, mm.
+    end_mm, center_mm
+        (n, 3) machine positions after each arc and centres, mm (a centre's Z is its
+        arc's start Z).
+    turns
+        (n,) 1 for G3, -1 for G2.
+    feed_mm_min
+        Path feed, mm/min.
+    state
+        The modal state of the run.
+    spindle_rpm, abc_deg
+        Spindle speed (rpm) and rotary axes A, B, C (degrees) during the run.
+    """
+
+    file: str
+    first_line: int
+    start_mm: Vec3
+    end_mm: NDArray[np.float64]
+    center_mm: NDArray[np.float64]
+    turns: NDArray[np.int64]
+    feed_mm_min: float
+    state: MachineState
+    spindle_rpm: float
+    abc_deg: Vec3
+
+    def __len__(self) -> int:
+        return len(self.turns)
+
+    @property
+    def last_line(self) -> int:
+        """1-based line of the last arc."""
+        return self.first_line + len(self.turns) - 1
+
+    def segments(self) -> Iterator[Segment]:
+        """The segments of the run, equal to those the line-by-line path makes."""
+        start = self.start_mm
+        line = self.first_line
+        abc, rpm, file, feed, state = (
+            self.abc_deg,
+            self.spindle_rpm,
+            self.file,
+            self.feed_mm_min,
+            self.state,
+        )
+        for end, center, turns in zip(
+            map(tuple, self.end_mm.tolist()),
+            map(tuple, self.center_mm.tolist()),
+            self.turns.tolist(),
+            strict=True,
+        ):
+            yield Segment(
+                MotionKind.ARC,
+                line,
+                start,
+                end,
+                feed,
+                rpm,
+                state,
+                center,
+                turns,
+                0.0,
+                abc,
+                abc,
+                file,
+            )
+            start = end
+            line += 1
+
+
+def arc_sweeps(start: Any, end: Any, center: Any, turns: Any) -> tuple[Any, Any, Any]:
+    """:func:`~cnctwin.nc.segments.arc_sweep_rad` of many XY-plane arcs of one turn at
+    most (``turns`` +-1): (n, 3) start, end and centre points (mm, numpy) to radius (mm),
+    start angle and sweep (rad), each (n,), with the same operations (``math.atan2``,
+    ``math.hypot``, Python's ``%``) as the one-arc function."""
+    np = _numpy()
+    u0 = (start[:, 0] - center[:, 0]).tolist()
+    v0 = (start[:, 1] - center[:, 1]).tolist()
+    u1 = (end[:, 0] - center[:, 0]).tolist()
+    v1 = (end[:, 1] - center[:, 1]).tolist()
+    a0 = np.array(list(map(math.atan2, v0, u0)))
+    a1 = np.array(list(map(math.atan2, v1, u1)))
+    radius = np.array(list(map(math.hypot, u0, v0)))
+    ccw = np.array(list(map(operator.mod, (a1 - a0).tolist(), repeat(_TWO_PI))))
+    cw = _TWO_PI - ccw
+    ccw[(ccw <= 1e-12) | (ccw >= _TWO_PI - 1e-12)] = _TWO_PI
+    cw[(cw <= 1e-12) | (cw >= _TWO_PI - 1e-12)] = _TWO_PI
+    sweep = np.where(turns > 0, ccw + 0.0, -(cw + 0.0))
+    return radius, a0, sweep
+
+
+def _valid_prefix(grammar: _Grammar, data: bytes) -> int:
+    """Bytes of the longest prefix of complete lines of ``data`` whose characters and word
+    structure are those of ``grammar`` (numbers not yet converted)."""
+    np = _numpy()
+    a = np.frombuffer(data, dtype=np.uint8)
+    cls = grammar.byte_classes(np)[a]
+    ends = np.flatnonzero(a == 10)
+    if len(ends) == 0:
+        return 0
+    starts = np.empty_like(ends)
+    starts[0] = 0
+    starts[1:] = ends[:-1] + 1
+    # Each pair of non-blank bytes in a row, with whether blanks are between them (the
+    # first byte follows a virtual line end).
+    solid = np.flatnonzero(cls != _BLANK)
+    seq = cls[solid]
+    code = np.empty(len(solid), dtype=np.uint8)
+    code[0] = _EOL * 14 + seq[0] * 2 + (solid[0] != 0)
+    code[1:] = seq[:-1] * 14
+    code[1:] += seq[1:] * 2
+    code[1:] += np.diff(solid) != 1
+    wrong = _WRONG_PAIRS[code]
+    first = int(np.argmax(wrong))
+    bad_at = int(solid[first]) if wrong[first] else len(a)
+    # No line longer than the per-line fast path takes (CR LF excluded).
+    length = ends - starts - (a[np.maximum(ends - 1, 0)] == 13)
+    too_long = np.flatnonzero(length > MAX_NUMBER_CHARS)
+    if len(too_long):
+        bad_at = min(bad_at, int(starts[too_long[0]]))
+    # Lines: those before the one holding the first wrong byte, in the right word order.
+    lines = int(np.searchsorted(ends, bad_at))
+    if lines == 0:
+        return 0
+    head = data[: int(ends[lines - 1]) + 1]
+    order = head.translate(None, grammar.not_letters)
+    matched = grammar.order.match(order)
+    good = order.count(b"\n", 0, matched.end()) if matched is not None else 0
+    return int(ends[good - 1]) + 1 if good else 0
+
+
+def straight_run(
+    data: bytes,
+    *,
+    file: str,
+    first_line: int,
+    start_mm: Vec3,
+    offsets_mm: list[float],
+    factor: float,
+    motion: int | None,
+    state: MachineState,
+    spindle_rpm: float,
+    abc_deg: Vec3,
+    word_limit: float,
+    max_moves: int,
+) -> tuple[StraightRun | None, int, int]:
+    """The run of plain straight moves at the start of ``data``.
+
+    Parameters
+    ----------
+    data
+        Bytes of the program from the start of a line (complete lines only are used).
+    file, first_line
+        Source name and the 1-based line ``data`` starts.
+    start_mm
+        Machine position before the run, mm.
+    offsets_mm
+        Total offset (x, y, z, ...) added to absolute program positions, mm.
+    factor
+        mm per program unit.
+    motion
+        The modal motion code (0 for G0, 10 for G1) before the run.
+    state
+        The modal state before the run: absolute distances, feed per minute, no cutter
+        compensation, rotation, diameter mode or constant surface speed (the caller checks).
+    spindle_rpm, abc_deg
+        Spindle speed (rpm) and rotary axes (degrees) during the run.
+    word_limit
+        Largest F word accepted, program units per minute.
+    max_moves
+        Most moves the run may hold (the segments left before the segment limit).
+
+    Returns
+    -------
+    run, lines, bytes
+        The run (``None`` when fewer than :data:`MIN_RUN_LINES` lines qualify) and the
+        lines and bytes it takes; ``lines`` also counts, when there is no run, the lines
+        looked at that would not have made one.
+    """
+    words = _words(_STRAIGHT, data)
+    if isinstance(words, int):
+        return None, words, 0
+    np = _numpy()
+    head, n, values, which, line_of, limit = words
+    index = np.arange(1, n + 1)
+    codes = _codes(np, motion, (0, 10), values, which, line_of, index)
+    if codes[0] < 0:  # no motion mode before the first G word: the general way
+        limit = 0
+    # Feeds: F > 0 and within its bound; a feed move needs a feed rate.
+    f = which == ord("f")
+    f_lines = line_of[f]
+    feeds_given = values[f]
+    wrong_feed = f_lines[(feeds_given <= 0.0) | (feeds_given > word_limit)]
+    if len(wrong_feed):
+        limit = min(limit, int(wrong_feed[0]))
+    programmed = np.empty(n + 1)
+    programmed[0] = state.programmed_feed
+    programmed[f_lines + 1] = feeds_given
+    programmed = _carry(np, programmed, f_lines, index)
+    unfed = np.flatnonzero((codes == 10.0) & ~(programmed > 0.0))
+    if len(unfed):
+        limit = min(limit, int(unfed[0]))
+    ends = _positions(np, values, which, line_of, index, start_mm, offsets_mm, factor)
+    outside = np.flatnonzero(~(np.abs(ends) <= MAX_POSITION_MM).all(axis=1))
+    if len(outside):
+        limit = min(limit, int(outside[0]))
+    limit = min(limit, max_moves)
+    if limit < MIN_RUN_LINES:
+        return None, max(limit, 1), 0
+    rapid = codes[:limit] == 0.0
+    programmed = programmed[:limit]
+    run = StraightRun(
+        file=file,
+        first_line=first_line,
+        start_mm=start_mm,
+        end_mm=ends[:limit],
+        rapid=rapid,
+        feed_mm_min=np.where(rapid, 0.0, programmed * factor),
+        programmed_feed=programmed,
+        state=state,
+        spindle_rpm=spindle_rpm,
+        abc_deg=abc_deg,
+    )
+    return run, limit, _line_end(np, head, limit)
+
+
+def arc_run(
+    data: bytes,
+    *,
+    file: str,
+    first_line: int,
+    start_mm: Vec3,
+    offsets_mm: list[float],
+    factor: float,
+    motion: int | None,
+    state: MachineState,
+    spindle_rpm: float,
+    abc_deg: Vec3,
+    word_limit: float,
+    max_moves: int,
+) -> tuple[ArcRun | None, int, int]:
+    """The run of plain arcs at the start of ``data``; see :func:`straight_run`.
+
+    ``motion`` is the modal motion code (20 for G2, 30 for G3) before the run; ``state``
+    must be in the XY plane, absolute distances and arc centres, feed per minute with a
+    feed rate > 0 (the caller checks); ``word_limit`` bounds the words' values (program
+    units). Centres and the end-radius test are those of
+    :meth:`~cnctwin.nc.motion.Motion.arc`.
+    """
+    words = _words(_ARC, data)
+    if isinstance(words, int):
+        return None, words, 0
+    np = _numpy()
+    head, n, values, which, line_of, limit = words
+    wrong = line_of[~(np.abs(values) <= word_limit)]
+    if len(wrong):
+        limit = min(limit, int(wrong[0]))
+    index = np.arange(1, n + 1)
+    codes = _codes(np, motion, (20, 30), values, which, line_of, index)
+    if codes[0] < 0:
+        limit = 0
+    ends = _positions(np, values, which, line_of, index, start_mm, offsets_mm, factor)
+    starts = np.empty_like(ends)
+    starts[0] = start_mm
+    starts[1:] = ends[:-1]
+    centers = starts.copy()
+    for axis, letter in enumerate(b"ij"):
+        mask = which == letter
+        offset = np.zeros(n)
+        offset[line_of[mask]] = values[mask] * factor
+        centers[:, axis] = starts[:, axis] + offset
+    r0 = np.array(
+        list(
+            map(
+                math.hypot,
+                (starts[:, 0] - centers[:, 0]).tolist(),
+                (starts[:, 1] - centers[:, 1]).tolist(),
+            )
+        )
+    )
+    r1 = np.array(
+        list(
+            map(
+                math.hypot,
+                (ends[:, 0] - centers[:, 0]).tolist(),
+                (ends[:, 1] - centers[:, 1]).tolist(),
+            )
+        )
+    )
+    tolerance = (
+        ARC_END_TOLERANCE_INCH * MM_PER_INCH if state.units == "inch" else ARC_END_TOLERANCE_MM
+    )
+    error = np.abs(r1 - r0)
+    refused = (error > ARC_RADIUS_LIMIT_FACTOR * tolerance) | (
+        (error > tolerance) & (error > ARC_RADIUS_TOLERANCE_REL * np.maximum(r0, r1))
+    )
+    inside = (np.abs(ends) <= MAX_POSITION_MM).all(axis=1) & (
+        np.abs(centers) <= MAX_POSITION_MM
+    ).all(axis=1)
+    wrong = np.flatnonzero(refused | ~(r0 > 0.0) | ~inside)
+    if len(wrong):
+        limit = min(limit, int(wrong[0]))
+    limit = min(limit, max_moves)
+    if limit < MIN_RUN_LINES:
+        return None, max(limit, 1), 0
+    run = ArcRun(
+        file=file,
+        first_line=first_line,
+        start_mm=start_mm,
+        end_mm=ends[:limit],
+        center_mm=centers[:limit],
+        turns=np.where(codes[:limit] == 30.0, 1, -1),
+        feed_mm_min=state.programmed_feed * factor,
+        state=state,
+        spindle_rpm=spindle_rpm,
+        abc_deg=abc_deg,
+    )
+    return run, limit, _line_end(np, head, limit)
+
+
+def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, int] | int:
+    """The longest run of lines of ``grammar`` at the start of ``data``: its bytes, its
+    line count, the values of its words (``float`` of their text, as on the line-by-line
+    path), their letters (lower case) and 0-based lines, and the lines before the first
+    with an N or G word the fast path would not take. Only the lines looked at, if fewer
+    than :data:`MIN_RUN_LINES` or a number that is none (such as ``1.2.3``)."""
+    # Too few lines, or a character no such line has within the first lines, make no run:
+    # numpy is not even imported.
+    first = data[: MIN_RUN_LINES * (MAX_NUMBER_CHARS + 2)].split(b"\n", MIN_RUN_LINES)
+    if len(first) <= MIN_RUN_LINES or b"".join(first[:-1]).translate(None, grammar.alphabet):
+        return 1
+    np = _numpy()
+    window = _FIRST_WINDOW
+    while True:
+        part = data[:window]
+        cut = part.rfind(b"\n") + 1
+        size = _valid_prefix(grammar, part[:cut])
+        if size < cut or window >= len(data):
+            break
+        window *= 4
+    head = data[:size]
+    n = head.count(b"\n")
+    if n < MIN_RUN_LINES:
+        return max(n, 1)
+    tokens = head.translate(grammar.to_blanks).split()
+    layout = head.translate(None, grammar.not_letters)
+    which = np.frombuffer(layout.replace(b"\n", b""), dtype=np.uint8) | 0x20
+    per_line = np.diff(np.flatnonzero(np.frombuffer(layout, dtype=np.uint8) == 10), prepend=-1)
+    line_of = np.repeat(np.arange(n), per_line - 1)
+    limit = n
+    values = np.zeros(len(tokens))
+    # G words: those of the grammar (their G number as value), digits only; N words: digits
+    # only (value 0); the other words: float() of their text.
+    g_at = np.flatnonzero(which == ord("g"))
+    n_at = np.flatnonzero(which == ord("n"))
+    for at, accepted in ((g_at, grammar.g_words.__contains__), (n_at, bytes.isdigit)):
+        if len(at) == 0:
+            continue
+        picked = _pick(tokens, at)
+        fits = np.fromiter(map(accepted, picked), dtype=bool, count=len(at))
+        if not fits.all():
+            limit = min(limit, int(line_of[at[np.argmin(fits)]]))
+        if at is g_at:
+            values[at] = np.fromiter(
+                map(grammar.g_words.get, picked, repeat(-1.0)), dtype=float, count=len(at)
+            )
+    rest = np.flatnonzero((which != ord("g")) & (which != ord("n")))
+    try:
+        values[rest] = np.array(list(map(float, _pick(tokens, rest))))
+    except ValueError:
+        return n
+    return head, n, values, which, line_of, limit
+
+
+def _pick(tokens: list[bytes], at: Any) -> tuple[bytes, ...] | list[bytes]:
+    """``tokens`` at the indices ``at`` (a numpy array)."""
+    if len(at) == len(tokens):
+        return tokens
+    if len(at) == 1:
+        return [tokens[int(at[0])]]
+    return itemgetter(*at.tolist())(tokens)  # type: ignore[no-any-return]
+
+
+def _codes(
+    np: Any,
+    motion: int | None,
+    taken: tuple[int, int],
+    values: Any,
+    which: Any,
+    line_of: Any,
+    index: Any,
+) -> Any:
+    """The motion code (G-code key, 10 * G number) of each line, carried forward from the
+    modal ``motion``; -1 before the first G word if ``motion`` is not one of ``taken``."""
+    g = which == ord("g")
+    codes = np.empty(len(index) + 1)
+    codes[0] = motion if motion in taken else -1.0
+    g_lines = line_of[g]
+    codes[g_lines + 1] = values[g] * 10.0
+    return _carry(np, codes, g_lines, index)
+
+
+def _positions(
+    np: Any,
+    values: Any,
+    which: Any,
+    line_of: Any,
+    index: Any,
+    start_mm: Vec3,
+    offsets_mm: list[float],
+    factor: float,
+) -> Any:
+    """(n, 3) machine positions, mm: X, Y, Z words * ``factor`` + offset (as
+    :meth:`~cnctwin.nc.motion.Motion.xyz_move` and ``target``), absent axes where they were."""
+    ends = np.empty((len(index), 3))
+    for axis, letter in enumerate(b"xyz"):
+        mask = which == letter
+        lines = line_of[mask]
+        column = np.empty(len(index) + 1)
+        column[0] = start_mm[axis]
+        column[lines + 1] = values[mask] * factor + offsets_mm[axis]
+        ends[:, axis] = _carry(np, column, lines, index)
+    return ends
+
+
+def _line_end(np: Any, head: bytes, lines: int) -> int:
+    """Bytes of the first ``lines`` lines of ``head``."""
+    return int(np.flatnonzero(np.frombuffer(head, dtype=np.uint8) == 10)[lines - 1]) + 1
+
+
+def _carry(np: Any, column: Any, given: Any, index: Any) -> Any:
+    """``column[1:]`` with each row not in ``given`` (0-based rows) holding the last given
+    value before it (``column[0]`` if none)."""
+    source = np.zeros(len(index), dtype=np.intp)
+    source[given] = index[given]
+    np.maximum.accumulate(source, out=source)
+    return column[source]

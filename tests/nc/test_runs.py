@@ -1,0 +1,276 @@
+"""Runs of straight moves read in bulk give what the line-by-line path gives, to the bit.
+
+:meth:`Interpreter.run_text_bulk` hands long runs of plain ``G0``/``G1`` lines to
+:mod:`cnctwin.nc.runs` (numbers parsed and positions computed with numpy) and
+:func:`~cnctwin.nc.summary.summarize` sums them in bulk. The reference is the
+interpreter's line-by-line path (:meth:`Interpreter.run_text`) and the per-segment summary:
+generated programs, with lines that must end a run mixed in, are run both ways and the
+segments, warnings, lines read, errors and summaries compared exactly (``repr`` of floats,
+so that -0.0 and 0.0 differ). The number parser is checked against Python's ``float``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from cnctwin.errors import NCError
+from cnctwin.nc.interpreter import Interpreter
+from cnctwin.nc.runs import MIN_RUN_LINES, ArcRun, StraightRun
+from cnctwin.nc.segments import Segment
+from cnctwin.nc.setup import NCSetup, ToolEntry
+from cnctwin.nc.summary import summarize
+
+HEADER = "G21 G90 G17 G94\nT1 M6\nS1000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F300\n"
+
+number = st.one_of(
+    st.integers(-99999, 99999).map(str),
+    st.decimals(-9999, 9999, places=4).map(lambda d: f"{d:f}"),
+    st.floats(-5000, 5000, allow_nan=False).map(lambda v: f"{v:.3f}"),
+    st.sampled_from(["-0", "+0", "0.", ".5", "-.25", "+3.", "007.50", "-0.000"]),
+)
+
+#: Lines that end a run (the line-by-line path or the general path takes them).
+breakers = st.sampled_from(
+    [
+        "",
+        "(a comment)",
+        "G1 X1 (comment)",
+        "G91",
+        "G90",
+        "G20",
+        "G21",
+        "G94",
+        "X1 5",
+        "N 10 X1",
+        "G 1 X2",
+        "X0.12345678901234567",
+        "G1 X1 Y2 Z3 A4",
+        "/G1 X5",
+        "G43 H1",
+        "G49",
+        "G92 X1",
+        "G92.1",
+        "G10 L2 P1 X3",
+        "G54",
+        "M5",
+        "G0 Z5",
+        "#1 = 3",
+        "G1 X[#1]",
+        "X1\tY2",
+        "x1 y2",
+        "G80",
+        "G4 P0.1",
+        "G17",
+        "G18",
+        "G90.1",
+        "G91.1",
+        "G43 H1",
+    ]
+)
+
+
+#: Lines that stop the program with an error (the same one both ways, at the same line).
+errors = st.sampled_from(
+    [
+        "G1 X2 F0",
+        "G0 X1 F-3",
+        "X1.2.3",
+        "G2 X1 Y0 I0.5 J0",
+        "G1X1234567890123456.5",
+        "G1 X2000000",
+        "G3 X0 Y0 I1 J0 K1",
+        "G2 X3 Y0 I1 J0 P2",
+        "G2 X1 Y1 R1",
+        "G93",
+        "F0",
+    ]
+)
+
+
+@st.composite
+def plain_line(draw: st.DrawFn) -> str:
+    """A line of the kind runs take (optional N, G0/G1, X/Y/Z, F; some spacing)."""
+    words = []
+    if draw(st.booleans()) and draw(st.booleans()):
+        words.append(f"N{draw(st.integers(0, 99999))}")
+    if draw(st.booleans()):
+        words.append(draw(st.sampled_from(["G0", "G1", "G00", "G01", "g1", "G001"])))
+    axes = draw(st.sets(st.sampled_from("XYZ"), min_size=1))
+    for axis in "XYZ":
+        if axis in axes:
+            letter = axis if draw(st.booleans()) else axis.lower()
+            words.append(f"{letter}{draw(st.sampled_from(['', ' ']))}{draw(number)}")
+    if draw(st.integers(0, 5)) == 0:
+        words.append(f"F{draw(st.sampled_from(['100', '250.5', '2000', '.5', '75.']))}")
+    gap = draw(st.sampled_from([" ", "", "  ", "\t"]))
+    return draw(st.sampled_from(["", " "])) + gap.join(words)
+
+
+@st.composite
+def arc_lines(draw: st.DrawFn) -> list[str]:
+    """A rapid to a start point, then arcs from there (I J centres, end on the circle to
+    four decimals; now and then a Z rise, an N word, a modal arc, or a wrong radius)."""
+    x, y = draw(st.integers(-50, 50)), draw(st.integers(-50, 50))
+    lines = [f"G90 G91.1 G17 G0 X{x} Y{y}"]
+    for _ in range(draw(st.sampled_from([0, 5, MIN_RUN_LINES, 2 * MIN_RUN_LINES + 3]))):
+        i, j = draw(st.sampled_from([(1.5, 0.0), (0.0, -2.0), (-0.75, 0.5), (3.0, 4.0)]))
+        angle = draw(st.floats(-3.1, 3.1))
+        radius = math.hypot(i, j) * draw(st.sampled_from([1.0] * 199 + [1.2]))
+        cx, cy = x + i, y + j
+        ex, ey = round(cx + radius * math.cos(angle), 4), round(cy + radius * math.sin(angle), 4)
+        words = [
+            draw(st.sampled_from(["G2", "G3", "G02", "g3"] + ([""] if len(lines) > 1 else [])))
+        ]
+        if draw(st.integers(0, 9)) == 0:
+            words.insert(0, "N5")
+        words += [f"X{ex:.4f}", f"Y{ey:.4f}"]
+        if draw(st.integers(0, 4)) == 0:
+            words.append(f"Z{draw(st.integers(-5, 5)) / 4}")
+        if i or draw(st.booleans()):
+            words.append(f"I{i}")
+        if j or not i:
+            words.append(f"J{j}")
+        lines.append(" ".join(w for w in words if w))
+        x, y = ex, ey
+    return lines
+
+
+@st.composite
+def program(draw: st.DrawFn) -> str:
+    blocks = []
+    for _ in range(draw(st.integers(1, 4))):
+        if draw(st.booleans()):
+            blocks.extend(draw(arc_lines()))
+        else:
+            size = draw(st.sampled_from([0, MIN_RUN_LINES - 1, MIN_RUN_LINES, 2 * MIN_RUN_LINES]))
+            blocks.append(draw(st.sampled_from(["G0 X1", "G1 Y2", "G90 G1 Z0"])))
+            blocks.extend(draw(st.lists(plain_line(), min_size=size, max_size=size + 8)))
+        blocks.extend(draw(st.lists(breakers, min_size=0, max_size=2)))
+    if draw(st.sampled_from([False] * 7 + [True])):
+        blocks.insert(draw(st.integers(0, len(blocks))), draw(errors))
+    eol = draw(st.sampled_from(["\n", "\r\n"]))
+    end = draw(st.sampled_from(["M2", "M2\n", ""]))
+    return HEADER.replace("\n", eol) + eol.join(blocks) + eol + end
+
+
+def _repr(value: object) -> object:
+    """Floats by ``repr`` (so that -0.0 and 0.0 differ), deeply."""
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, tuple | list):
+        return [_repr(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _repr(v) for k, v in value.items()}
+    if isinstance(value, Segment):
+        return [_repr(getattr(value, name)) for name in value.__slots__]
+    return value
+
+
+def both_ways(text: str, setup: NCSetup | None = None) -> tuple[object, object, int]:
+    """(line-by-line result, bulk result, moves in runs), each the segments, warnings,
+    lines read and summary, or the error message."""
+    results = []
+    in_runs = 0
+    for bulk in (False, True):
+        interpreter = Interpreter(setup)
+        items: list[Segment | StraightRun | ArcRun] = []
+        try:
+            stream = (
+                interpreter.run_text_bulk(text, "p.ngc")
+                if bulk
+                else interpreter.run_text(text, "p.ngc")
+            )
+            for item in stream:
+                items.append(item)
+        except NCError as err:
+            results.append(str(err))
+        else:
+            segments = [
+                s
+                for i in items
+                for s in (i.segments() if isinstance(i, StraightRun | ArcRun) else [i])
+            ]
+            summary = summarize(items, rapid_mm_min=5000.0).to_dict()
+            results.append(_repr([segments, interpreter.warnings, interpreter.lines_read, summary]))
+        if bulk:
+            in_runs = sum(len(i) for i in items if isinstance(i, StraightRun | ArcRun))
+    return results[0], results[1], in_runs
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(program())
+def test_runs_equal_the_line_by_line_path(text: str) -> None:
+    one_by_one, bulk, _ = both_ways(text)
+    assert bulk == one_by_one
+
+
+@pytest.mark.parametrize(
+    "tail",
+    [
+        "",  # the last line without a line end
+        "\nX1 F-5\nM2\n",  # an error after a run: its line is named
+        "\nG1 X2000000\nM2\n",
+        "\nM2\n",
+    ],
+)
+def test_long_runs_are_taken_and_match(tail: str) -> None:
+    lines = [
+        f"G1 X{i * 0.001:.3f} Y{-i * 0.5:.4f}" + (" F200" if i % 7 == 0 else "")
+        for i in range(3000)
+    ]
+    lines[1500] = "G0 Z3"
+    lines[2000] = "N20 G01 Z-1 F100"
+    text = HEADER + "\n".join(lines) + tail
+    one_by_one, bulk, in_runs = both_ways(text)
+    assert in_runs > 2500
+    assert bulk == one_by_one
+
+
+def test_offsets_inch_and_the_segment_limit() -> None:
+    """Runs under work offsets, a tool length offset and inch units, and a run cut by the
+    segment limit (the error names the same line both ways)."""
+    body = "\n".join(f"X{i * 0.01:.2f} Y{(i % 13) * 0.1:.1f}" for i in range(400))
+    text = "G20 G90 G10 L2 P1 X1.5 Y-2 Z0.25\nG54 T1 M6 G43 H1\nG1 X0 Y0 F20\n" + body + "\nM2\n"
+    tools = NCSetup(tools={1: ToolEntry(1, length_mm=42.125, diameter_mm=6.0)})
+    one_by_one, bulk, in_runs = both_ways(text, tools)
+    assert in_runs > 300
+    assert bulk == one_by_one
+    limited = NCSetup(tools=tools.tools, max_segments=250)
+    one_by_one, bulk, _ = both_ways(text, limited)
+    assert isinstance(bulk, str) and bulk == one_by_one
+
+
+def test_summary_json_is_byte_identical() -> None:
+    """The summary's numbers, written as JSON, are the same characters both ways."""
+    lines = [
+        f"G1 X{(i * 37 % 101) / 7:.4f} Y{(i * 53 % 97) / 3:.4f} Z{-(i % 5) / 9:.5f}"
+        for i in range(2000)
+    ]
+    text = HEADER + "\n".join(lines) + "\nG0 Z5\nM2\n"
+    dumps = []
+    for bulk in (False, True):
+        interpreter = Interpreter()
+        items = interpreter.run_text_bulk(text) if bulk else interpreter.run_text(text)
+        dumps.append(json.dumps(summarize(items, rapid_mm_min=3000.0).to_dict()))
+    assert dumps[0] == dumps[1]
+
+
+@pytest.mark.parametrize("offset", ["", "G10 L2 P1 X2 Y-3 Z1\nG43 H1\n", "G20\n"])
+def test_long_arc_runs_are_taken_and_match(offset: str) -> None:
+    """Half circles out and back (the benchmark's arcs), with a helix now and then, under
+    work and tool offsets and in inches."""
+    lines = []
+    for n in range(1500):
+        r = 1.0 + (n * 7919 % 1000) / 500.0
+        lift = f" Z{-(n % 3) / 4}" if n % 5 == 0 else ""
+        lines += [f"G3 X{2 * r:.4f} Y0{lift} I{r:.4f} J0", f"G2 X0 Y0 I{-r:.4f} J0"]
+    text = "G21 G90 G17 G94 F300\nT1 M6\n" + offset + "G0 X0 Y0\n" + "\n".join(lines) + "\nM2\n"
+    tools = NCSetup(tools={1: ToolEntry(1, length_mm=42.125, diameter_mm=6.0)})
+    one_by_one, bulk, in_runs = both_ways(text, tools)
+    assert in_runs > 2900
+    assert bulk == one_by_one
