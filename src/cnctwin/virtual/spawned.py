@@ -36,8 +36,10 @@ _START_TIMEOUT_S = 300.0
 #: Machine time a throwaway machine runs before the server starts, s: past the demo program's
 #: first cut (4.1 s), so every kernel the measurement meets is compiled.
 _WARM_UP_S = 6.0
-#: GIL switch interval of the server's process, s (CPython's default: 5 ms).
-_SWITCH_S = 0.0005
+#: GIL switch interval of the server's process, s (CPython's default: 5 ms). The server's loop
+#: gives the GIL up at every send, recv and epoll; while a step runs, it waits up to this long to
+#: get it back, several times a request (docs/latency.md, "OPC UA: where the time goes").
+_SWITCH_S = 0.0001
 #: Commands that set a register the machine reads once, at the start of each step (the
 #: interpolator takes the override at its next cycle, as a controller's NCK takes the PLC's
 #: override byte): written at once, without waiting for a step in progress to end.
@@ -68,8 +70,8 @@ async def _serve(transport: str, pipe: Connection) -> None:
     _warm_up(VirtualMachine(VirtualMachineConfig()))
     vm = VirtualMachine(VirtualMachineConfig())
     vm.step(vm.tick_s)
-    # a thread that waits for the GIL gets it after 0.5 ms, not CPython's 5 ms: a request
-    # arriving during a step of the machine's thread is answered within that
+    # a thread that waits for the GIL gets it after 0.1 ms, not CPython's 5 ms: a request
+    # arriving during a step of the machine's thread is not held up for the step
     sys.setswitchinterval(_SWITCH_S)
     with ThreadPoolExecutor(1, thread_name_prefix="cnctwin-vm-step") as pool:
         machine = _SteppedOffLoop(vm, pool)
