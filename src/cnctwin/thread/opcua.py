@@ -19,7 +19,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -404,6 +404,7 @@ class OpcUaConnection(MachineConnection):
             raise ConnectionLost(f"{what} at {self.endpoint}: session is {uaclient.state.value}")
         request.RequestHeader.Timestamp = datetime.now(UTC)
         try:
+            # encoded (and signed, encrypted) and written before the first await
             data = await protocol._send_request(request, self.timeout_s)
             protocol.check_answer(data, f" in response to {what}")  # a ServiceFault raises
             response: _Response = struct_from_binary(response_type, data)
@@ -430,6 +431,8 @@ class OpcUaConnection(MachineConnection):
         else:
             variant = ua.Variant(float(value), ua.VariantType.Double)
         request = self._write_one[name]
+        # no await between setting the value and _call encoding the request: a write of the
+        # same command from another task cannot slip in
         request.Parameters.NodesToWrite[0].Value = ua.DataValue(Value=variant)
         response = await self._call(client, request, ua.WriteResponse, f"write of {name}")
         (status,) = response.Results
@@ -590,7 +593,7 @@ class _Cache:
         logger.warning("OPC UA subscription status changed: %s", status.Status)
 
 
-def _read_request(node_ids: Any) -> ua.ReadRequest:
+def _read_request(node_ids: Iterable[ua.NodeId]) -> ua.ReadRequest:
     """A Read of the Value of ``node_ids``, with both time stamps."""
     request = ua.ReadRequest()
     request.Parameters.TimestampsToReturn = ua.TimestampsToReturn.Both
