@@ -106,20 +106,20 @@ def test_a_round_trip_is_one_write_and_one_read_request() -> None:
                 protocol = conn._client.uaclient.protocol
                 assert protocol is not None
                 sent: list[tuple[str, list[str]]] = []
-                send = protocol.send_request
+                send = protocol._send_request  # every request of the channel passes here
 
-                async def counted(request: Any, *args: Any, **kwargs: Any) -> Any:
+                def counted(request: Any, *args: Any, **kwargs: Any) -> Any:
                     params = getattr(request, "Parameters", None)
                     items = getattr(params, "NodesToRead", None) or getattr(
                         params, "NodesToWrite", None
                     )
                     nodes = [item.NodeId.Identifier for item in items or ()]
                     sent.append((type(request).__name__, nodes))
-                    return await send(request, *args, **kwargs)
+                    return send(request, *args, **kwargs)
 
-                protocol.send_request = counted  # type: ignore[method-assign]
+                protocol._send_request = counted  # type: ignore[method-assign]
                 await measure_latency(conn, n=5, interval_s=0.0)
-                protocol.send_request = send  # type: ignore[method-assign]  # not the close
+                protocol._send_request = send  # type: ignore[method-assign]  # not the close
         override = NODE_MAP["feed_override_pct"]
         on_override = [kind for kind, nodes in sent if nodes == [override]]
         assert on_override == [

@@ -303,12 +303,18 @@ def test_secure_session_with_certificates_and_password(certificates: Path, mode:
     async def body() -> None:
         machine = FakeMachine()
         async with OpcUaMachineServer(machine, security=server_security, users=users) as server:
-            conn = OpcUaConnection(client(server, "s3cret"), base_dir=certificates)
-            async with conn:
-                reading = await conn.read()
-                assert dict(reading.values) == pytest.approx(machine.values)
-                await conn.write("spindle_override_pct", 90.0)
-                assert await conn.read_signal("spindle_override_pct") == 90.0
+            # the cycle's read from the subscription, then by Read requests: every request
+            # and answer signed (and encrypted) on the secure channel
+            for subscription_ms, override in ((5.0, 90.0), (None, 80.0)):
+                conn = OpcUaConnection(
+                    client(server, "s3cret"), base_dir=certificates, subscription_ms=subscription_ms
+                )
+                async with conn:
+                    reading = await conn.read()
+                    assert dict(reading.values) == pytest.approx(machine.values)
+                    await conn.write("spindle_override_pct", override)
+                    assert await conn.read_signal("spindle_override_pct") == override
+                    assert machine.values["spindle_override_pct"] == override
             for refused in (client(server, "wrong"), client(server, None, username=None)):
                 with pytest.raises(ConnectionLost):
                     await OpcUaConnection(refused, base_dir=certificates).connect()

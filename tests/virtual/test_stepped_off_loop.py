@@ -1,9 +1,10 @@
 """The bench's machine steps in a thread beside its OPC UA server (cnctwin.virtual.spawned).
 
 Proven with a step held open on purpose, against a real asyncua client session: the server
-answers a Read while the step runs (it used to wait for the step), and a Write, which changes
-the machine, waits until the step has ended. Nothing here is timed except lower bounds that
-cannot be undercut: the write cannot finish before the step is released.
+answers a Read while the step runs, and a Write of the feed override (a register the machine
+reads at the start of each step) too, with its read-back; a Write of any other command, which
+changes the machine's state, waits until the step has ended. Nothing here is timed except
+lower bounds that cannot be undercut: that write cannot finish before the step is released.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ from cnctwin.thread.config import ConnectionConfig
 from cnctwin.thread.opcua import OpcUaConnection
 from cnctwin.thread.signals import SIGNALS
 from cnctwin.virtual.clock import MachineClock
+from cnctwin.virtual.config import VirtualMachineConfig
+from cnctwin.virtual.machine import VirtualMachine
 from cnctwin.virtual.opcua_server import OpcUaMachineServer
 from cnctwin.virtual.spawned import _SteppedOffLoop
 from cnctwin.virtual.users import UserTable
@@ -50,7 +53,7 @@ class HeldMachine:
         self.values[name] = value
 
 
-def test_a_read_is_answered_during_a_step_and_a_write_waits_for_its_end() -> None:
+def test_during_a_step_a_read_and_an_override_are_answered_and_other_commands_wait() -> None:
     async def body() -> None:
         machine = HeldMachine()
         loop = asyncio.get_running_loop()
@@ -64,16 +67,57 @@ def test_a_read_is_answered_during_a_step_and_a_write_waits_for_its_end() -> Non
                     assert await loop.run_in_executor(None, machine.entered.wait, BODY_S)
                     # the step is held: the server still answers a read
                     assert await conn.read_signal("feed_override_pct") == 100.0
+                    # the override is a register: written and read back during the step
+                    await conn.write("feed_override_pct", 90.0)
+                    assert await conn.read_signal("feed_override_pct") == 90.0
+                    assert stepped.snapshot()["feed_override_pct"] == 90.0
                     assert not step.done() and machine.steps == 0
-                    # a write changes the machine: it waits for the step (the loop blocks on
-                    # the machine's lock, so the step is released from another thread)
+                    # feed hold changes the machine's state: it waits for the step (the loop
+                    # blocks on the machine's lock, so the step is released from another
+                    # thread)
                     threading.Timer(HELD_S, machine.release.set).start()
                     t0 = time.monotonic()
-                    await conn.write("feed_override_pct", 90.0)
+                    await conn.write("feed_hold", 1.0)
                     assert time.monotonic() - t0 >= HELD_S * 0.9
                     await step
                     assert machine.steps == 1
+                    assert await conn.read_signal("feed_hold") == 1.0
                     assert await conn.read_signal("feed_override_pct") == 90.0
+
+    asyncio.run(asyncio.wait_for(body(), BODY_S))
+
+
+def test_an_override_written_during_a_step_moves_the_real_machine_from_its_next_step() -> None:
+    """The latched register's meaning, on the virtual machine itself: the step in progress
+    has taken the override at its start and keeps it; the next step moves at the new one."""
+
+    async def body() -> None:
+        vm = VirtualMachine(VirtualMachineConfig())
+        follower = vm._follower
+        advance = follower.advance
+        factors: list[float] = []
+        entered, release = threading.Event(), threading.Event()
+
+        def held_advance(dt_s: float, feed_factor: float, hold: bool) -> None:
+            factors.append(feed_factor)
+            entered.set()
+            release.wait(BODY_S)
+            advance(dt_s, feed_factor, hold)
+
+        follower.advance = held_advance  # type: ignore[method-assign]
+        loop = asyncio.get_running_loop()
+        with ThreadPoolExecutor(1) as pool:
+            stepped = _SteppedOffLoop(vm, pool)
+            step = asyncio.ensure_future(stepped.step(vm.tick_s))
+            assert await loop.run_in_executor(None, entered.wait, BODY_S)
+            stepped.command("feed_override_pct", 50.0)  # returns while the step is held
+            assert not step.done()
+            assert stepped.snapshot()["feed_override_pct"] == 50.0  # the read-back
+            release.set()
+            await step
+            assert stepped.snapshot()["feed_override_pct"] == 50.0  # the step kept it
+            await stepped.step(vm.tick_s)
+        assert factors == [1.0, 0.5]  # the step under way at 100 %, the next at 50 %
 
     asyncio.run(asyncio.wait_for(body(), BODY_S))
 

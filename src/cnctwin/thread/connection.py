@@ -228,7 +228,8 @@ class MachineConnection(ABC):
         """Read every mapped signal; :class:`ConnectionLost` (and a reconnect) on failure."""
         self._require_connected()
         try:
-            return await asyncio.wait_for(self._read(), self.timeout_s)
+            async with asyncio.timeout(self.timeout_s):
+                return await self._read()
         except (OSError, TimeoutError, ConnectionLost) as err:
             self._lost(err)
             raise ConnectionLost(f"read failed: {err or type(err).__name__}") from err
@@ -242,7 +243,8 @@ class MachineConnection(ABC):
         """
         self._require_connected()
         try:
-            return await asyncio.wait_for(self._read_signal(name), self.timeout_s)
+            async with asyncio.timeout(self.timeout_s):
+                return await self._read_signal(name)
         except (OSError, TimeoutError, ConnectionLost) as err:
             self._lost(err)
             raise ConnectionLost(f"read of {name} failed: {err or type(err).__name__}") from err
@@ -273,7 +275,8 @@ class MachineConnection(ABC):
         """Write one command; :class:`ConnectionLost` (and a reconnect) on failure."""
         self._require_connected()
         try:
-            await asyncio.wait_for(self._write(name, value), self.timeout_s)
+            async with asyncio.timeout(self.timeout_s):
+                await self._write(name, value)
         except (OSError, TimeoutError, ConnectionLost) as err:
             self._lost(err)
             raise ConnectionLost(f"write of {name}={value!r} failed: {err}") from err

@@ -19,11 +19,11 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from asyncua import ua
@@ -33,6 +33,7 @@ from asyncua.common.node import Node
 from asyncua.common.subscription import DataChangeNotif, Subscription
 from asyncua.crypto import security_policies
 from asyncua.ua.attribute_ids import AttributeIds
+from asyncua.ua.ua_binary import struct_from_binary
 from asyncua.ua.uaerrors import UaError, UaStatusCodeError
 
 from cnctwin.errors import ConfigError, DataError
@@ -129,6 +130,10 @@ def variant_type(name: str) -> ua.VariantType:
     return _VARIANTS[SIGNALS[name].kind]
 
 
+#: The answers :meth:`OpcUaConnection._call` decodes.
+_Response = TypeVar("_Response", ua.ReadResponse, ua.WriteResponse)
+
+
 @dataclass(frozen=True)
 class _Target:
     """Where a connection reads a signal: the mapping's text and the resolved NodeId."""
@@ -188,7 +193,9 @@ class OpcUaConnection(MachineConnection):
         self._last_heartbeat: float | None = None
         self._client: Client | None = None
         self._targets: dict[str, _Target] = {}
-        self._read_params: ua.ReadParameters | None = None
+        self._read_all: ua.ReadRequest | None = None
+        self._read_one: dict[str, ua.ReadRequest] = {}
+        self._write_one: dict[str, ua.WriteRequest] = {}
         if subscription_ms is not None and not (
             math.isfinite(subscription_ms) and subscription_ms >= 0
         ):
@@ -222,13 +229,12 @@ class OpcUaConnection(MachineConnection):
         except BaseException:
             await self._close()
             raise
-        params = ua.ReadParameters()
-        params.TimestampsToReturn = ua.TimestampsToReturn.Both
-        params.NodesToRead = [
-            ua.ReadValueId(NodeId=t.node_id, AttributeId=AttributeIds.Value)
-            for t in self._targets.values()
-        ]
-        self._read_params = params
+        # the requests are built once; each call only sets its value and header
+        self._read_all = _read_request(t.node_id for t in self._targets.values())
+        self._read_one = {name: _read_request([t.node_id]) for name, t in self._targets.items()}
+        self._write_one = {
+            name: _write_request(t.node_id) for name, t in self._targets.items() if name in COMMANDS
+        }
         if self.subscription_ms is not None:
             try:
                 self._cache = await self._subscribe(client, self.subscription_ms)
@@ -254,8 +260,8 @@ class OpcUaConnection(MachineConnection):
             logger.debug("disconnect from %s: %s", self.endpoint, err)
 
     async def _read(self) -> Reading:
-        client, params = self._client, self._read_params
-        if client is None or params is None:
+        client, request = self._client, self._read_all
+        if client is None or request is None:
             raise ConnectionLost("OPC UA client is not open")
         if client.uaclient.state is not UaClientState.CONNECTED:
             raise ConnectionLost(f"session with {self.endpoint} is {client.uaclient.state.value}")
@@ -263,10 +269,7 @@ class OpcUaConnection(MachineConnection):
             results = [self._cache.values[name] for name in self._targets]
             received = self._cache.received_s
         else:
-            try:
-                results = await client.uaclient.read(params)
-            except UaError as err:
-                raise ConnectionLost(f"read at {self.endpoint}: {err}") from err
+            results = (await self._call(client, request, ua.ReadResponse, "read")).Results
             received = now_s()
         values: dict[str, float] = {}
         rejected: dict[str, str] = {}
@@ -308,9 +311,12 @@ class OpcUaConnection(MachineConnection):
         return how
 
     async def _link_lost(self, err: Exception) -> None:
-        """asyncua's supervisor saw the link drop (it reconnects next)."""
+        """asyncua's supervisor saw the link drop (it reconnects next): the connection is lost
+        now, whether or not a request was under way, and waits for the restoration."""
         logger.warning("OPC UA link to %s lost: %s", self.endpoint, err)
         self._restoring = self._subscription is not None
+        if self._client is not None:  # not a close of our own
+            self._lost(err)
 
     def _session_outcome(self, client: Client) -> str:
         token = client.uaclient.session.authentication_token
@@ -386,20 +392,52 @@ class OpcUaConnection(MachineConnection):
         target = self._targets.get(name)
         if target is None:
             raise ConfigError(f"signal {name!r} is not mapped; valid: {', '.join(self._targets)}")
-        value, reason = _checked(name, await self._read_node(client, name, target))
+        value, reason = _checked(name, await self._read_node(client, name))
         if reason is not None:
             raise DataError(f"machine signal {name!r} at {target.address} unusable: {reason}")
         return value
 
-    async def _read_node(self, client: Client, name: str, target: _Target) -> ua.DataValue:
-        params = ua.ReadParameters()
-        params.TimestampsToReturn = ua.TimestampsToReturn.Both
-        params.NodesToRead = [ua.ReadValueId(NodeId=target.node_id, AttributeId=AttributeIds.Value)]
-        try:
-            (result,) = await client.uaclient.read(params)
-        except UaError as err:
-            raise ConnectionLost(f"read of {name} at {self.endpoint}: {err}") from err
+    async def _read_node(self, client: Client, name: str) -> ua.DataValue:
+        response = await self._call(
+            client, self._read_one[name], ua.ReadResponse, f"read of {name}"
+        )
+        result: ua.DataValue = response.Results[0]
         return result
+
+    async def _call(
+        self,
+        client: Client,
+        request: ua.ReadRequest | ua.WriteRequest,
+        response_type: type[_Response],
+        what: str,
+    ) -> _Response:
+        """Send one service request on the session's secure channel and decode the answer.
+
+        The request goes through asyncua's secure channel as any of its requests does
+        (sequence numbers, chunking, signing and encryption of the session's policy); what is
+        left out are asyncua's per-request wrappers (a task and a timer of its own, a wait
+        while its supervisor reconnects): the caller's timeout (:class:`MachineConnection`,
+        ``timeout_s``) bounds the wait, and a link that is not up fails at once.
+
+        Raises
+        ------
+        ConnectionLost
+            The link is down or the server answered with a service fault.
+        """
+        uaclient = client.uaclient
+        protocol = uaclient.protocol
+        if protocol is None or uaclient.state is not UaClientState.CONNECTED:
+            raise ConnectionLost(f"{what} at {self.endpoint}: session is {uaclient.state.value}")
+        request.RequestHeader.Timestamp = datetime.now(UTC)
+        try:
+            # encoded (and signed, encrypted) and written before the first await
+            data = await protocol._send_request(request, self.timeout_s)
+            protocol.check_answer(data, f" in response to {what}")  # a ServiceFault raises
+            response: _Response = struct_from_binary(response_type, data)
+            response.ResponseHeader.ServiceResult.check()
+        except UaError as err:
+            raise ConnectionLost(f"{what} at {self.endpoint}: {err}") from err
+        return response
 
     async def _write(self, name: str, value: float) -> None:
         client = self._client
@@ -418,18 +456,12 @@ class OpcUaConnection(MachineConnection):
             variant = ua.Variant(bool(value), ua.VariantType.Boolean)
         else:
             variant = ua.Variant(float(value), ua.VariantType.Double)
-        params = ua.WriteParameters()
-        params.NodesToWrite = [
-            ua.WriteValue(
-                NodeId=target.node_id,
-                AttributeId=AttributeIds.Value,
-                Value=ua.DataValue(Value=variant),
-            )
-        ]
-        try:
-            (status,) = await client.uaclient.write(params)
-        except UaError as err:
-            raise ConnectionLost(f"write of {name} at {self.endpoint}: {err}") from err
+        request = self._write_one[name]
+        # no await between setting the value and _call encoding the request: a write of the
+        # same command from another task cannot slip in
+        request.Parameters.NodesToWrite[0].Value = ua.DataValue(Value=variant)
+        response = await self._call(client, request, ua.WriteResponse, f"write of {name}")
+        (status,) = response.Results
         if not status.is_good():
             raise CommandRejected(
                 f"machine at {self.endpoint} rejected {name}={value!r} at {target.address}: "
@@ -437,7 +469,7 @@ class OpcUaConnection(MachineConnection):
             )
         if self._cache is not None:
             # Refresh the cache with the read-back now, so a read() after the write shows it.
-            self._cache.values[name] = await self._read_node(client, name, target)
+            self._cache.values[name] = await self._read_node(client, name)
 
     # Helpers --------------------------------------------------------------------------
     async def _apply_security(self, client: Client, security: OpcUaSecurityConfig) -> None:
@@ -585,6 +617,25 @@ class _Cache:
 
     def status_change_notification(self, status: ua.StatusChangeNotification) -> None:
         logger.warning("OPC UA subscription status changed: %s", status.Status)
+
+
+def _read_request(node_ids: Iterable[ua.NodeId]) -> ua.ReadRequest:
+    """A Read of the Value of ``node_ids``, with both time stamps."""
+    request = ua.ReadRequest()
+    request.Parameters.TimestampsToReturn = ua.TimestampsToReturn.Both
+    request.Parameters.NodesToRead = [
+        ua.ReadValueId(NodeId=node_id, AttributeId=AttributeIds.Value) for node_id in node_ids
+    ]
+    return request
+
+
+def _write_request(node_id: ua.NodeId) -> ua.WriteRequest:
+    """A Write of the Value of ``node_id`` (each write sets its DataValue)."""
+    request = ua.WriteRequest()
+    request.Parameters.NodesToWrite = [
+        ua.WriteValue(NodeId=node_id, AttributeId=AttributeIds.Value)
+    ]
+    return request
 
 
 def _posix_s(stamp: datetime | None) -> float | None:
