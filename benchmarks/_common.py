@@ -75,19 +75,20 @@ def run_measured(
     cwd: Path,
     env: dict[str, str] | None = None,
     stdout_to: Path | None = None,
+    stderr_to: Path | None = None,
 ) -> tuple[float, float, int]:
     """(CPU seconds, peak RSS MiB, exit code) of one child process (user + system time and
     ``ru_maxrss`` from ``os.wait4`` of that child alone); its output is discarded, or its
-    standard output written to the file ``stdout_to``. ``env``: the child's environment
-    (default: this one's)."""
-    with open(stdout_to or os.devnull, "w") as sink:
+    standard output and error written to the files ``stdout_to`` and ``stderr_to``. ``env``:
+    the child's environment (default: this one's)."""
+    with open(stdout_to or os.devnull, "w") as sink, open(stderr_to or os.devnull, "w") as errs:
         proc = subprocess.Popen(
             command,
             cwd=cwd,
             env=env,
             stdin=subprocess.DEVNULL,
             stdout=sink,
-            stderr=subprocess.DEVNULL,
+            stderr=errs,
         )
         _, status, usage = os.wait4(proc.pid, 0)
     proc.returncode = os.waitstatus_to_exitcode(status)

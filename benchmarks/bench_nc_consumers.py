@@ -20,11 +20,15 @@ shipped ``demo.toml``, X 5-75 Y 5-55 Z -1 to -2 mm, so that the 10 mm tool cuts 
 For each: CPU time (user + system of the child, ``os.wait4``), lines per CPU second (for the
 two commands over the whole process, start-up included) and peak RSS, at two program sizes
 (the large one and a tenth of it): the same peak at both means memory flat in the program's
-length. CPU time, not wall time, because the benchmark machine is shared and loaded.
+length. CPU time, not wall time, because the benchmark machine is shared and loaded. A
+command that refuses the program (exit 2: e.g. the predicted signals of 1,000,000 lines at
+12.5 ms estimated over the 4 GB work limit, :mod:`cnctwin.memory`) gets its message in the
+table; ``--memory-limit-gb`` raises the limit.
 
 Usage::
 
     python benchmarks/bench_nc_consumers.py [--quick] [--lines N] [--only NAME ...]
+        [--memory-limit-gb GB]
 """
 
 from __future__ import annotations
@@ -75,16 +79,24 @@ def count_lines(path: Path) -> int:
         return sum(1 for _ in stream)
 
 
-def measure(name: str, program: Path, work: Path) -> tuple[float, float, float]:
-    """(CPU seconds counted for lines/s, whole child's CPU seconds, peak RSS MiB)."""
+def measure(
+    name: str, program: Path, work: Path, limit_gb: float | None
+) -> tuple[float, float, float] | str:
+    """(CPU seconds counted for lines/s, whole child's CPU seconds, peak RSS MiB), or the
+    last line of the child's error where it exits with 2 (a refusal, e.g. the memory limit).
+    ``limit_gb``: the children's work limit (``CNCTWIN_MEMORY_LIMIT_GB``), else the default."""
     env = dict(os.environ, PYTHONPATH=str(REPO / "src"))
+    if limit_gb is not None:
+        env["CNCTWIN_MEMORY_LIMIT_GB"] = f"{limit_gb:g}"
     config = str(EXAMPLES / "demo.toml")
     if name == "twin load":
         command = [sys.executable, __file__, "--twin-child", str(program)]
     else:
         command = [*cnctwin_command(), name, str(program), "-c", config, "--json"]
-    answer = work / "answer.txt"
-    seconds, peak, code = run_measured(command, work, env, stdout_to=answer)
+    answer, error = work / "answer.txt", work / "error.txt"
+    seconds, peak, code = run_measured(command, work, env, stdout_to=answer, stderr_to=error)
+    if code == 2:
+        return error.read_text().strip().splitlines()[-1]
     if code != 0:
         raise SystemExit(f"{' '.join(command)} exited with {code}")
     counted = float(answer.read_text()) if name == "twin load" else seconds
@@ -98,6 +110,12 @@ def main() -> None:
     parser.add_argument(
         "--only", nargs="+", choices=CONSUMERS, default=CONSUMERS, help="consumers to run"
     )
+    parser.add_argument(
+        "--memory-limit-gb",
+        type=float,
+        default=None,
+        help="CNCTWIN_MEMORY_LIMIT_GB of the children (default: the library's, 4 GB)",
+    )
     parser.add_argument("--twin-child", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.twin_child:
@@ -109,7 +127,8 @@ def main() -> None:
     print(
         f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
         f"Python {platform.python_version()}, load average {load[0]:.2f} {load[1]:.2f} "
-        f"{load[2]:.2f}; CPU time"
+        f"{load[2]:.2f}; CPU time; memory limit "
+        f"{args.memory_limit_gb or 'default'} GB"
     )
     print("| consumer | lines | lines/s | CPU s (process) | peak RSS (MiB) |")
     print("|---|---:|---:|---:|---:|")
@@ -120,7 +139,11 @@ def main() -> None:
             write_program(program, n, box=BOX)
             lines = count_lines(program)
             for name in args.only:
-                counted, seconds, peak = measure(name, program, work)
+                result = measure(name, program, work, args.memory_limit_gb)
+                if isinstance(result, str):
+                    print(f"| {name} | {lines:,} | refused: {result} | | |", flush=True)
+                    continue
+                counted, seconds, peak = result
                 print(
                     f"| {name} | {lines:,} | {lines / counted:,.0f} | {seconds:.1f} | {peak:.0f} |",
                     flush=True,
