@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import random
 import resource
 import subprocess
 import sys
@@ -24,31 +23,9 @@ import tempfile
 import time
 from pathlib import Path
 
+from _common import write_program
+
 REPO = Path(__file__).resolve().parents[1]
-
-
-def write_program(path: Path, lines: int, seed: int = 1) -> None:
-    """A CAM-style 3-axis program: modal XY(Z) moves, feed changes, rapids, comments."""
-    rng = random.Random(seed)
-    x = y = 0.0
-    with path.open("w") as out:
-        out.write("%\nO1000 (generated benchmark)\nG21 G90 G17 G94\nT1 M6\nS12000 M3\n")
-        out.write("G0 X0 Y0 Z5\nG1 Z-1 F1200\n")
-        for i in range(lines - 10):
-            x += rng.uniform(-1.0, 1.0)
-            y += rng.uniform(-1.0, 1.0)
-            kind = i % 20
-            if kind < 15:
-                out.write(f"X{x:.3f} Y{y:.3f}\n")
-            elif kind < 17:
-                out.write(f"G1 X{x:.3f} Y{y:.3f} Z{-1.0 - rng.random():.3f} F{1000 + i % 500}\n")
-            elif kind < 18:
-                out.write(f"N{i} G1 X{x:.3f} Y{y:.3f}\n")
-            elif kind < 19:
-                out.write(f"G2 X{x:.3f} Y{y:.3f} R5.\n")
-            else:
-                out.write(f"G0 X{x:.3f} Y{y:.3f} (reposition)\n")
-        out.write("G0 Z5\nM5\nM30\n%\n")
 
 
 def _interpret(path: str) -> tuple[int, int, float]:

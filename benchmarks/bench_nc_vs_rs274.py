@@ -30,11 +30,11 @@ import os
 import platform
 import random
 import shutil
-import subprocess
-import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+
+from _common import cnctwin_command, run_measured
 
 REPO = Path(__file__).resolve().parents[1]
 LOCK = Path(tempfile.gettempdir()) / "cnctwin-rs274.lock"
@@ -102,20 +102,6 @@ PROGRAMS: dict[str, Callable[[Path, int], None]] = {
 }
 
 
-def run_measured(command: list[str], cwd: Path) -> tuple[float, float, int]:
-    """(CPU seconds, peak RSS MiB, exit code) of one child process, its output discarded."""
-    proc = subprocess.Popen(
-        command,
-        cwd=cwd,
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    return usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0, proc.returncode
-
-
 def best_of(repeat: int, command: list[str], cwd: Path, lock: bool) -> tuple[float, float]:
     """Lowest CPU seconds and peak RSS MiB of ``repeat`` runs; raises if one fails."""
     best = (float("inf"), 0.0)
@@ -130,12 +116,6 @@ def best_of(repeat: int, command: list[str], cwd: Path, lock: bool) -> tuple[flo
             raise SystemExit(f"{' '.join(command)} exited with {code}")
         best = min(best, (seconds, peak))
     return best
-
-
-def cnctwin_command() -> list[str]:
-    """The ``cnctwin`` console script next to this Python, else ``python -m cnctwin``."""
-    script = Path(sys.executable).with_name("cnctwin")
-    return [str(script)] if script.exists() else [sys.executable, "-m", "cnctwin"]
 
 
 def count_lines(path: Path) -> int:

@@ -627,8 +627,12 @@ def simulate_signals(
         When the program moves a tool that has no geometry.
     """
     pitch_z = stock.grid.pitch_mm[2]
+    # The contact steps of the chunk being cut and their forces, then each chunk's as
+    # arrays (80 B of forces a step, not a tuple of Python floats).
     index: list[int] = []
     loads: list[tuple[float, ...]] = []
+    at_parts: list[NDArray[np.int64]] = []
+    load_parts: list[NDArray[np.float64]] = []
     tap_feeds: dict[int, tuple[int, float, float]] = {}  # line: tool, feed/rev, pitch (mm)
 
     def observe(step: CutStep) -> None:
@@ -651,6 +655,11 @@ def simulate_signals(
         on_step=observe,
     ):
         table.append(rows)
+        if index:
+            at_parts.append(np.asarray(index, dtype=np.int64))
+            load_parts.append(np.asarray(loads, dtype=np.float64))
+            index.clear()
+            loads.clear()
         if on_chunk is not None and len(rows):
             on_chunk(float(rows[-1, 0]))
     n = len(table)
@@ -663,9 +672,9 @@ def simulate_signals(
     columns["spindle_cmd_rpm"] = table.column("spindle_rpm")
     columns["spindle_on"] = (columns["spindle_cmd_rpm"] > 0.0).astype(np.float64)
     columns["feed_on"] = (columns["path_speed_mm_min"] > 0.0).astype(np.float64)
-    if index:
-        at = np.asarray(index)
-        block = np.asarray(loads)
+    if at_parts:
+        at = np.concatenate(at_parts)
+        block = np.concatenate(load_parts)
         for k, name in enumerate(_FORCE_COLUMNS):
             columns[name][at] = block[:, k]
     _spindle(columns, drive, cycle_s)

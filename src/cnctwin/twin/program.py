@@ -11,7 +11,7 @@ twin assumes the length compensation of the tool in the spindle (G43 with its ow
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from array import array
 from pathlib import Path
 
 from cnctwin.config import MachiningConfig
@@ -51,10 +51,15 @@ class ProgramMap:
         self._by_tool: dict[int, Vec3] = {
             tool.number: (0.0, 0.0, tool.length_mm) for tool in config.tools
         }
-        self._by_line: dict[int, tuple[int, Vec3]] = {}
+        # Per line, 1 + the index in _states of the state of its last move (0: no move):
+        # 4 bytes a line and one entry per distinct state, not a dict entry per line.
+        self._state_of_line = array("I")
+        self._states: list[tuple[int, Vec3]] = []
         if program is None and text is None:
             return
         interpreter = Interpreter(config.nc_setup())
+        codes: dict[tuple[int, Vec3], int] = {}
+        index = self._state_of_line
         try:
             segments = (
                 interpreter.run_file(Path(program))
@@ -64,16 +69,20 @@ class ProgramMap:
             for segment in segments:
                 state = segment.state
                 dx, dy, dz = state.tool_offset_mm
-                self._by_line[segment.line] = (state.tool, (dx, dy, dz))
+                entry = (state.tool, (dx, dy, dz))
+                code = codes.get(entry)
+                if code is None:
+                    self._states.append(entry)
+                    code = codes[entry] = len(self._states)
+                line = segment.line
+                if line >= len(index):  # grown by doubling: lines come mostly in order
+                    grow = max(line + 1, 2 * len(index)) - len(index)
+                    index.frombytes(bytes(index.itemsize * grow))
+                index[line] = code
         except NCError as err:
             if program is not None and err.file == "<string>":
                 raise NCError(err.message, str(program), err.line, err.column) from None
             raise
-
-    @property
-    def lines(self) -> Mapping[int, tuple[int, Vec3]]:
-        """Line -> (tool, tool offset in mm) of every line that moves."""
-        return self._by_line
 
     def offset_mm(self, line: int, tool: int) -> Vec3:
         """Tool offset in effect at ``line`` with ``tool`` in the spindle, mm.
@@ -81,7 +90,10 @@ class ProgramMap:
         The program's offset for that line when it is known and its tool matches; otherwise
         the tool's configured length along Z (G43 assumed).
         """
-        known = self._by_line.get(line)
-        if known is not None and known[0] == tool:
-            return known[1]
+        index = self._state_of_line
+        code = index[line] if 0 <= line < len(index) else 0
+        if code:
+            known_tool, offset = self._states[code - 1]
+            if known_tool == tool:
+                return offset
         return self._by_tool.get(tool, (0.0, 0.0, 0.0))
