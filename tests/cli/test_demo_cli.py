@@ -107,3 +107,43 @@ def test_demo_bad_input_is_one_line_and_exit_2(capsys, argv: list[str], message:
     _, err = capsys.readouterr()
     assert code == 2
     assert err.count("\n") == 1 and message in err
+
+
+def test_demo_config_runs_the_wear_example_to_its_tool_change(tmp_path: Path) -> None:
+    """``--config``: the wear example's own virtual machine wears its tool by its own law (the
+    accelerated-wear fault, not the twin's EKF); the twin asks for a tool change at stage IV
+    and stops, and its estimate then is near the machine's true wear."""
+    config = "examples/wear/wear_twin.toml"
+    report, _, db = _demo(tmp_path, "--config", config)
+    assert report["ended"] == "stopped"
+    tool = report["stage_results"]["wear"]["1"]
+    assert tool["stage"] == 4
+    entry = tool["stage_entries"]["4"]
+    assert entry["vb_mm"] >= 0.4  # stage IV begins at 0.4 mm ([twin.wear] stages_mm)
+    true_vb = report["machine_tool_wear_mm"]
+    # the machine's law reaches 0.4 mm in about 20 s of cutting; the twin's estimate within
+    # 0.1 mm of it (docs/benchmarks.md, "Wear live": mean abs error 0.01-0.03 mm in lockstep)
+    assert 0.25 < true_vb < 0.55
+    assert abs(entry["vb_mm"] - true_vb) < 0.1
+    with sqlite3.connect(db) as conn:
+        decisions = conn.execute("SELECT rule, action, reason FROM hist_decisions").fetchall()
+        (meta,) = conn.execute("SELECT meta FROM hist_runs").fetchone()
+    # a tool change writes no signal: the request is recorded (docs/control.md)
+    requests = [r for rule, action, r in decisions if action == "tool_change"]
+    assert len(requests) == 1 and "tool change requested" in requests[0]
+    assert ("worn_out", "stop") in [(rule, action) for rule, action, _ in decisions]
+    assert json.loads(meta)["command"] == f"cnctwin demo --config {config}"
+
+
+@pytest.mark.parametrize(
+    ("config", "message"),
+    [
+        ("examples/opcua/heidenhain_tnc.toml", "no [virtual] table"),
+        ("examples/nowhere.toml", "nowhere.toml"),
+    ],
+)
+def test_demo_bad_config_is_one_line_and_exit_2(capsys, config: str, message: str) -> None:
+    code = run(["demo", "--config", str(REPO / config)])
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert err.count("\n") == 1 and message in err
