@@ -278,7 +278,8 @@ def _loop_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
         if found:
             first = found[0]
             text = (
-                f"detected {1e3 * first['after_entry_s']:.0f} ms into the cut at "
+                f"detected {1e3 * first['after_engagement_s']:.0f} ms after the engagement began, "
+                f"at "
                 f"{first['frequency_hz']:.0f} Hz, {first['spindle_rpm']:.0f} rpm (line "
                 f"{first['line']})"
             )

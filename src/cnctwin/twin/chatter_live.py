@@ -367,7 +367,7 @@ class ChatterStage:
                 {
                     "line": state.line,
                     "window_end_s": end_s,
-                    "after_entry_s": end_s - self._cut_since_s,
+                    "after_engagement_s": end_s - self._cut_since_s,
                     "frequency_hz": top.chatter_frequency_hz,
                     "energy_ratio": top.energy_ratio,
                     "spindle_rpm": detectors.rpm,
@@ -391,9 +391,9 @@ class ChatterStage:
 
     def run_results(self) -> dict[str, Any]:
         """What the stage found over the run (for the run's summary): each confirmed chatter
-        (``window_end_s``, s of the vibration block's clock; ``after_entry_s``, s after the
-        tool entered the cut; Hz; rpm) and each spindle speed change it asked for (``machine_s``,
-        the machine's clock, s; rpm; %)."""
+        (``window_end_s``, s of the vibration block's clock; ``after_engagement_s``, s after
+        the cut's current engagement began, its ae and ap steady; Hz; rpm) and each spindle
+        speed change it asked for (``machine_s``, the machine's clock, s; rpm; %)."""
         return {"detections": list(self._detections), "avoidances": list(self._avoidances)}
 
     def _avoid(self, state: CycleState, segment: RoadmapSegment | None) -> None:
