@@ -33,10 +33,12 @@ stage under 5 ms at 12.5 ms).
 (``examples/roughness``), chatter detection on the machine's 10 kHz tool-tip vibration
 (``examples/chatter_live``: its tool modes vibrate the demo's tool; detection only, the
 roadmap's avoidance is a one-off decision, not a per-cycle cost) and, without ``--model``, a
-model stage with a 300-point GPR that ``bench_learn.write_twin_gpr`` writes. It also measures
-the CPU time (``time.thread_time``, load-independent where wall time is not) of each stage
-and outlet per call and of the whole cycle (their sum), and the process's CPU time per
-cycle (``resource.getrusage``: the OPC UA client and the historian's writer included).
+model stage with a 300-point GPR that ``bench_learn.write_twin_gpr`` writes.
+
+Every run also measures the CPU time (``time.thread_time``: on a loaded machine less
+dependent on the load than wall time) of each stage and outlet per call and of the whole
+cycle (their sum), and the process's CPU time per cycle (``resource.getrusage``: the OPC UA
+client and the historian's writer included).
 """
 
 from __future__ import annotations
@@ -208,15 +210,14 @@ def _with_endpoint(config: RunConfig, endpoint: str) -> RunConfig:
 
 
 def cycle_phase(
-    base: RunConfig, folder: Path, seconds: float, db: Path, cpu: CpuTimes | None = None
+    base: RunConfig, folder: Path, seconds: float, db: Path, cpu: CpuTimes
 ) -> dict[str, Any]:
     program = folder / "zigzag.ngc"
     program.write_text(zigzag_program())
     config = _config(base, program, hole=False, speed=1.0)
 
     def start(twin: Any) -> None:
-        if cpu is not None:
-            cpu.instrument(twin.runtime)
+        cpu.instrument(twin.runtime)
         machine.go()
 
     with MachineProcess(config, "opcua", log=folder / "machine.log") as machine:
@@ -236,7 +237,7 @@ def cycle_phase(
     process_cpu_s = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
     return {
         "process_cpu_ms_per_cycle": 1e3 * process_cpu_s / max(summary.cycles, 1),
-        "cpu": cpu.summary() if cpu is not None else None,
+        "cpu": cpu.summary(),
         "shed": summary.shed,
         "overloaded_cycles": summary.overloaded_cycles,
         "seconds": seconds,
@@ -290,10 +291,8 @@ def stop_phase(base: RunConfig, folder: Path, trials: int) -> dict[str, Any]:
 
 
 def cpu_section(c: dict[str, Any]) -> str:
-    """The CPU-time lines of ``--all-stages`` (empty without)."""
-    cpu = c.get("cpu")
-    if cpu is None:
-        return ""
+    """The CPU-time lines of the cycle phase."""
+    cpu = c["cpu"]
     stages = ", ".join(
         f"{k} {v['p50_ms']:.3f} / {v['p99_ms']:.3f}" for k, v in cpu["stages"].items()
     )
@@ -357,7 +356,7 @@ def main() -> None:
     parser.add_argument(
         "--all-stages",
         action="store_true",
-        help="every live stage on (adaptive feed, roughness, chatter, a model) and CPU times",
+        help="every live stage on (adaptive feed, roughness, chatter, a model stage)",
     )
     args = parser.parse_args()
     seconds = 20.0 if args.quick else args.minutes * 60.0
@@ -379,7 +378,7 @@ def main() -> None:
             write_twin_gpr(ALL_STAGES_GPR_POINTS, model)
         if model is not None:
             base = with_model(base, model)
-        cpu = CpuTimes() if args.all_stages else None
+        cpu = CpuTimes()
         load_before = __import__("os").getloadavg()
         cycle = cycle_phase(base, folder, seconds, folder / "bench.sqlite", cpu)
         stop = stop_phase(base, folder, trials)
