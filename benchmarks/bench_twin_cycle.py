@@ -26,16 +26,34 @@ Usage::
 (``[[twin.models]]``, docs/twin.md) running that model file on every sample, e.g. the one
 ``examples/twin_model/twin.toml``'s comment trains (issue 13: the cycle p99 with a model
 stage under 5 ms at 12.5 ms).
+
+``--all-stages`` (issue 15, item 7: the cycle p99 with every live stage on under 5 ms at
+12.5 ms) adds to the wear EKF and the form error the shipped examples' adaptive feed
+(``examples/adaptive``, reference 150 N, with its engagement-map lookahead), roughness
+(``examples/roughness``), chatter detection on the machine's 10 kHz tool-tip vibration
+(``examples/chatter_live``: its tool modes vibrate the demo's tool; detection only, the
+roadmap's avoidance is a one-off decision, not a per-cycle cost) and, without ``--model``, a
+model stage with a 300-point GPR that ``bench_learn.write_twin_gpr`` writes.
+
+Every run also measures the CPU time (``time.thread_time``: on a loaded machine less
+dependent on the load than wall time) of each stage and outlet per call and of the whole
+cycle (their sum), and the process's CPU time per cycle (``resource.getrusage``: the OPC UA
+client and the historian's writer included).
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
+import inspect
 import json
 import platform
+import resource
+import sys
 import tempfile
 import time
+from collections import defaultdict
 from datetime import UTC, datetime
 from importlib.resources import as_file, files
 from pathlib import Path
@@ -47,7 +65,12 @@ from cnctwin.control import RuleConfig
 from cnctwin.store import Historian
 from cnctwin.twin import MachineProcess, ModelConfig, RunConfig, load_run_config, run_session
 
-WEAR_EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "wear" / "wear_twin.toml"
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+WEAR_EXAMPLE = EXAMPLES / "wear" / "wear_twin.toml"
+#: What ``--all-stages`` adds, as the Markdown names it.
+ALL_STAGES = "adaptive feed, roughness, chatter detection on 10 kHz vibration, "
+#: Points of the GPR the model stage runs with ``--all-stages`` and no ``--model``.
+ALL_STAGES_GPR_POINTS = 300
 
 HEADER = """G21 G17 G90 G94 G40 G49 G80
 G54
@@ -109,6 +132,75 @@ def _with_wear(base: RunConfig) -> RunConfig:
     )
 
 
+def with_all_stages(base: RunConfig) -> RunConfig:
+    """``base`` with the shipped examples' adaptive feed, roughness and chatter detection on
+    (the machine's tool vibrating with ``examples/chatter_live``'s modes at 10 kHz)."""
+    adaptive = load_run_config(EXAMPLES / "adaptive" / "adaptive.toml")
+    roughness = load_run_config(EXAMPLES / "roughness" / "roughness_twin.toml").twin.roughness
+    chatter_example = load_run_config(EXAMPLES / "chatter_live" / "chatter_live.toml")
+    assert chatter_example.virtual is not None and base.virtual is not None
+    chatter = chatter_example.twin.chatter.model_copy(update={"avoid": False})
+    twin = base.twin.model_copy(
+        update={
+            "adaptive_feed": adaptive.twin.adaptive_feed,
+            "roughness": roughness,
+            "chatter": chatter,
+        }
+    )
+    virtual = base.virtual.model_copy(update={"vibration": chatter_example.virtual.vibration})
+    control = base.control.model_copy(update={"feed_override": adaptive.control.feed_override})
+    return base.model_copy(update={"twin": twin, "virtual": virtual, "control": control})
+
+
+class CpuTimes:
+    """CPU time (``time.thread_time``, s) of each stage and outlet per call, and per cycle
+    (the sum over its stages and outlets), recorded by wrapping their methods."""
+
+    def __init__(self) -> None:
+        self.per_stage: dict[str, list[float]] = defaultdict(list)
+        self.per_cycle: dict[int, float] = defaultdict(float)
+
+    def _add(self, name: str, index: int, spent_s: float) -> None:
+        self.per_stage[name].append(spent_s)
+        self.per_cycle[index] += spent_s
+
+    def instrument(self, runtime: Any) -> None:
+        """Wrap ``process`` of each stage and ``send`` of each outlet of ``runtime``."""
+        for stage in runtime.stages:
+            stage.process = self._timed(stage.name, stage.process)
+        for outlet in runtime.outlets:
+            outlet.send = self._timed(outlet.name, outlet.send)
+
+    def _timed(self, name: str, method: Any) -> Any:
+        def timed(state: Any) -> Any:
+            t0 = time.thread_time()
+            result = method(state)
+            if inspect.isawaitable(result):
+                return self._finish(name, state.index, t0, result)
+            self._add(name, state.index, time.thread_time() - t0)
+            return result
+
+        return timed
+
+    async def _finish(self, name: str, index: int, t0: float, pending: Any) -> Any:
+        # an awaiting stage (chatter) also counts what the loop runs while it waits
+        result = await pending
+        self._add(name, index, time.thread_time() - t0)
+        return result
+
+    def summary(self) -> dict[str, Any]:
+        """p50/p99 in ms per stage and per cycle."""
+
+        def ms(values: list[float]) -> dict[str, float]:
+            a = 1e3 * np.asarray(values)
+            return {"p50_ms": float(np.percentile(a, 50)), "p99_ms": float(np.percentile(a, 99))}
+
+        return {
+            "cycle": ms(list(self.per_cycle.values())),
+            "stages": {name: ms(v) for name, v in self.per_stage.items()},
+        }
+
+
 def with_model(config: RunConfig, model: Path) -> RunConfig:
     """``config`` with a model stage running ``model`` (named ``bench_model``)."""
     entry = ModelConfig(name="bench_model", path=model.resolve())
@@ -121,23 +213,37 @@ def _with_endpoint(config: RunConfig, endpoint: str) -> RunConfig:
     return config.model_copy(update={"connection": connection})
 
 
-def cycle_phase(base: RunConfig, folder: Path, seconds: float, db: Path) -> dict[str, Any]:
+def cycle_phase(
+    base: RunConfig, folder: Path, seconds: float, db: Path, cpu: CpuTimes
+) -> dict[str, Any]:
     program = folder / "zigzag.ngc"
     program.write_text(zigzag_program())
     config = _config(base, program, hole=False, speed=1.0)
+
+    def start(twin: Any) -> None:
+        cpu.instrument(twin.runtime)
+        machine.go()
+
     with MachineProcess(config, "opcua", log=folder / "machine.log") as machine:
         with Historian.open(db) as historian:
+            before = resource.getrusage(resource.RUSAGE_SELF)
             summary = asyncio.run(
                 run_session(
                     _with_endpoint(config, machine.endpoint),
                     historian=historian,
                     duration_s=seconds,
-                    on_start=lambda _twin: machine.go(),
+                    on_start=start,
                     meta={"benchmark": "bench_twin_cycle"},
                 )
             )
+            after = resource.getrusage(resource.RUSAGE_SELF)
         state = machine.state() or {}
+    process_cpu_s = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
     return {
+        "process_cpu_ms_per_cycle": 1e3 * process_cpu_s / max(summary.cycles, 1),
+        "cpu": cpu.summary(),
+        "shed": summary.shed,
+        "overloaded_cycles": summary.overloaded_cycles,
         "seconds": seconds,
         "ended": summary.ended,
         "cycles": summary.cycles,
@@ -148,6 +254,7 @@ def cycle_phase(base: RunConfig, folder: Path, seconds: float, db: Path) -> dict
         "stop_reactions_ms": summary.stop_reactions_ms,
         "feed_override_min": summary.feed_override_min,
         "samples_recorded": summary.samples_recorded,
+        "stages_p50_ms": {k: v["p50_ms"] for k, v in summary.stages_ms.items()},
         "stages_p99_ms": {k: v["p99_ms"] for k, v in summary.stages_ms.items()},
         "stages_max_ms": {k: v["max_ms"] for k, v in summary.stages_ms.items()},
         "machine_clock": state.get("clock"),
@@ -187,10 +294,27 @@ def stop_phase(base: RunConfig, folder: Path, trials: int) -> dict[str, Any]:
     }
 
 
+def cpu_section(c: dict[str, Any]) -> str:
+    """The CPU-time lines of the cycle phase."""
+    cpu = c["cpu"]
+    stages = ", ".join(
+        f"{k} {v['p50_ms']:.3f} / {v['p99_ms']:.3f}" for k, v in cpu["stages"].items()
+    )
+    return f"""
+CPU time (`time.thread_time`) per cycle: p50 {cpu["cycle"]["p50_ms"]:.2f} ms, p99
+{cpu["cycle"]["p99_ms"]:.2f} ms; the process's CPU per cycle (OPC UA client and historian
+writer included) {c["process_cpu_ms_per_cycle"]:.2f} ms. Per stage and outlet, CPU p50 / p99
+per call (ms): {stages}. Shed under overload: {", ".join(c["shed"]) or "nothing"}.
+"""
+
+
 def markdown(result: dict[str, Any], command: str) -> str:
     c, s = result["cycle"], result["stop"]
     stages = ", ".join(f"{k} {v:.2f}" for k, v in c["stages_p99_ms"].items())
     r = s["stop_reaction_ms"]
+    added = ("wear EKF, " if result["wear_stage"] else "") + (
+        ALL_STAGES if result["all_stages"] else ""
+    )
     verdict_cycle = "met" if c["cycle_p99_ms"] < 5.0 and c["overruns"] == 0 else "NOT met"
     verdict_stop = "met" if r["p99"] < 12.5 else "NOT met"
     return f"""# Benchmark: twin cycle and stop reaction (bench_twin_cycle)
@@ -200,7 +324,7 @@ jobs (load average {result["load"]}). Command: `{command}`.
 
 The virtual machine runs in a child process and serves OPC UA on loopback; the twin (dexel cut
 of its own blank at {result["density"]} dexels/mm, forces, filters, windows, force band, form
-error, {"wear EKF, " if result["wear_stage"] else ""}rules, control, historian) runs in the
+error, {added}rules, control, historian) runs in the
 benchmark's process at a 12.5 ms cycle. Model stage: {result["model"] or "none"}.
 
 ## Cycle ({c["seconds"]:.0f} s of continuous zig-zag milling, real time)
@@ -215,7 +339,7 @@ benchmark's process at a 12.5 ms cycle. Model stage: {result["model"] or "none"}
 | samples recorded | {c["samples_recorded"]} | |
 
 Per-stage p99 (ms): {stages}.
-
+{cpu_section(c)}
 Cycle target: **{verdict_cycle}**.
 
 ## Stop reaction ({s["trials"]} runs through the hole in the blank)
@@ -236,6 +360,11 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="write the figures as Markdown here")
     parser.add_argument("--without-wear", action="store_true", help="the wear stage off")
     parser.add_argument("--model", type=Path, help="add a model stage running this ONNX model")
+    parser.add_argument(
+        "--all-stages",
+        action="store_true",
+        help="every live stage on (adaptive feed, roughness, chatter, a model stage)",
+    )
     args = parser.parse_args()
     seconds = 20.0 if args.quick else args.minutes * 60.0
     trials = 3 if args.quick else args.trials
@@ -243,12 +372,23 @@ def main() -> None:
         base = load_run_config(Path(examples) / "demo_twin.toml")
     if not args.without_wear:
         base = _with_wear(base)
-    if args.model is not None:
-        base = with_model(base, args.model)
+    if args.all_stages:
+        base = with_all_stages(base)
+    model = args.model
     started = time.time()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        cycle = cycle_phase(base, folder, seconds, folder / "bench.sqlite")
+        if args.all_stages and model is None:
+            from bench_learn import write_twin_gpr
+
+            model = folder / f"gpr{ALL_STAGES_GPR_POINTS}.onnx"
+            with contextlib.redirect_stdout(sys.stderr):  # stdout: one JSON object
+                write_twin_gpr(ALL_STAGES_GPR_POINTS, model)
+        if model is not None:
+            base = with_model(base, model)
+        cpu = CpuTimes()
+        load_before = __import__("os").getloadavg()
+        cycle = cycle_phase(base, folder, seconds, folder / "bench.sqlite", cpu)
         stop = stop_phase(base, folder, trials)
     result = {
         "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
@@ -260,7 +400,9 @@ def main() -> None:
         "wall_s": time.time() - started,
         "cycle": cycle,
         "stop": stop,
-        "model": None if args.model is None else str(args.model),
+        "model": None if model is None else str(args.model or f"{model.name} (written)"),
+        "all_stages": args.all_stages,
+        "load_at_start": " ".join(f"{x:.1f}" for x in load_before),
     }
     print(json.dumps(result, indent=2))
     if args.out is not None:
@@ -268,6 +410,7 @@ def main() -> None:
             "python benchmarks/bench_twin_cycle.py"
             + (" --quick" if args.quick else f" --minutes {args.minutes:g} --trials {trials}")
             + ("" if args.model is None else f" --model {args.model}")
+            + (" --all-stages" if args.all_stages else "")
         )
         command += " --without-wear" if args.without_wear else ""
         args.out.write_text(markdown(result, command))

@@ -132,6 +132,21 @@ SPECIAL: dict[tuple[str, str], Special] = {
         "the paper's 240 runs in one process: minutes; the page shows --quick",
         quick="cnctwin study dexel --out study/ --quick",
     ),
+    ("docs/demo.md", "cnctwin demo --config examples/adaptive/adaptive.toml"): Special(
+        "long",
+        "a live run of 40 s to 3 minutes on 2 loaded cores; the page's wear example runs the "
+        "same `demo --config`",
+        quick="cnctwin demo --config examples/wear/wear_twin.toml",
+    ),
+    (
+        "docs/demo.md",
+        "cnctwin demo --config examples/chatter_live/chatter_live.toml --duration 120",
+    ): Special(
+        "long",
+        "a live run integrating the cut's vibration in real time, 20 s to 2 minutes on 2 loaded "
+        "cores; the page's wear example runs the same `demo --config`",
+        quick="cnctwin demo --config examples/wear/wear_twin.toml",
+    ),
     ("docs/security.md", ""): Special(
         "elsewhere",
         "tests/cli/test_security_docs.py runs every command of the page as written, with the "

@@ -151,6 +151,14 @@ def test_on_the_virtual_machine_the_controller_cuts_the_peak_and_holds_the_refer
     assert mine and all(
         bounds.min_pct <= r.verdict.value <= bounds.max_pct for r in mine if r.verdict.value
     )
+    # the run's summary: the stage's own count and peak, read back from the cycles' records
+    summary = on.summary.stage_results["adaptive_feed"]
+    # the safety filter repeats a rate-limited decision as steps (same reason and value)
+    reasons = {r.verdict.decision.reason for r in mine}
+    assert len(reasons) <= summary["commands"] <= len(mine)
+    assert summary["lowest_override_pct"] == min(r.verdict.decision.value for r in mine)
+    value = _column(on.states, "adaptive_feed_value", 0.0)
+    assert summary["peak_engaged"] == pytest.approx(value[engaged].max())
 
 
 def test_with_control_disabled_nothing_is_commanded(example: RunConfig) -> None:

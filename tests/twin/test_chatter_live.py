@@ -69,13 +69,14 @@ def _run(config: RunConfig) -> dict[str, Any]:
         try:
             twin = build_twin(config, conn, program=config.virtual.program, realtime=False)
             twin.runtime.on_cycle = keep
-            await twin.runtime.run(duration_s=30.0)
-            return twin.runtime.timings["chatter"].summary()
+            summary = await twin.runtime.run(duration_s=30.0)
+            return twin.runtime.timings["chatter"].summary(), summary.stage_results["chatter"]
         finally:
             await conn.close()
 
-    timing = asyncio.run(main())
+    timing, results = asyncio.run(main())
     return {
+        "results": results,
         "rows": rows,
         "events": events,
         "decisions": decisions,
@@ -126,6 +127,15 @@ def test_chatter_is_detected_within_50_ms_of_full_engagement(runs: dict[str, Any
     latency = found[0].data["window_end_s"] - onset
     assert 0.0 < latency < 0.05
     assert found[0].data["frequency_hz"] == pytest.approx(930.0, abs=30.0)  # near the mode
+    # the run's summary reports the same detection, timed from the steady engagement: after
+    # the tool's first contact, within the detector's windows of the full engagement
+    (detection,) = run["results"]["detections"]
+    assert detection["window_end_s"] == found[0].data["window_end_s"]
+    assert detection["frequency_hz"] == found[0].data["frequency_hz"]
+    contact = next(r["t_s"] for r in run["rows"] if r.get("contact", 0.0) > 0.5)
+    assert 0.0 < detection["after_engagement_s"] < found[0].data["window_end_s"] - contact
+    assert abs(detection["after_engagement_s"] - latency) < 0.2
+    assert runs["stable"]["results"]["detections"] == []
 
 
 def test_avoidance_moves_to_the_roadmap_speed_keeping_the_chip_load(
@@ -150,6 +160,10 @@ def test_avoidance_moves_to_the_roadmap_speed_keeping_the_chip_load(
     assert fz == pytest.approx(1600.0 / (4 * 8000.0), rel=0.02)
     # independent: the semi-discretization calls the depth stable at the chosen speed
     assert _sdm_depth_mm(roadmap_rpm) > 2.5
+    (change,) = run["results"]["avoidances"]
+    assert change["stable_rpm"] == roadmap_rpm and change["programmed_rpm"] == 8000.0
+    assert change["spindle_override_pct"] == spindle.value
+    assert change["machine_s"] == _avoided(run["rows"])["t_s"]
 
 
 def test_the_cut_at_the_new_speed_settles(runs: dict[str, Any]) -> None:

@@ -7,11 +7,16 @@ the twin against it, and prints a summary. On the way the predicted form error o
 second pass makes the twin lower the feed override (use case 2), and the hole in the blank
 drops the measured force out of the band around the prediction, so the twin stops the
 machine (use case 1). See docs/demo.md.
+
+``--config FILE`` runs another twin configuration's own ``[virtual]`` machine and twin the
+same way: the shipped closed-loop examples (adaptive feed, chatter avoidance, tool wear)
+print what each loop did in the summary (docs/demo.md, "The closed loops").
 """
 
 from __future__ import annotations
 
 import sys
+from contextlib import ExitStack
 from importlib.resources import as_file, files
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Literal
@@ -75,6 +80,14 @@ def demo(
     port: Annotated[
         int, typer.Option("--port", help="Port of the dashboard (with --web; 0: a free one).")
     ] = WEB_PORT,
+    config_file: Annotated[
+        Path | None,
+        typer.Option(
+            "--config",
+            help="A twin configuration with a [virtual] machine to run instead of the packaged "
+            "demo, e.g. examples/adaptive/adaptive.toml (docs/demo.md, 'The closed loops').",
+        ),
+    ] = None,
 ) -> None:
     """Run the twin against a virtual machine on loopback: feed adaptation, then a stop.
 
@@ -93,8 +106,19 @@ def demo(
         raise InputError(f"--transport {transport!r}; valid: opcua, modbus")
     protocol: Literal["opcua", "modbus"] = "opcua" if transport == "opcua" else "modbus"
     quiet_protocol_logs()
-    with as_file(files("cnctwin.examples")) as folder:
-        config = load_run_config(folder / DEMO_CONFIG)
+    with ExitStack() as files_of:
+        if config_file is None:
+            folder = files_of.enter_context(as_file(files("cnctwin.examples")))
+            config = load_run_config(folder / DEMO_CONFIG)
+        else:
+            config = load_run_config(config_file)
+            folder = config_file.resolve().parent
+            if config.virtual is None:
+                raise InputError(
+                    f"--config {config_file}: no [virtual] table; valid: a twin configuration "
+                    "with the virtual machine to run, e.g. examples/adaptive/adaptive.toml"
+                )
+        command = "cnctwin demo" if config_file is None else f"cnctwin demo --config {config_file}"
         with (
             Historian.open(db) as historian,
             web_dashboard(
@@ -134,7 +158,7 @@ def demo(
                     web=board,
                     on_start=lambda _twin: machine.go(),
                     duration_s=duration,
-                    meta={"command": "cnctwin demo", "virtual_machine": endpoint},
+                    meta={"command": command, "virtual_machine": endpoint},
                     base_dir=folder,
                 )
                 machine_state = machine.state() or {}
@@ -145,9 +169,10 @@ def demo(
                 transport=protocol,
                 endpoint=endpoint,
                 machine_time_s=machine_state.get("t_s"),
+                machine_tool_wear_mm=machine_state.get("tool_wear_mm"),
             )
             if as_json:
                 sys.stdout.write(finite_json.dumps(report) + "\n")
             else:
-                Console().print(summary_table(report, title="cnctwin demo"))
+                Console().print(summary_table(report, title=command))
             linger(board, summary)

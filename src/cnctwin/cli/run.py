@@ -246,9 +246,59 @@ def summary_table(report: dict[str, Any], title: str) -> Table:
         src = mqtt["source"]
         rejected = sum(src["rejected"].values())
         rows.append(("MQTT sensor messages", f"{src['received']} received, {rejected} rejected"))
+    rows.extend(_loop_rows(report))
     for key, value in rows:
         table.add_row(key, value)
     return table
+
+
+def _loop_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
+    """What the closed loops did, from the summary's ``stage_results`` (and, with a virtual
+    machine, its true tool wear ``machine_tool_wear_mm``): one row per loop."""
+    results = report.get("stage_results", {})
+    rows: list[tuple[str, str]] = []
+    feed = results.get("adaptive_feed")
+    if feed is not None:
+        unit = "N" if feed["quantity"] == "force" else "W"
+        reference = feed["reference"]
+        low = feed["lowest_override_pct"]
+        rows.append(
+            (
+                "adaptive feed",
+                f"peak {feed['quantity']} {feed['peak_engaged']:.0f} {unit} while engaged"
+                + ("" if reference is None else f" (reference {reference:.0f} {unit})")
+                + f", {feed['commands']} feed commands"
+                + ("" if low is None else f", lowest {low:.0f} %"),
+            )
+        )
+    chatter = results.get("chatter")
+    if chatter is not None:
+        found = chatter["detections"]
+        text = "none detected"
+        if found:
+            first = found[0]
+            text = (
+                f"detected {1e3 * first['after_engagement_s']:.0f} ms after the engagement began, "
+                f"at "
+                f"{first['frequency_hz']:.0f} Hz, {first['spindle_rpm']:.0f} rpm (line "
+                f"{first['line']})"
+            )
+        for change in chatter["avoidances"]:
+            text += (
+                f"; spindle {change['programmed_rpm']:.0f} -> {change['stable_rpm']:.0f} rpm "
+                f"at {change['machine_s']:.2f} s machine time"
+            )
+        rows.append(("chatter", text))
+    true_vb = report.get("machine_tool_wear_mm")
+    for number, tool in results.get("wear", {}).items():
+        text = f"VB {tool['vb_mm']:.3f} +- {tool['sd_mm']:.3f} mm, stage {tool['stage']}"
+        entry = tool["stage_entries"].get("4")
+        if entry is not None:
+            text += f"; stage IV at VB {entry['vb_mm']:.3f} mm after {entry['cut_s']:.1f} s cutting"
+        if true_vb:
+            text += f"; machine's true VB {true_vb:.3f} mm at the end"
+        rows.append((f"wear T{number}", text))
+    return rows
 
 
 class LiveView:

@@ -49,7 +49,7 @@ import math
 import os
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator, model_validator
@@ -207,6 +207,9 @@ class AdaptiveFeedStage:
         self._line = -1
         self._last_s = -math.inf
         self._last_pct = math.nan
+        self._commands = 0
+        self._peak = 0.0  # the largest controlled value while engaged, N or W
+        self._lowest_pct = math.inf
         if config.teach_file is not None:
             if config.teach_file.is_file():
                 self.references = _load(config.teach_file, config.quantity)
@@ -285,6 +288,7 @@ class AdaptiveFeedStage:
         )
         seen = self._lookahead(state)
         if engaged:
+            self._peak = max(self._peak, value)
             target = override * (1.0 + self.config.gain * (reference / value - 1.0))
             why = f"{self.config.quantity} {value:.0f} vs reference {reference:.0f}"
             if seen is not None and seen[1] > seen[0] * _AHEAD_MARGIN:
@@ -301,6 +305,19 @@ class AdaptiveFeedStage:
         p.update(adaptive_feed_target_pct=target, adaptive_feed_engaged=float(engaged))
         self._command(state, target, override, why, value, reference)
         return state
+
+    def run_results(self) -> dict[str, Any]:
+        """What the loop did over the run (for the run's summary): the quantity, the fixed
+        reference (N or W; ``None`` with per-line references), the largest controlled value
+        while engaged (N or W; 0 if never engaged), the feed-override commands and the lowest
+        override commanded (%; ``None`` without a command)."""
+        return {
+            "quantity": self.config.quantity,
+            "reference": self.config.reference,
+            "peak_engaged": self._peak,
+            "commands": self._commands,
+            "lowest_override_pct": self._lowest_pct if self._commands else None,
+        }
 
     def _reference(self, line: int) -> float:
         """The reference at this program line, N or W (NaN where none was learnt)."""
@@ -325,6 +342,8 @@ class AdaptiveFeedStage:
         if abs(target - last) < c.deadband_pct and abs(target - override) < c.deadband_pct:
             return
         self._last_s, self._last_pct = state.time_s, target
+        self._commands += 1
+        self._lowest_pct = min(self._lowest_pct, target)
         state.commands.append(
             Decision(
                 state.time_s,

@@ -56,7 +56,7 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator, model_validator
@@ -226,6 +226,8 @@ class ChatterStage:
         self._outputs: dict[str, float] = {}
         self._cut_since_s = math.nan  # machine time the current engagement began (NaN in air)
         self._engagement = (math.nan, math.nan)  # its ae, ap, mm
+        self._detections: list[dict[str, float]] = []
+        self._avoidances: list[dict[str, float]] = []
 
     async def process(self, state: CycleState) -> CycleState:
         """Read the new samples, detect, and on chatter ask for the roadmap's speed."""
@@ -361,6 +363,16 @@ class ChatterStage:
         if self._run >= self.config.confirm_windows and not self._detected:
             self._detected = True
             end_s = detectors.first_index / rate_hz + top.end_s
+            self._detections.append(
+                {
+                    "line": state.line,
+                    "window_end_s": end_s,
+                    "after_engagement_s": end_s - self._cut_since_s,
+                    "frequency_hz": top.chatter_frequency_hz,
+                    "energy_ratio": top.energy_ratio,
+                    "spindle_rpm": detectors.rpm,
+                }
+            )
             state.events.append(
                 TwinEvent(
                     "chatter",
@@ -376,6 +388,13 @@ class ChatterStage:
                     },
                 )
             )
+
+    def run_results(self) -> dict[str, Any]:
+        """What the stage found over the run (for the run's summary): each confirmed chatter
+        (``window_end_s``, s of the vibration block's clock; ``after_engagement_s``, s after
+        the cut's current engagement began, its ae and ap steady; Hz; rpm) and each spindle
+        speed change it asked for (``machine_s``, the machine's clock, s; rpm; %)."""
+        return {"detections": list(self._detections), "avoidances": list(self._avoidances)}
 
     def _avoid(self, state: CycleState, segment: RoadmapSegment | None) -> None:
         """Ask for the roadmap's stable speed, the feed scaled to keep the chip load."""
@@ -417,6 +436,15 @@ class ChatterStage:
             "spindle_override_pct": spindle,
             "feed_override_pct": feed,
         }
+        self._avoidances.append(
+            {
+                "line": state.line,
+                "machine_s": state.measured.get("t_s", math.nan),
+                "programmed_rpm": segment.programmed_rpm,
+                "stable_rpm": segment.scheduled_rpm,
+                "spindle_override_pct": target,
+            }
+        )
         reason = (
             f"chatter at {self._latest[1]:.0f} Hz in line {state.line}: roadmap speed "
             f"{segment.scheduled_rpm:.0f} rpm for {segment.programmed_rpm:.0f} programmed"

@@ -217,6 +217,9 @@ async def serve(
                         "at_rest": vm.finished,
                         "position_mm": [values["x_mm"], values["y_mm"], values["z_mm"]],
                         "faults": [repr(e) for e in vm.fault_events],
+                        "tool_wear_mm": (
+                            vm.tool_wear_mm if isinstance(vm, VirtualMachine) else None
+                        ),
                         "clock": dataclasses.asdict(machine.clock.stats),
                     }
                 )
@@ -412,7 +415,8 @@ class MachineProcess:
 
     def state(self, timeout_s: float = 5.0) -> dict[str, Any] | None:
         """The machine's time, run state, whether its axes are at rest after the program, its
-        axes' position (machine frame, mm), started faults and clock counters (or ``None``)."""
+        axes' position (machine frame, mm), started faults, the tool's true flank wear (mm, 0
+        without a wear fault, ``None`` for a replay) and clock counters (or ``None``)."""
         if not self._send("state"):
             return None
         return self._receive(timeout_s)

@@ -20,7 +20,8 @@ wear, in contact), ``wear_life_mm3`` and ``wear_life_s`` (material and cutting t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 from cnctwin.twin.physics import TwinPhysics
 from cnctwin.twin.settings import WearConfig
@@ -53,6 +54,10 @@ class _ToolWear:
     stages: StageMonitor
     cut_s: float = 0.0
     removed_mm3: float = 0.0
+    #: Stage (as text) -> the estimate when the tool entered it: cut s, VB mm, sd mm.
+    entries: dict[str, dict[str, float]] = field(default_factory=dict)
+    vb_mm: float = math.nan
+    sd_mm: float = math.nan
 
 
 class WearStage:
@@ -178,7 +183,13 @@ class WearStage:
             else:
                 step = tool.ekf.step(removed)
         vb, var = step.vb_mm, step.var_mm2
+        tool.vb_mm, tool.sd_mm = vb, math.sqrt(max(var, 0.0))
         for event in tool.stages.update(tool.cut_s, vb):
+            tool.entries[str(event.stage)] = {
+                "cut_s": event.time_s,
+                "vb_mm": event.vb_mm,
+                "sd_mm": tool.sd_mm,
+            }
             state.events.append(
                 TwinEvent(
                     "wear_stage",
@@ -204,3 +215,19 @@ class WearStage:
         if math.isfinite(life.time_s):
             p["wear_life_s"] = life.time_s
         return state
+
+    def run_results(self) -> dict[str, Any]:
+        """Per tool number (as text), for the run's summary: the last estimate (VB and its
+        sd, mm; stage 1-4), cutting time (s), material removed (mm^3) and the estimate at
+        each stage entry during the run (cut s, VB mm, sd mm)."""
+        return {
+            str(number): {
+                "vb_mm": tool.vb_mm,
+                "sd_mm": tool.sd_mm,
+                "stage": tool.stages.stage,
+                "cut_s": tool.cut_s,
+                "removed_mm3": tool.removed_mm3,
+                "stage_entries": dict(tool.entries),
+            }
+            for number, tool in self._tools.items()
+        }
