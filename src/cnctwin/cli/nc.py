@@ -25,7 +25,7 @@ from cnctwin.nc import (
 )
 
 if TYPE_CHECKING:
-    from cnctwin.nc.runs import ArcRun, StraightRun
+    from cnctwin.nc import ArcRun, StraightRun
 
 __all__ = ["app", "inspect", "inspect_report", "report_table", "trace"]
 

@@ -21,6 +21,7 @@ if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run
     from cnctwin.nc.interpreter import Interpreter, interpret_file, interpret_text
     from cnctwin.nc.limits import MAX_PROGRAM_BYTES, MAX_REPEATED_LINES, MAX_SEGMENTS
     from cnctwin.nc.plot import ToolpathPlot, draw_top_view
+    from cnctwin.nc.runs import ArcRun, StraightRun
     from cnctwin.nc.sampler import (
         AxisLimits,
         FeedOverride,
@@ -50,6 +51,7 @@ _HOMES = {
     "MAX_PROGRAM_BYTES": "limits",
     "MAX_REPEATED_LINES": "limits",
     "MAX_SEGMENTS": "limits",
+    "ArcRun": "runs",
     "AxisLimits": "sampler",
     "CanonicalMove": "trace",
     "CutterComp": "segments",
@@ -63,6 +65,7 @@ _HOMES = {
     "Plane": "segments",
     "SampleChunk": "sampler",
     "Segment": "segments",
+    "StraightRun": "runs",
     "ToolEntry": "setup",
     "ToolpathPlot": "plot",
     "TrajectorySampler": "sampler",
@@ -86,6 +89,7 @@ __all__ = [
     "MAX_REPEATED_LINES",
     "MAX_SEGMENTS",
     "PLANE_AXES",
+    "ArcRun",
     "AxisLimits",
     "CanonicalMove",
     "CutterComp",
@@ -98,6 +102,7 @@ __all__ = [
     "Plane",
     "SampleChunk",
     "Segment",
+    "StraightRun",
     "ToolEntry",
     "ToolpathPlot",
     "TrajectorySampler",
