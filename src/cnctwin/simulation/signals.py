@@ -512,9 +512,10 @@ def drill_band_mm(
 ) -> tuple[float, float]:
     """The radial band ``(inner, outer)`` of a drill's point in contact, mm.
 
-    The slices with contact span the heights ``[max(h - p/2, 0), max(h - p/2, 0) + dz]``
-    above the tip (as in :func:`immersion_intervals`); on the point's cone the radius is
-    ``z tan(sigma / 2)`` (:meth:`cnctwin.geometry.Cutter.radius_at`). Heights within one grid
+    The slices with contact span the heights ``[low, low + dz]`` above the tip, ``low`` from
+    :func:`~cnctwin.geometry.engagement.slice_low_mm` (as in :func:`immersion_intervals`); on
+    the point's cone the radius is ``z tan(sigma / 2)``
+    (:meth:`cnctwin.geometry.Cutter.radius_at`). Heights within one grid
     pitch ``p`` of the tip, or of the cone's top, count as the tip (radius 0) or the full
     radius: the grid resolves no finer, and a drill at full depth then loads its whole edge.
 
