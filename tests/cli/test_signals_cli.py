@@ -168,3 +168,26 @@ def test_kit_notch_program(shared_data: Path, tmp_path: Path) -> None:
     assert np.median(slot["cutting_power_w"]) == pytest.approx(k.ktc * mrr_m3_s + edge_w, rel=0.01)
     assert report["overload_steps"] == 0
     assert report["min_cutting_speed_rpm"] > 0.99 * 3800.0
+
+
+def test_a_cut_through_the_stock_bottom_runs(tmp_path: Path) -> None:
+    # The demo cell (a 10 mm, 3 flute end mill in a 20 mm block of AA6060-T6) slotting with
+    # its tip 4.5 mm under the block's bottom: the cut from a raster pocket's deep layers that
+    # stopped with exit 2 ("z_bounds_m from 0.0045...; give increasing heights"). The full
+    # slot's mean force is Altintas' closed form at ap = 17.5 mm (the block's 20 mm less the
+    # 2.5 mm above the flutes' end at 22 mm).
+    program = tmp_path / "through.ngc"
+    program.write_text(
+        "G21 G17 G90 G94 G40 G49 G80\nG54\nG53 G0 Z0\nT1 M6\nG43 H1\nS8000 M3\n"
+        "G0 X-8 Y30\nG0 Z-24.5\nG1 X10 F800\nG0 Z5\nM5\nM30\n"
+    )
+    demo = REPO / "src" / "cnctwin" / "examples" / "demo.toml"
+    done = _cnctwin("signals", str(program), "-c", str(demo), "--json")
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    mean = flat_end_mill_mean_forces(
+        milling_material("AA6060-T6").coefficients, 3, 5e-3, 0.0, math.pi, 17.5e-3,
+        800.0 / (8000.0 * 3) * 1e-3, 8000.0 * math.pi / 30.0,
+    )  # fmt: skip
+    assert report["max_mean_force_n"] == pytest.approx(mean.resultant_n, rel=0.02)
+    assert report["max_spindle_torque_nm"] == pytest.approx(mean.torque_nm, rel=0.05)

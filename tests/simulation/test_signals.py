@@ -16,7 +16,7 @@ import pytest
 from cnctwin.config.spindle import SpeedControllerConfig, SpindleConfig, SpindleMotorConfig
 from cnctwin.drives import RAD_S_PER_RPM, spindle_preset
 from cnctwin.errors import ConfigError
-from cnctwin.geometry import Cutter, DexelStock
+from cnctwin.geometry import Cutter, DexelStock, cut
 from cnctwin.geometry import Engagement as DexelEngagement
 from cnctwin.mechanics import ImmersionIntervals, flat_end_mill_mean_forces
 from cnctwin.mechanics.materials import milling_material
@@ -205,16 +205,65 @@ def _dexel_engagement(heights, dz, owner, start, end) -> DexelEngagement:
 
 
 def test_immersion_intervals_lowest_slice_when_the_tip_is_inside_a_level() -> None:
-    # Pitch 0.1 mm, tip 0.02 mm above the centre of its level: that slice samples 0.02 mm
-    # below the tip and stands for [tip, tip + 0.03 mm]; the next one for [0.03, 0.13] mm.
+    # Pitch 0.1 mm, tip 0.07 mm above a level: the next level (the lowest slice, 0.08 mm
+    # above the tip) stands for [tip, tip + 0.13 mm] (dz 0.13 mm); the next for [0.13, 0.23].
     pi = math.pi
     cut = immersion_intervals(
-        _dexel_engagement([-0.02, 0.08], [0.03, 0.1], [0, 1], [0, 0], [pi, pi]), 0.1
+        _dexel_engagement([0.08, 0.18], [0.13, 0.1], [0, 1], [0, 0], [pi, pi]), 0.1
     )
     assert cut is not None
-    assert np.allclose(cut.z_bounds_m, [0.0, 0.03e-3, 0.13e-3])
+    assert np.allclose(cut.z_bounds_m, [0.0, 0.13e-3, 0.23e-3], rtol=0, atol=1e-15)
     assert np.allclose(cut.entry_rad, 0.0) and np.allclose(cut.exit_rad, pi)
     assert immersion_intervals(_dexel_engagement([0.05], [0.1], [], [], []), 0.1) is None
+
+
+@pytest.mark.parametrize("below_mm", [0.02, 0.05, 0.07, 0.1, 0.5, 4.5, 5.03])
+def test_immersion_intervals_of_a_tip_below_the_stock(below_mm: float) -> None:
+    # A slot whose tip is below_mm under the bottom of a 10 mm block (a through cut): the
+    # tool meets material from the block's bottom to its top, in slices of the 0.1 mm pitch.
+    # Hand-computed: the bounds run from the bottom (below_mm above the tip; the tip itself
+    # when it lies within half a pitch under the lowest level, 0.05 mm above the bottom) to
+    # the block's top or the flutes' end (10 + below_mm or 15 mm), every 0.1 mm between, and
+    # ap is the span from the first bound to the last.
+    stock = DexelStock.box((0.0, 0.0, -10.0), (40.0, 40.0, 0.0), density_per_mm=10.0)
+    cutter = Cutter.flat(diameter_mm=D_MM, flute_length_mm=15.0, flutes=TEETH, helix_rad=0.5)
+    tip_z = -10.0 - below_mm
+    engagement = cut(stock, cutter, (10.0, 20.0, tip_z), (9.9, 20.0, tip_z), FZ_MM, 0.0125)
+    bounds_mm = immersion_intervals(engagement, 0.1).z_bounds_m * 1e3
+    bottom = 0.0 if below_mm < 0.05 else below_mm
+    assert bounds_mm[0] == pytest.approx(bottom, abs=1e-9)
+    assert np.all(np.diff(bounds_mm) > 0.0)
+    inner = bounds_mm[1:-1] - below_mm
+    assert np.allclose(inner, np.round(inner, 1), rtol=0, atol=1e-9)
+    top = min(10.0 + below_mm, 15.0)
+    assert bounds_mm[-1] == pytest.approx(top, abs=1e-9)
+    assert engagement.ap_mm == pytest.approx(top - bottom, abs=1e-6)
+
+
+def test_through_slot_forces_match_the_closed_form() -> None:
+    # A full slot with the tip 2 mm under the bottom of a 10 mm block: the whole block's
+    # height cuts, the closed form at ap = 10 mm (it stopped on "z_bounds_m ... give
+    # increasing heights" before the lowest slice stood only for the tool within the block).
+    program = "G21 G90 G17\nT1 M6\nS10000 M3\nG4 P1.5\nG0 X-5 Y20\nG0 Z-12\nG1 X45 F600\nM30\n"
+    cutter = Cutter.flat(diameter_mm=D_MM, flute_length_mm=15.0, flutes=TEETH, helix_rad=0.5)
+    stock = DexelStock.box((0.0, 0.0, -10.0), (40.0, 40.0, 0.0), density_per_mm=10.0)
+    signals = simulate_signals(
+        Interpreter(NCSetup()).run_text(program),
+        stock,
+        {1: cutter},
+        MATERIAL.coefficients,
+        spindle_preset(PRESET),
+        rapid_mm_min=6000.0,
+    )
+    mean = flat_end_mill_mean_forces(
+        MATERIAL.coefficients, TEETH, D_MM / 2e3, 0.0, math.pi, 10e-3, FZ_MM * 1e-3, OMEGA
+    )
+    steady = _steady(signals, "x")
+    assert np.count_nonzero(steady) > 200
+    fy = signals.columns["fy_n"][steady]
+    torque = signals.columns["cutting_torque_nm"][steady]
+    assert fy.mean() == pytest.approx(mean.fy_n, rel=0.01)
+    assert torque.mean() == pytest.approx(mean.torque_nm, rel=0.01)
 
 
 def test_immersion_intervals_agree_with_from_slices() -> None:
@@ -256,3 +305,19 @@ def test_spindle_drive_parameters_from_the_config() -> None:
     assert custom.controller.ki == 5.0 and custom.controller.voltage_limit is None
     with pytest.raises(ConfigError, match="machine.spindle.preset.*christiand2024"):
         spindle_drive_parameters(SpindleConfig(preset="nakanishi"))
+
+
+def test_a_step_whose_forces_fail_names_its_line() -> None:
+    # A drill without the workpiece's drilling coefficients: the error names the program's
+    # line (5, the G1 that drills), the tool and where its tip was.
+    program = "G21 G90 G17\nT1 M6\nS3000 M3\nG0 X20 Y20 Z2\nG1 Z-3 F200\nM30\n"
+    stock = DexelStock.box((0.0, 0.0, -10.0), (40.0, 40.0, 0.0), density_per_mm=5.0)
+    with pytest.raises(ConfigError, match=r"^line 5 \(T1, tip at X20 Y20 Z-?[0-9.]+ mm"):
+        simulate_signals(
+            Interpreter(NCSetup()).run_text(program),
+            stock,
+            {1: Cutter.drill(6.8, 30.0)},
+            MATERIAL.coefficients,
+            spindle_preset(PRESET),
+            rapid_mm_min=6000.0,
+        )

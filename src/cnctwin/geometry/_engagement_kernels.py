@@ -51,6 +51,7 @@ from cnctwin.geometry._removal_kernels import (
     kernel,
     place,
     reset_accumulators,
+    slice_low,
 )
 
 __all__ = [
@@ -264,7 +265,7 @@ def _engage(prm, ints, arcs, n_arcs, widen_mm, work):
             sin_kappa = cone_sin_kappa
         if r <= 0.0:
             continue
-        low = tip_z if s == 0 else max(level_z - 0.5 * pz, tip_z)
+        low = slice_low(level_z, tip_z, pz)
         dz = max(min(level_z + 0.5 * pz, tip_z + length) - low, 0.0)
         slices[0, used] = height
         slices[1, used] = dz

@@ -44,6 +44,7 @@ __all__ = [
     "I_NX",
     "I_NY",
     "I_NZ",
+    "SLICE_TIP_PITCHES",
     "N_ACC",
     "N_INTS",
     "N_PRM",
@@ -77,6 +78,7 @@ __all__ = [
     "place",
     "plain",
     "reset_accumulators",
+    "slice_low",
 ]
 
 TWO_PI = 2.0 * math.pi
@@ -111,6 +113,10 @@ N_PRM = 23
 
 # Integer parameters (int64 array).
 I_NX, I_NY, I_NZ, I_K0, I_NSLICES = range(5)
+
+#: A slice reaches down to the tip when its level is less than this many z pitches above it
+#: (:func:`slice_low`).
+SLICE_TIP_PITCHES = 1.0 - 1e-9
 N_INTS = 5
 
 # Accumulators (float64 array), kept across a rerun after a buffer grew.
@@ -654,7 +660,7 @@ def _cut_rows(prm, ints, family, arcs, table, acc, along):
                 s, first_h, last_h, 1.0, j0, table, f_al, f_row, n_al, n_row, arcs, n_arcs,
             )  # fmt: skip
         if level_cut:
-            zmin = min(zmin, tz if s == 0 else max(tz, zk - 0.5 * pz))
+            zmin = min(zmin, slice_low(zk, tz, pz))
             zmax = max(zmax, min(tz + length, zk + 0.5 * pz))
         if status != DONE:
             break
@@ -697,6 +703,19 @@ def cut(prm, ints, arrays, acc):
     if st != DONE:
         return st
     return DONE
+
+
+@njit(cache=True, inline="always")
+def slice_low(level_z, tip_z, pz):
+    """Lowest height (grid z, mm) of the tool that the slice at level ``level_z`` stands for,
+    with the tip at ``tip_z`` and the grid's z pitch ``pz`` (mm): the tip when the level lies
+    less than a pitch above it (the lowest slice reaches down to the tip; ``SLICE_TIP_PITCHES``
+    keeps the next level, a pitch up to float rounding, out), else half a pitch below the
+    level. A tip further down is below the grid's lowest level, where there is no material:
+    the slice must not stand for the tool down there (an ``ap`` past the stock's bottom, and
+    overlapping slices for the force model). :func:`cnctwin.geometry.engagement.slice_low_mm`
+    is the same rule on heights above the tip."""
+    return tip_z if level_z - tip_z < SLICE_TIP_PITCHES * pz else level_z - 0.5 * pz
 
 
 @njit(cache=True, inline="always")

@@ -27,7 +27,9 @@ contact ends between two samples). Intervals are half-open ``[start, end)`` with
 ``0 <= start < end <= 2 pi``, sorted, disjoint; a contact region across ``phi = 0`` is split
 into ``[0, e)`` and ``[s, 2 pi)``. Slices are the grid's z levels inside the fluted length;
 slice ``k`` samples the envelope at its level ``z_k`` and stands for ``[z_k - p_z/2, z_k +
-p_z/2]`` (the lowest one down to the tip).
+p_z/2]``, the lowest one down to the tip when the tip lies less than a pitch below its level;
+a tip further down is below the grid's lowest level and that slice ends at the grid's bottom
+(:func:`slice_low_mm`).
 
 Discrete positions (Heide 2025, Sec. 2.2) let contact reach ``s / (2 r)`` past a wall the tool
 has just left (step ``s``), and a ball or bull nose leaves cusps ``s^2 / (8 R)`` high between
@@ -71,7 +73,7 @@ from cnctwin.geometry._engagement_kernels import (
     PathOutputs,
     path,
 )
-from cnctwin.geometry._removal_kernels import DONE, plain
+from cnctwin.geometry._removal_kernels import DONE, SLICE_TIP_PITCHES, plain
 from cnctwin.geometry._workspace import (
     Workspace,
     grow_for,
@@ -83,9 +85,19 @@ from cnctwin.geometry._workspace import (
 from cnctwin.geometry.cutter import Cutter
 from cnctwin.geometry.dexel import DexelStock
 
-__all__ = ["Engagement", "EngagementPath", "cut", "cut_path"]
+__all__ = ["Engagement", "EngagementPath", "cut", "cut_path", "slice_low_mm"]
 
 _WIDEN_PITCHES = 0.5  # widen intervals by this many pitches (over r) on each side
+
+
+def slice_low_mm(slice_height_mm: np.ndarray, pitch_z_mm: float) -> np.ndarray:
+    """Lowest height above the tip (mm) of the tool that each slice stands for, from the
+    slices' heights above the tip (mm, :attr:`Engagement.slice_height_mm`) and the grid's z
+    pitch (mm, > 0): 0 (down to the tip) for a slice less than a pitch above the tip, else
+    half a pitch below its height (module notes, "Intervals"). A slice's top is this plus its
+    ``slice_dz_mm``."""
+    h = np.asarray(slice_height_mm, dtype=np.float64)
+    return np.where(h < SLICE_TIP_PITCHES * pitch_z_mm, 0.0, h - 0.5 * pitch_z_mm)
 
 
 class Engagement(NamedTuple):

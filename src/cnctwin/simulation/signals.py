@@ -52,6 +52,7 @@ from cnctwin.drives import (
 from cnctwin.errors import ConfigError
 from cnctwin.geometry import AXIAL_KINDS, Cutter, DexelStock
 from cnctwin.geometry import Engagement as DexelEngagement
+from cnctwin.geometry.engagement import slice_low_mm
 from cnctwin.mechanics import (
     CuttingCoefficients,
     DrillingMaterial,
@@ -328,8 +329,9 @@ def immersion_intervals(
     intervals.
 
     The dexel engagement gives, per slice with contact, its sampling height ``h`` above the tip
-    and the height ``dz`` of tool it stands for: ``[max(h - p/2, 0), max(h - p/2, 0) + dz]``
-    with ``p`` the grid's z pitch (:mod:`cnctwin.geometry.engagement`, "Intervals"); its
+    and the height ``dz`` of tool it stands for: ``[low, low + dz]`` with ``low`` from
+    :func:`~cnctwin.geometry.engagement.slice_low_mm` (:mod:`cnctwin.geometry.engagement`,
+    "Intervals"); its
     intervals are sorted and disjoint within a slice, in ``[0, 2 pi]``. The force model's
     :class:`~cnctwin.mechanics.ImmersionIntervals` takes the same slices (a gap between two
     becomes a slice without contact) and intervals, built here with array operations (what
@@ -357,7 +359,7 @@ def immersion_intervals(
     own_kept = keep[owner]
     if not np.any(own_kept):
         return None
-    low = np.maximum(engagement.slice_height_mm - 0.5 * pitch_z_mm, 0.0)[keep]
+    low = slice_low_mm(engagement.slice_height_mm, pitch_z_mm)[keep]
     top = low + dz[keep]
     # A new run of slices starts at the first slice and after every gap; each later run
     # needs an empty slice across its gap.
@@ -510,9 +512,10 @@ def drill_band_mm(
 ) -> tuple[float, float]:
     """The radial band ``(inner, outer)`` of a drill's point in contact, mm.
 
-    The slices with contact span the heights ``[max(h - p/2, 0), max(h - p/2, 0) + dz]``
-    above the tip (as in :func:`immersion_intervals`); on the point's cone the radius is
-    ``z tan(sigma / 2)`` (:meth:`cnctwin.geometry.Cutter.radius_at`). Heights within one grid
+    The slices with contact span the heights ``[low, low + dz]`` above the tip, ``low`` from
+    :func:`~cnctwin.geometry.engagement.slice_low_mm` (as in :func:`immersion_intervals`); on
+    the point's cone the radius is ``z tan(sigma / 2)``
+    (:meth:`cnctwin.geometry.Cutter.radius_at`). Heights within one grid
     pitch ``p`` of the tip, or of the cone's top, count as the tip (radius 0) or the full
     radius: the grid resolves no finer, and a drill at full depth then loads its whole edge.
 
@@ -533,7 +536,7 @@ def drill_band_mm(
     heights = engagement.slice_height_mm
     if heights.size == 0:
         return 0.0, 0.0
-    low = np.maximum(heights - 0.5 * pitch_z_mm, 0.0)
+    low = slice_low_mm(heights, pitch_z_mm)
     z_low = float(low.min())
     z_top = float((low + engagement.slice_dz_mm).max())
     cone = cutter.cone_height_mm
@@ -625,6 +628,9 @@ def simulate_signals(
     ------
     cnctwin.errors.NCError
         When the program moves a tool that has no geometry.
+    cnctwin.errors.ConfigError
+        When a step's forces cannot be computed (:func:`step_forces`), naming the program's
+        line, the tool and its tip.
     """
     pitch_z = stock.grid.pitch_mm[2]
     # The contact steps of the chunk being cut and their forces, then each chunk's as
@@ -636,8 +642,16 @@ def simulate_signals(
     tap_feeds: dict[int, tuple[int, float, float]] = {}  # line: tool, feed/rev, pitch (mm)
 
     def observe(step: CutStep) -> None:
+        try:
+            forces = step_forces(step, coefficients, pitch_z, drilling=drilling)
+        except ConfigError as err:
+            x, y, z = step.tcp_mm
+            raise ConfigError(
+                f"line {step.line} (T{step.tool}, tip at X{x:.4g} Y{y:.4g} Z{z:.4g} mm, "
+                f"machine coordinates): {err}"
+            ) from err
         index.append(step.index)
-        loads.append(step_forces(step, coefficients, pitch_z, drilling=drilling).values())
+        loads.append(forces.values())
         cutter = step.cutter
         if cutter.kind == "tap" and step.line not in tap_feeds:
             feed = step.feed_per_tooth_mm * cutter.flutes
