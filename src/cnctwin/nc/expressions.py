@@ -54,8 +54,15 @@ __all__ = [
     "MAX_NESTING",
     "MAX_PARAMETER",
     "SUBROUTINE_PARAMETERS",
+    "RAISES",
+    "CACHE_SIZE",
+    "Evaluator",
     "Parameters",
+    "Setting",
+    "compile_setting",
+    "compile_value",
     "expand_parameters",
+    "raising",
     "read_assignment",
     "read_value",
 ]
@@ -349,10 +356,32 @@ def read_value(text: str, pos: int, params: Parameters) -> tuple[float, int]:
         raise NCError(f"start index {pos} is outside the text (0 to {n})")
     compiled = _COMPILED.get((text, pos))
     if compiled is None:
-        node, end = _compile_value(text, pos, n, 0)
-        compiled = _remember((text, pos), (_evaluator(node), end))
+        compiled = _remember((text, pos), compile_value(text, pos))
     evaluate, end = compiled
     return evaluate(params), end
+
+
+def compile_value(text: str, pos: int) -> tuple[Evaluator, int]:
+    """Compile the real value starting at ``text[pos]`` (see :func:`read_value`).
+
+    Parameters
+    ----------
+    text
+        A line prepared by the lexer: no comments, no white space, lower case.
+    pos
+        0-based index where the value starts, 0 to ``len(text)``.
+
+    Returns
+    -------
+    evaluate : Evaluator
+        Called with the parameters, returns the value (always finite) as
+        :func:`read_value` would read it then, or raises its NCError.
+    end : int
+        Index just after the value; :data:`RAISES` when ``evaluate`` always raises
+        (the text is malformed there, or a constant part cannot be evaluated).
+    """
+    node, end = _compile_value(text, pos, len(text), 0)
+    return _evaluator(node), end
 
 
 def expand_parameters(text: str, params: Parameters) -> str:
@@ -430,7 +459,7 @@ def read_assignment(text: str, pos: int, params: Parameters) -> tuple[int | str,
         raise NCError(f"start index {pos} is outside the text (0 to {n})")
     compiled = _COMPILED_SETTINGS.get((text, pos))
     if compiled is None:
-        compiled = _remember_setting((text, pos), _compile_assignment(text, pos, n))
+        compiled = _remember_setting((text, pos), compile_setting(text, pos))
     read_key, evaluate, end = compiled
     key = read_key(params)
     return key, evaluate(params), end
@@ -557,7 +586,9 @@ Node = float | Evaluator
 #: A compiled parameter setting: the key's reader, the value's evaluator and the end.
 Setting = tuple[Callable[[Parameters], int | str], Evaluator, int]
 
-_STOP = -1
+#: The end of a compiled piece that always raises when evaluated.
+RAISES = -1
+_STOP = RAISES
 #: Most compiled places kept; the store is emptied when full, so memory stays bounded
 #: whatever the program's length.
 CACHE_SIZE = 4096
@@ -586,8 +617,8 @@ def _evaluator(node: Node) -> Evaluator:
     return node
 
 
-def _raising(message: str, column: int | None) -> Evaluator:
-    """A node that raises a new NCError(message, column) each time it is evaluated."""
+def raising(message: str, column: int | None) -> Evaluator:
+    """An evaluator that raises a new NCError(message, column) each time it is evaluated."""
 
     def evaluate(params: Parameters) -> float:
         raise NCError(message, column=column)
@@ -596,7 +627,7 @@ def _raising(message: str, column: int | None) -> Evaluator:
 
 
 def _failing(error: NCError) -> Evaluator:
-    return _raising(error.message, error.column)
+    return raising(error.message, error.column)
 
 
 def _then(first: Sequence[Node], last: Evaluator) -> Evaluator:
@@ -614,12 +645,12 @@ def _then(first: Sequence[Node], last: Evaluator) -> Evaluator:
 def _compile_value(text: str, pos: int, n: int, depth: int) -> tuple[Node, int]:
     """Compile the real value at ``pos`` (see :func:`read_value`)."""
     if pos >= n:
-        return _raising(
+        return raising(
             "expected a value (number, #parameter, [expression] or function) but the line ends",
             pos + 1,
         ), _STOP
     if depth > MAX_NESTING:
-        return _raising(f"expression nested deeper than {MAX_NESTING} levels", pos + 1), _STOP
+        return raising(f"expression nested deeper than {MAX_NESTING} levels", pos + 1), _STOP
     c = text[pos]
     if c == "[":
         return _compile_expression(text, pos, n, depth)
@@ -637,7 +668,7 @@ def _compile_value(text: str, pos: int, n: int, depth: int) -> tuple[Node, int]:
         return _compile_function(text, pos, n, depth)
     found = _number(text, pos)
     if found is None:
-        return _raising(
+        return raising(
             f"expected a value (number, #parameter, [expression] or function), found '{c}'",
             pos + 1,
         ), _STOP
@@ -771,13 +802,13 @@ def _compile_function(text: str, pos: int, n: int, depth: int) -> tuple[Node, in
         bracket += 1
     name = text[pos:bracket]
     if name not in _FUNCTIONS:
-        return _raising(
+        return raising(
             f"unknown function or word '{name}': expected a value or one of the "
             f"functions {_FUNCTION_LIST}",
             pos + 1,
         ), _STOP
     if bracket >= n or text[bracket] != "[":
-        return _raising(
+        return raising(
             f"function {name} must be followed by '[', e.g. {name}[1]"
             if name != "atan"
             else "function atan must be followed by '[', e.g. atan[1]/[2]",
@@ -869,7 +900,7 @@ def _compile_exists(text: str, bracket: int, n: int, depth: int) -> tuple[Node, 
     """Compile ``exists[#<name>]`` or ``exists[#n]`` whose '[' is at ``bracket``."""
     hash_pos = bracket + 1
     if hash_pos >= n or text[hash_pos] != "#":
-        return _raising("exists takes a parameter, e.g. exists[#<depth>]", hash_pos + 1), _STOP
+        return raising("exists takes a parameter, e.g. exists[#<depth>]", hash_pos + 1), _STOP
     closed = "exists takes a single parameter; expected ']' after it, e.g. exists[#<depth>]"
     if hash_pos + 1 < n and text[hash_pos + 1] == "<":
         try:
@@ -877,7 +908,7 @@ def _compile_exists(text: str, bracket: int, n: int, depth: int) -> tuple[Node, 
         except NCError as err:
             return _failing(err), _STOP
         if end >= n or text[end] != "]":
-            return _raising(closed, end + 1), _STOP
+            return raising(closed, end + 1), _STOP
         if name[0] == "_":
             return (lambda params: 1.0 if name in params._globals else 0.0), end + 1
         return (lambda params: 1.0 if name in params._locals else 0.0), end + 1
@@ -902,36 +933,45 @@ def _compile_exists(text: str, bracket: int, n: int, depth: int) -> tuple[Node, 
     return exists, (_STOP if bracket_end == _STOP else end + 1)
 
 
-def _compile_assignment(text: str, pos: int, n: int) -> Setting:
-    """Compile the parameter setting whose '#' is at ``pos`` (see :func:`read_assignment`).
+def compile_setting(text: str, pos: int) -> Setting:
+    """Compile the parameter setting whose '#' is at ``text[pos]`` (see
+    :func:`read_assignment`).
 
-    When the setting is malformed, reading its key or evaluating its value raises, in
-    that order.
+    Returns
+    -------
+    read_key : callable
+        Called with the parameters, returns the key (parameter number or name).
+    evaluate : Evaluator
+        Called with the parameters after ``read_key``, returns the value to assign.
+    end : int
+        Index just after the value; :data:`RAISES` when the setting is malformed: then
+        ``read_key`` raises, or ``evaluate`` does, the error that reading it raises.
     """
-    unused = _raising("internal: a malformed setting's value is not evaluated", None)
+    n = len(text)
+    unused = raising("internal: a malformed setting's value is not evaluated", None)
     if pos >= n or text[pos] != "#":
         message = "expected a parameter setting such as #1=2 or #<name>=2" + (
             f", found '{text[pos]}'" if pos < n else ", found the end of the line"
         )
-        return _key_raising(_raising(message, pos + 1)), unused, _STOP
+        return _keyraising(raising(message, pos + 1)), unused, _STOP
     read_key: Callable[[Parameters], int | str]
     after = pos + 1
     if after < n and text[after] == "<":
         try:
             name, after = _name(text, pos, n)
         except NCError as err:
-            return _key_raising(_failing(err)), unused, _STOP
+            return _keyraising(_failing(err)), unused, _STOP
         read_key = lambda params: name  # noqa: E731
     else:
         number, after = _compile_value(text, after, n, 1)
         if after == _STOP:
-            return _key_raising(_evaluator(number)), unused, _STOP
+            return _keyraising(_evaluator(number)), unused, _STOP
         column = pos + 1
         if isinstance(number, float):
             try:
                 index = _index(number, column)
             except NCError as err:
-                return _key_raising(_failing(err)), unused, _STOP
+                return _keyraising(_failing(err)), unused, _STOP
             read_key = lambda params: index  # noqa: E731
         else:
             indirect = number
@@ -941,18 +981,18 @@ def _compile_assignment(text: str, pos: int, n: int) -> Setting:
             f"'{text[after]}'" if after < n else "the end of the line"
         )
         key_only = read_key
-        column = after + 1
+        equals_column = after + 1
 
         def bad_key(params: Parameters) -> int | str:
             key_only(params)
-            raise NCError(message, column=column)
+            raise NCError(message, column=equals_column)
 
         return bad_key, unused, _STOP
     value, end = _compile_value(text, after + 1, n, 0)
     return read_key, _evaluator(value), end
 
 
-def _key_raising(raising: Evaluator) -> Callable[[Parameters], int | str]:
+def _keyraising(raising: Evaluator) -> Callable[[Parameters], int | str]:
     """A key reader that raises the error of ``raising``."""
 
     def read_key(params: Parameters) -> int | str:
