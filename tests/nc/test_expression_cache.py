@@ -18,7 +18,16 @@ from hypothesis import strategies as st
 
 from cnctwin.errors import NCError
 from cnctwin.nc import interpret_text, lexer
-from cnctwin.nc.expressions import CACHE_SIZE, Parameters, read_assignment, read_value
+from cnctwin.nc.expressions import (
+    CACHE_SIZE,
+    Parameters,
+    compile_setting,
+    compile_value,
+    read_assignment,
+    read_assignment_once,
+    read_value,
+    read_value_once,
+)
 from cnctwin.nc.lexer import lex_block
 
 # The parameters an expression may read, as (RS274 text, Python name).
@@ -146,3 +155,34 @@ def test_the_stores_stay_bounded() -> None:
     from cnctwin.nc import expressions
 
     assert len(expressions._COMPILED) <= CACHE_SIZE
+
+
+_TOKENS = ["[", "]", "#1", "#2", "##1", "#<depth>", "#<nope>", "#", "1", "0", "2.5", "-", "+"]
+_TOKENS += ["*", "**", "/", "mod", "gt", "eq", "and", "sin[", "atan[", "]/[", "exists[", "sqrt["]
+_TOKENS += ["ln[", "round[", "=", "x", "$", "9" * 70]
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.lists(st.sampled_from(_TOKENS), max_size=16).map("".join), st.booleans())
+def test_compiled_and_one_pass_readers_agree_on_any_text(body: str, setting: bool) -> None:
+    # A place met once is read in one pass, met again it is compiled: both must give the
+    # same value, or the same error at the same column, for well-formed and broken text.
+    text = "g1x" + ("#1=" if setting else "") + body
+
+    def outcome(read: object) -> object:
+        params = Parameters()
+        params[1], params[2], params["depth"] = 2.0, 0.0, 0.5
+        try:
+            return read(params)  # type: ignore[operator]
+        except NCError as error:
+            return (error.message, error.column)
+
+    if setting:
+        once = outcome(lambda p: read_assignment_once(text, 3, p))
+        read_key, evaluate, end = compile_setting(text, 3)
+        compiled = outcome(lambda p: (read_key(p), evaluate(p), end))
+    else:
+        once = outcome(lambda p: read_value_once(text, 3, p))
+        evaluate, end = compile_value(text, 3)
+        compiled = outcome(lambda p: (evaluate(p), end))
+    assert compiled == once

@@ -4,7 +4,9 @@ The NC lexer prepares a line (comments removed, white space removed, lower-cased
 and calls :func:`read_value` where a word value starts and :func:`read_assignment`
 where a ``#...=`` parameter setting starts. Both read directly from the string with a
 hand-written recursive-descent reader (no token list), so a typical
-``[#<zscale>*-25.372]`` costs a few microseconds.
+``[#<zscale>*-25.372]`` costs a few microseconds. A place (text, position) met a second
+time is compiled into closures (constants folded) that later reads only evaluate, with
+the parameters of that moment; compiled places are kept in a bounded store.
 
 Semantics follow the LinuxCNC G-code overview (sections *Parameters*, *Expressions*,
 *Binary Operators*, *Functions*) and, where the prose is silent, the behaviour of its
@@ -45,6 +47,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
 
 from cnctwin.errors import NCError
 from cnctwin.nc.limits import check_number_text
@@ -64,7 +67,9 @@ __all__ = [
     "expand_parameters",
     "raising",
     "read_assignment",
+    "read_assignment_once",
     "read_value",
+    "read_value_once",
 ]
 
 #: Highest numbered parameter (numbered parameters are #1..#MAX_PARAMETER).
@@ -354,9 +359,13 @@ def read_value(text: str, pos: int, params: Parameters) -> tuple[float, int]:
     n = len(text)
     if not 0 <= pos <= n:
         raise NCError(f"start index {pos} is outside the text (0 to {n})")
-    compiled = _COMPILED.get((text, pos))
-    if compiled is None:
-        compiled = _remember((text, pos), compile_value(text, pos))
+    key = (text, pos)
+    compiled = _COMPILED.get(key, _UNSEEN)
+    if compiled is _UNSEEN:  # first sight: read and evaluate in one pass
+        _remember(key, None)
+        return _value(text, pos, n, params, 0)
+    if compiled is None:  # second sight: compile, to evaluate from now on
+        compiled = _remember(key, compile_value(text, pos))
     evaluate, end = compiled
     return evaluate(params), end
 
@@ -457,12 +466,49 @@ def read_assignment(text: str, pos: int, params: Parameters) -> tuple[int | str,
     n = len(text)
     if not 0 <= pos <= n:
         raise NCError(f"start index {pos} is outside the text (0 to {n})")
-    compiled = _COMPILED_SETTINGS.get((text, pos))
+    place = (text, pos)
+    compiled = _COMPILED_SETTINGS.get(place, _UNSEEN)
+    if compiled is _UNSEEN:
+        _remember_setting(place, None)
+        return read_assignment_once(text, pos, params)
     if compiled is None:
-        compiled = _remember_setting((text, pos), compile_setting(text, pos))
+        compiled = _remember_setting(place, compile_setting(text, pos))
     read_key, evaluate, end = compiled
     key = read_key(params)
     return key, evaluate(params), end
+
+
+def read_value_once(text: str, pos: int, params: Parameters) -> tuple[float, int]:
+    """:func:`read_value` reading and evaluating in one pass, nothing compiled or kept:
+    for text met once (the lexer compiles a line met again)."""
+    return _value(text, pos, len(text), params, 0)
+
+
+def read_assignment_once(text: str, pos: int, params: Parameters) -> tuple[int | str, float, int]:
+    """:func:`read_assignment` reading and evaluating in one pass, nothing compiled or
+    kept."""
+    n = len(text)
+    if pos >= n or text[pos] != "#":
+        raise NCError(
+            "expected a parameter setting such as #1=2 or #<name>=2"
+            + (f", found '{text[pos]}'" if pos < n else ", found the end of the line"),
+            column=pos + 1,
+        )
+    key: int | str
+    after = pos + 1
+    if after < n and text[after] == "<":
+        key, after = _name(text, pos, n)
+    else:
+        number, after = _value(text, after, n, params, 1)
+        key = _index(number, pos + 1)
+    if after >= n or text[after] != "=":
+        raise NCError(
+            "expected '=' after the parameter in a setting such as #1=2, found "
+            + (f"'{text[after]}'" if after < n else "the end of the line"),
+            column=after + 1,
+        )
+    value, end = _value(text, after + 1, n, params, 0)
+    return key, value, end
 
 
 def _name(text: str, hash_pos: int, n: int) -> tuple[str, int]:
@@ -477,6 +523,128 @@ def _name(text: str, hash_pos: int, n: int) -> tuple[str, int]:
             "empty parameter name '#<>': write a name such as #<depth>", column=hash_pos + 1
         )
     return text[hash_pos + 2 : close], close + 1
+
+
+def _value(text: str, pos: int, n: int, params: Parameters, depth: int) -> tuple[float, int]:
+    """Read a real value at ``pos`` (see :func:`read_value`)."""
+    if pos >= n:
+        raise NCError(
+            "expected a value (number, #parameter, [expression] or function) but the line ends",
+            column=pos + 1,
+        )
+    if depth > MAX_NESTING:
+        raise NCError(f"expression nested deeper than {MAX_NESTING} levels", column=pos + 1)
+    c = text[pos]
+    if c == "[":
+        return _expression(text, pos, n, params, depth)
+    if c == "#":
+        if pos + 1 < n and text[pos + 1] == "<":
+            name, end = _name(text, pos, n)
+            value = (params._globals if name[0] == "_" else params._locals).get(name)
+            if value is None:
+                raise _undefined(name, pos + 1)
+            return value, end
+        number, end = _value(text, pos + 1, n, params, depth + 1)
+        return params._numbered[_index(number, pos + 1)], end
+    if c in _SIGNS and pos + 1 < n and text[pos + 1] not in _NUMBER_START:
+        value, end = _value(text, pos + 1, n, params, depth + 1)
+        return (-value if c == "-" else value), end
+    if "a" <= c <= "z":
+        return _function(text, pos, n, params, depth)
+    found = _number(text, pos)
+    if found is None:
+        raise NCError(
+            f"expected a value (number, #parameter, [expression] or function), found '{c}'",
+            column=pos + 1,
+        )
+    literal = found.group()
+    check_number_text(literal, pos + 1)  # so that float() is finite
+    return float(literal), found.end()
+
+
+def _expression(text: str, pos: int, n: int, params: Parameters, depth: int) -> tuple[float, int]:
+    """Evaluate the bracketed expression whose '[' is at ``pos``.
+
+    Operator precedence is resolved with an operand stack and an operator stack, so
+    the Python stack grows only with bracket nesting, not with expression length.
+    """
+    value, end = _value(text, pos + 1, n, params, depth + 1)
+    op, after = _operator(text, end, n, pos)
+    if op == _CLOSE:
+        return value, after
+    values = [value]
+    pending: list[tuple[int, int]] = []  # (operator, its 0-based position)
+    while True:
+        prec = _PRECEDENCE[op]
+        while pending and _PRECEDENCE[pending[-1][0]] >= prec:
+            top, top_pos = pending.pop()
+            right = values.pop()
+            values[-1] = _apply(top, values[-1], right, top_pos)
+        if op == _CLOSE:
+            return values[0], after
+        pending.append((op, end))
+        value, end = _value(text, after, n, params, depth + 1)
+        values.append(value)
+        op, after = _operator(text, end, n, pos)
+
+
+def _function(text: str, pos: int, n: int, params: Parameters, depth: int) -> tuple[float, int]:
+    """Evaluate the function call whose name starts at ``pos``."""
+    bracket = pos
+    while bracket < n and "a" <= text[bracket] <= "z":
+        bracket += 1
+    name = text[pos:bracket]
+    if name not in _FUNCTIONS:
+        raise NCError(
+            f"unknown function or word '{name}': expected a value or one of the "
+            f"functions {_FUNCTION_LIST}",
+            column=pos + 1,
+        )
+    if bracket >= n or text[bracket] != "[":
+        raise NCError(
+            f"function {name} must be followed by '[', e.g. {name}[1]"
+            if name != "atan"
+            else "function atan must be followed by '[', e.g. atan[1]/[2]",
+            column=bracket + 1,
+        )
+    if name == "exists":
+        return _exists(text, bracket, n, params, depth)
+    x, end = _expression(text, bracket, n, params, depth + 1)
+    if name == "atan":
+        if end + 1 >= n or text[end] != "/" or text[end + 1] != "[":
+            raise NCError(
+                "atan takes two arguments written atan[y]/[x]; expected '/[' after "
+                f"atan[{_fmt(x)}]",
+                column=end + 1,
+            )
+        x2, end = _expression(text, end + 1, n, params, depth + 1)
+        return math.atan2(x, x2) * _RAD, end
+    return _function_value(name, x, pos + 1), end
+
+
+def _exists(text: str, bracket: int, n: int, params: Parameters, depth: int) -> tuple[float, int]:
+    """Evaluate ``exists[#<name>]`` or ``exists[#n]`` whose '[' is at ``bracket``."""
+    hash_pos = bracket + 1
+    if hash_pos >= n or text[hash_pos] != "#":
+        raise NCError("exists takes a parameter, e.g. exists[#<depth>]", column=hash_pos + 1)
+    if hash_pos + 1 < n and text[hash_pos + 1] == "<":
+        name, end = _name(text, hash_pos, n)
+        found = name in (params._globals if name[0] == "_" else params._locals)
+    else:
+        number, end = _value(text, hash_pos + 1, n, params, depth + 1)
+        index = round(number)
+        if abs(number - index) > _INDEX_TOLERANCE:
+            raise NCError(
+                f"parameter number #{_fmt(number)} is not an integer; {_range_text()}",
+                column=hash_pos + 1,
+            )
+        found = 1 <= index <= MAX_PARAMETER
+    if end >= n or text[end] != "]":
+        raise NCError(
+            "exists takes a single parameter; expected ']' after it, e.g. exists[#<depth>]",
+            column=end + 1,
+        )
+    return (1.0 if found else 0.0), end + 1
 
 
 def _operator(text: str, pos: int, n: int, open_pos: int) -> tuple[int, int]:
@@ -589,21 +757,26 @@ Setting = tuple[Callable[[Parameters], int | str], Evaluator, int]
 #: The end of a compiled piece that always raises when evaluated.
 RAISES = -1
 _STOP = RAISES
+_C = TypeVar("_C", tuple["Evaluator", int], None)
+_S = TypeVar("_S", "Setting", None)
 #: Most compiled places kept; the store is emptied when full, so memory stays bounded
 #: whatever the program's length.
 CACHE_SIZE = 4096
-_COMPILED: dict[tuple[str, int], tuple[Evaluator, int]] = {}
-_COMPILED_SETTINGS: dict[tuple[str, int], Setting] = {}
+#: Compiled places by (text, position); None for a place seen once (read directly then:
+#: compiling costs about one more reading, so only places met again are compiled).
+_COMPILED: dict[tuple[str, int], tuple[Evaluator, int] | None] = {}
+_COMPILED_SETTINGS: dict[tuple[str, int], Setting | None] = {}
+_UNSEEN: Any = object()
 
 
-def _remember(key: tuple[str, int], compiled: tuple[Evaluator, int]) -> tuple[Evaluator, int]:
+def _remember(key: tuple[str, int], compiled: _C) -> _C:
     if len(_COMPILED) >= CACHE_SIZE:
         _COMPILED.clear()
     _COMPILED[key] = compiled
     return compiled
 
 
-def _remember_setting(key: tuple[str, int], compiled: Setting) -> Setting:
+def _remember_setting(key: tuple[str, int], compiled: _S) -> _S:
     if len(_COMPILED_SETTINGS) >= CACHE_SIZE:
         _COMPILED_SETTINGS.clear()
     _COMPILED_SETTINGS[key] = compiled
@@ -762,6 +935,8 @@ def _binary(op: int, a: Node, b: Node, pos: int) -> Node:
             return _apply(op, a, b, pos)
         except NCError as err:
             return _failing(err)
+    if isinstance(b, float) and op in (_ADD, _SUB, _MUL):
+        return _binary_constant(op, _evaluator(a), b, pos)
     left, right = _evaluator(a), _evaluator(b)
     if op == _ADD:
 
@@ -791,6 +966,32 @@ def _binary(op: int, a: Node, b: Node, pos: int) -> Node:
 
         def evaluate(params: Parameters) -> float:
             return _apply(op, left(params), right(params), pos)
+
+    return evaluate
+
+
+def _binary_constant(op: int, left: Evaluator, y: float, pos: int) -> Evaluator:
+    """The node of ``left op y`` for ``+``, ``-`` and ``*`` with a constant ``y``."""
+    if op == _ADD:
+
+        def evaluate(params: Parameters) -> float:
+            x = left(params)
+            result = x + y
+            return result if _isfinite(result) else _apply(_ADD, x, y, pos)
+
+    elif op == _SUB:
+
+        def evaluate(params: Parameters) -> float:
+            x = left(params)
+            result = x - y
+            return result if _isfinite(result) else _apply(_SUB, x, y, pos)
+
+    else:
+
+        def evaluate(params: Parameters) -> float:
+            x = left(params)
+            result = x * y
+            return result if _isfinite(result) else _apply(_MUL, x, y, pos)
 
     return evaluate
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from cnctwin.errors import NCError
 from cnctwin.nc.expressions import (
@@ -24,6 +25,8 @@ from cnctwin.nc.expressions import (
     compile_setting,
     compile_value,
     raising,
+    read_assignment_once,
+    read_value_once,
 )
 from cnctwin.nc.limits import MAX_NUMBER_CHARS, check_number_text, check_word
 
@@ -39,9 +42,11 @@ _NO_ASSIGNMENTS: list[tuple[int | str, float]] = []  # shared, never mutated
 #: One word or setting of a compiled line: ``("#", read_key, value)`` for a parameter
 #: setting, ``(letter, _NO_KEY, value)`` for a word.
 _Step = tuple[str, Callable[[Parameters], int | str], Evaluator]
-#: Lines read the general way, by the raw line: their messages and compiled steps. Bounded
-#: like the expressions' store.
-_COMPILED_LINES: dict[str, tuple[tuple[tuple[str, str], ...], tuple[_Step, ...]]] = {}
+#: Lines read the general way, by the raw line: their messages and compiled steps, or None
+#: for a line seen once (read directly then: compiling costs about one more reading, so
+#: only lines met again are compiled). Bounded like the expressions' store.
+_COMPILED_LINES: dict[str, tuple[tuple[tuple[str, str], ...], tuple[_Step, ...]] | None] = {}
+_UNSEEN: Any = object()
 
 
 def _no_key(params: Parameters) -> int | str:
@@ -201,8 +206,8 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
         For anything that is not valid RS274NGC; ``line`` is left 0 and ``column`` refers
         to the comment-free, space-free text.
     """
-    compiled = _COMPILED_LINES.get(raw)
-    if compiled is not None:
+    compiled = _COMPILED_LINES.get(raw, _UNSEEN)
+    if compiled is not None and compiled is not _UNSEEN:
         return _evaluate_line(compiled[0], compiled[1], params)
     messages: list[tuple[str, str]] = []
     text = strip_comments(raw, messages) if "(" in raw or ";" in raw else raw
@@ -231,7 +236,10 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
         return _oword(text, messages)
     if len(_COMPILED_LINES) >= CACHE_SIZE:
         _COMPILED_LINES.clear()
-    steps = _compile_line(text)
+    if compiled is _UNSEEN:  # first sight: read and evaluate in one pass
+        _COMPILED_LINES[raw] = None
+        return _lex_once(text, params, messages)
+    steps = _compile_line(text)  # met again: compiled, evaluated from now on
     _COMPILED_LINES[raw] = (tuple(messages), steps)
     return _evaluate_line(messages, steps, params)
 
@@ -275,6 +283,32 @@ def _oword(text: str, messages: list[tuple[str, str]]) -> Block:
     )
 
 
+def _lex_once(text: str, params: Parameters, messages: list[tuple[str, str]]) -> Block:
+    """The block of a line with parameters or expressions, read and evaluated in one
+    pass (as :func:`_compile_line` then :func:`_evaluate_line` would give it)."""
+    block = Block(messages=messages)
+    pairs: list[tuple[str, float]] = []
+    pos = 0
+    n = len(text)
+    while pos < n:
+        ch = text[pos]
+        if ch == "#":
+            key, value, pos = read_assignment_once(text, pos, params)
+            block.assignments.append((key, value))
+            continue
+        if "a" <= ch <= "z" or ch == "@" or ch == "^":
+            value, pos = read_value_once(text, pos + 1, params)
+            pairs.append((ch, value))
+            continue
+        raise NCError(_unexpected(ch, text), column=pos + 1)
+    _sort_words(block, pairs)
+    return block
+
+
+def _unexpected(ch: str, text: str) -> str:
+    return f"unexpected character '{ch}' in '{text}': expected a word letter (A-Z, @, ^) or '#'"
+
+
 def _compile_line(text: str) -> tuple[_Step, ...]:
     """Compile a line with parameters or expressions into its steps, in the order
     written. A malformed line ends with a step that raises its error."""
@@ -290,11 +324,7 @@ def _compile_line(text: str) -> tuple[_Step, ...]:
             value, pos = compile_value(text, pos + 1)
             steps.append((ch, _NO_KEY, value))
         else:
-            message = (
-                f"unexpected character '{ch}' in '{text}': expected a word letter "
-                "(A-Z, @, ^) or '#'"
-            )
-            steps.append(("?", _NO_KEY, raising(message, pos + 1)))
+            steps.append(("?", _NO_KEY, raising(_unexpected(ch, text), pos + 1)))
             break
         if pos == RAISES:
             break
