@@ -26,6 +26,9 @@ code = run(sys.argv[1:])
 print(json.dumps([code, sorted({m.split('.')[0] for m in sys.modules})]))
 """
 
+#: As _PROBE, with the full names of the modules imported.
+_PROBE_MODULES = _PROBE.replace("{m.split('.')[0] for m in sys.modules}", "set(sys.modules)")
+
 
 @pytest.mark.parametrize("args", [["--version"], ["--help"]])
 def test_light_commands_import_no_heavy_package(args: list[str]) -> None:
@@ -66,3 +69,32 @@ def test_loading_the_run_command_keeps_the_run_function() -> None:
     import cnctwin.cli
 
     assert callable(cnctwin.cli.run) and cnctwin.cli.run is run
+
+
+def test_nc_inspect_without_config_imports_neither_configuration_nor_rich(tmp_path) -> None:
+    # pydantic itself is imported by typer (it coerces option values with it); the
+    # configuration models and rich are the project's own start-up cost and stay out.
+    program = tmp_path / "plain.ngc"
+    program.write_text("G1 X1 Y2 F100\nM2\n")
+    done = subprocess.run(
+        [sys.executable, "-c", _PROBE_MODULES, "nc", "inspect", "--json", str(program)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    code, modules = json.loads(done.stdout.splitlines()[-1])
+    assert code == 0, done.stderr
+    assert json.loads(done.stdout.splitlines()[0])["feed_length_mm"] == pytest.approx(5**0.5)
+    loaded = {name for name in modules if name.startswith(("cnctwin.config", "rich"))}
+    assert not loaded, sorted(loaded)
+
+
+def test_nc_defaults_equal_those_of_a_default_configuration() -> None:
+    # `nc inspect` and `nc trace` without --config use these instead of building a config.
+    from cnctwin.config import MachiningConfig
+    from cnctwin.nc import NCSetup
+    from cnctwin.nc.setup import DEFAULT_RAPID_MM_MIN
+
+    config = MachiningConfig()
+    assert config.nc_setup() == NCSetup()
+    assert config.machine.rapid_mm_min == DEFAULT_RAPID_MM_MIN == 10_000.0

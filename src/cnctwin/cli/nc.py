@@ -10,12 +10,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.console import Console
-from rich.table import Table
 
 from cnctwin import finite_json
-from cnctwin.config import MachiningConfig, load_config
 from cnctwin.nc import (
+    DEFAULT_RAPID_MM_MIN,
     MAX_PROGRAM_BYTES,
     MAX_REPEATED_LINES,
     MAX_SEGMENTS,
@@ -25,6 +23,9 @@ from cnctwin.nc import (
 )
 
 if TYPE_CHECKING:
+    from rich.table import Table
+
+    from cnctwin.config import MachiningConfig
     from cnctwin.nc import ArcRun, StraightRun
 
 __all__ = ["app", "inspect", "inspect_report", "report_table", "trace"]
@@ -73,9 +74,23 @@ MaxRepeatedOpt = Annotated[
 ]
 
 
-def _load(config: Path | None) -> MachiningConfig:
-    """The configuration in ``config``, or the defaults when it is ``None``."""
-    return load_config(config) if config is not None else MachiningConfig()
+def _load(config: Path | None) -> MachiningConfig | None:
+    """The configuration in ``config``; ``None`` (the defaults) when no file is given.
+
+    pydantic and the configuration models are imported only for a file: without one, the
+    interpreter's set-up is :class:`~cnctwin.nc.NCSetup`'s defaults, which equal those of
+    a default :class:`~cnctwin.config.MachiningConfig` (a test keeps them equal).
+    """
+    if config is None:
+        return None
+    from cnctwin.config import load_config
+
+    return load_config(config)
+
+
+def _setup(settings: MachiningConfig | None) -> NCSetup:
+    """The interpreter's set-up of ``settings``, or the defaults."""
+    return settings.nc_setup() if settings is not None else NCSetup()
 
 
 def _bounded(setup: NCSetup, max_segments: int, max_bytes: int, max_repeated: int) -> NCSetup:
@@ -90,7 +105,7 @@ def _bounded(setup: NCSetup, max_segments: int, max_bytes: int, max_repeated: in
 
 def inspect_report(
     program: Path,
-    config: MachiningConfig,
+    config: MachiningConfig | None,
     *,
     on_segment: Callable[[Segment], None] | None = None,
     check_travel: bool = True,
@@ -103,14 +118,15 @@ def inspect_report(
     program
         The NC file.
     config
-        Machine and tools.
+        Machine and tools; ``None`` for the defaults (rapid rate
+        :data:`~cnctwin.nc.setup.DEFAULT_RAPID_MM_MIN`, no travel check).
     on_segment
         Called with each segment as it streams by (e.g. to plot it).
     check_travel
         Warn about moves beyond the configured axis travel (off when the configuration
-        is only the defaults, whose travel is a placeholder).
+        is only the defaults, whose travel is a placeholder; always off without ``config``).
     setup
-        The interpreter's set-up; ``config.nc_setup()`` if omitted.
+        The interpreter's set-up; that of ``config`` (or the defaults) if omitted.
 
     Returns
     -------
@@ -128,24 +144,23 @@ def inspect_report(
     """
     from cnctwin.nc import Interpreter  # the interpreter is heavy to import
 
-    interpreter = Interpreter(setup if setup is not None else config.nc_setup())
+    interpreter = Interpreter(setup if setup is not None else _setup(config))
     segments: Iterable[Segment | StraightRun | ArcRun]
     if on_segment is not None:
         segments = _tap(interpreter.run_file(program), on_segment)
     else:
         segments = interpreter.run_file_bulk(program)  # runs of moves summed in bulk
-    axes = config.machine.axes
-    travel = (
-        (
-            (axes.x.min_mm, axes.y.min_mm, axes.z.min_mm),
-            (axes.x.max_mm, axes.y.max_mm, axes.z.max_mm),
-        )
-        if check_travel
-        else None
-    )
-    summary = summarize(
-        segments, rapid_mm_min=config.machine.rapid_mm_min, travel_mm=travel
-    ).to_dict()
+    travel = None
+    rapid_mm_min = DEFAULT_RAPID_MM_MIN
+    if config is not None:
+        axes = config.machine.axes
+        rapid_mm_min = config.machine.rapid_mm_min
+        if check_travel:
+            travel = (
+                (axes.x.min_mm, axes.y.min_mm, axes.z.min_mm),
+                (axes.x.max_mm, axes.y.max_mm, axes.z.max_mm),
+            )
+    summary = summarize(segments, rapid_mm_min=rapid_mm_min, travel_mm=travel).to_dict()
     return {
         "lines": interpreter.lines_read,
         **{key: summary[key] for key in _SUMMARY_KEYS},
@@ -195,14 +210,16 @@ def inspect(
         settings,
         on_segment=picture.add if picture else None,
         check_travel=config is not None,
-        setup=_bounded(settings.nc_setup(), max_segments, max_bytes, max_repeated_lines),
+        setup=_bounded(_setup(settings), max_segments, max_bytes, max_repeated_lines),
     )
     if picture is not None and plot is not None:
-        stock = (settings.stock.min_mm, settings.stock.max_mm) if config is not None else None
+        stock = (settings.stock.min_mm, settings.stock.max_mm) if settings is not None else None
         picture.save(plot, title=program.name, stock_mm=stock)
     if as_json:
         sys.stdout.write(finite_json.dumps(report) + "\n")
         return
+    from rich.console import Console
+
     Console().print(report_table(report))
     if plot is not None:
         Console().print(f"tool path drawn to {plot}")
@@ -237,7 +254,7 @@ def trace(
     """Print the canonical motion trace of a program, one call a line: source line, call."""
     from cnctwin.nc import Interpreter, format_trace
 
-    setup = _bounded(_load(config).nc_setup(), max_segments, max_bytes, max_repeated_lines)
+    setup = _bounded(_setup(_load(config)), max_segments, max_bytes, max_repeated_lines)
     interpreter = Interpreter(setup)
     out = sys.stdout
     for line in format_trace(interpreter.run_file(program), frame.value):
@@ -258,6 +275,8 @@ def _duration(seconds: float) -> str:
 
 def report_table(report: dict[str, Any]) -> Table:
     """A rich table of an :func:`inspect_report`."""
+    from rich.table import Table
+
     table = Table(title=report["file"], show_header=False, title_justify="left")
     table.add_column("quantity", style="bold")
     table.add_column("value", justify="right")

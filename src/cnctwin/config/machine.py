@@ -9,6 +9,7 @@ from pydantic_core import PydanticCustomError
 
 from cnctwin.config.base import CoordinateMm, Section, Vec3Mm
 from cnctwin.config.spindle import SpindleConfig
+from cnctwin.nc import DEFAULT_RAPID_MM_MIN
 
 __all__ = [
     "MAX_FEED_MM_MIN",
@@ -118,7 +119,7 @@ class MachineConfig(Section):
 
     name: str = "cnctwin machine"
     kind: Literal["mill", "lathe"] = "mill"
-    rapid_mm_min: float = Field(default=10_000.0, ge=1, le=MAX_FEED_MM_MIN)
+    rapid_mm_min: float = Field(default=DEFAULT_RAPID_MM_MIN, ge=1, le=MAX_FEED_MM_MIN)
     max_spindle_rpm: float | None = Field(default=None, ge=1, le=MAX_SPINDLE_RPM)
     axes: AxesConfig = Field(default_factory=AxesConfig)
     g28_home_mm: Vec3Mm = (0.0, 0.0, 0.0)

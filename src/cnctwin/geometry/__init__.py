@@ -18,7 +18,7 @@ feed mm/min as in the NC layer), seconds and radians. See docs/dexel.md.
 
 from cnctwin.geometry.cutter import AXIAL_KINDS, Cutter, CutterSlices
 from cnctwin.geometry.dexel import AXES, Axis, DexelGrid, DexelStock
-from cnctwin.geometry.engagement import Engagement, cut, cut_path
+from cnctwin.geometry.engagement import Engagement, cut, cut_path, slice_low_mm
 from cnctwin.geometry.engagement_map import (
     EngagementMap,
     MapCursor,
@@ -56,6 +56,7 @@ __all__ = [
     "load_engagement_map",
     "remove",
     "save_engagement_map",
+    "slice_low_mm",
     "stock_mesh",
     "write_stl",
 ]

@@ -40,7 +40,7 @@ if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run
         arc_sweep_rad,
         segment_length_mm,
     )
-    from cnctwin.nc.setup import NCSetup, ToolEntry
+    from cnctwin.nc.setup import DEFAULT_RAPID_MM_MIN, NCSetup, ToolEntry
     from cnctwin.nc.summary import summarize
     from cnctwin.nc.tool_table import read_tool_table
     from cnctwin.nc.trace import CanonicalMove, canonical_moves, format_trace
@@ -48,6 +48,7 @@ if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run
 #: Where each public name lives. Imported on first use, so that importing one submodule
 #: (the command line reads programs without sampling them) does not import numpy and numba.
 _HOMES = {
+    "DEFAULT_RAPID_MM_MIN": "setup",
     "MAX_PROGRAM_BYTES": "limits",
     "MAX_REPEATED_LINES": "limits",
     "MAX_SEGMENTS": "limits",
@@ -85,6 +86,7 @@ __getattr__, __dir__ = _lazy.exports(__name__, _HOMES)
 
 
 __all__ = [
+    "DEFAULT_RAPID_MM_MIN",
     "MAX_PROGRAM_BYTES",
     "MAX_REPEATED_LINES",
     "MAX_SEGMENTS",

@@ -4,7 +4,9 @@ The NC lexer prepares a line (comments removed, white space removed, lower-cased
 and calls :func:`read_value` where a word value starts and :func:`read_assignment`
 where a ``#...=`` parameter setting starts. Both read directly from the string with a
 hand-written recursive-descent reader (no token list), so a typical
-``[#<zscale>*-25.372]`` costs a few microseconds.
+``[#<zscale>*-25.372]`` costs a few microseconds. A place (text, position) met a second
+time is compiled into closures (constants folded) that later reads only evaluate, with
+the parameters of that moment; compiled places are kept in a bounded store.
 
 Semantics follow the LinuxCNC G-code overview (sections *Parameters*, *Expressions*,
 *Binary Operators*, *Functions*) and, where the prose is silent, the behaviour of its
@@ -44,7 +46,8 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
 
 from cnctwin.errors import NCError
 from cnctwin.nc.limits import check_number_text
@@ -54,10 +57,19 @@ __all__ = [
     "MAX_NESTING",
     "MAX_PARAMETER",
     "SUBROUTINE_PARAMETERS",
+    "RAISES",
+    "CACHE_SIZE",
+    "Evaluator",
     "Parameters",
+    "Setting",
+    "compile_setting",
+    "compile_value",
     "expand_parameters",
+    "raising",
     "read_assignment",
+    "read_assignment_once",
     "read_value",
+    "read_value_once",
 ]
 
 #: Highest numbered parameter (numbered parameters are #1..#MAX_PARAMETER).
@@ -347,7 +359,38 @@ def read_value(text: str, pos: int, params: Parameters) -> tuple[float, int]:
     n = len(text)
     if not 0 <= pos <= n:
         raise NCError(f"start index {pos} is outside the text (0 to {n})")
-    return _value(text, pos, n, params, 0)
+    key = (text, pos)
+    compiled = _COMPILED.get(key, _UNSEEN)
+    if compiled is _UNSEEN:  # first sight: read and evaluate in one pass
+        _remember(key, None)
+        return _value(text, pos, n, params, 0)
+    if compiled is None:  # second sight: compile, to evaluate from now on
+        compiled = _remember(key, compile_value(text, pos))
+    evaluate, end = compiled
+    return evaluate(params), end
+
+
+def compile_value(text: str, pos: int) -> tuple[Evaluator, int]:
+    """Compile the real value starting at ``text[pos]`` (see :func:`read_value`).
+
+    Parameters
+    ----------
+    text
+        A line prepared by the lexer: no comments, no white space, lower case.
+    pos
+        0-based index where the value starts, 0 to ``len(text)``.
+
+    Returns
+    -------
+    evaluate : Evaluator
+        Called with the parameters, returns the value (always finite) as
+        :func:`read_value` would read it then, or raises its NCError.
+    end : int
+        Index just after the value; :data:`RAISES` when ``evaluate`` always raises
+        (the text is malformed there, or a constant part cannot be evaluated).
+    """
+    node, end = _compile_value(text, pos, len(text), 0)
+    return _evaluator(node), end
 
 
 def expand_parameters(text: str, params: Parameters) -> str:
@@ -423,6 +466,28 @@ def read_assignment(text: str, pos: int, params: Parameters) -> tuple[int | str,
     n = len(text)
     if not 0 <= pos <= n:
         raise NCError(f"start index {pos} is outside the text (0 to {n})")
+    place = (text, pos)
+    compiled = _COMPILED_SETTINGS.get(place, _UNSEEN)
+    if compiled is _UNSEEN:
+        _remember_setting(place, None)
+        return read_assignment_once(text, pos, params)
+    if compiled is None:
+        compiled = _remember_setting(place, compile_setting(text, pos))
+    read_key, evaluate, end = compiled
+    key = read_key(params)
+    return key, evaluate(params), end
+
+
+def read_value_once(text: str, pos: int, params: Parameters) -> tuple[float, int]:
+    """:func:`read_value` reading and evaluating in one pass, nothing compiled or kept:
+    for text met once (the lexer compiles a line met again)."""
+    return _value(text, pos, len(text), params, 0)
+
+
+def read_assignment_once(text: str, pos: int, params: Parameters) -> tuple[int | str, float, int]:
+    """:func:`read_assignment` reading and evaluating in one pass, nothing compiled or
+    kept."""
+    n = len(text)
     if pos >= n or text[pos] != "#":
         raise NCError(
             "expected a parameter setting such as #1=2 or #<name>=2"
@@ -497,31 +562,6 @@ def _value(text: str, pos: int, n: int, params: Parameters, depth: int) -> tuple
     return float(literal), found.end()
 
 
-def _operator(text: str, pos: int, n: int, open_pos: int) -> tuple[int, int]:
-    """Read the binary operator or ']' at ``pos``; return its code and its end."""
-    if pos >= n:
-        raise NCError(f"missing ']' to close the '[' at column {open_pos + 1}", column=pos + 1)
-    c = text[pos]
-    if c == "]":
-        return _CLOSE, pos + 1
-    op = _SYMBOL_OPERATORS.get(c)
-    if op is not None:
-        if op == _MUL and pos + 1 < n and text[pos + 1] == "*":
-            return _POW, pos + 2
-        return op, pos + 1
-    op = _WORD_OPERATORS.get(text[pos : pos + 2])
-    if op is not None:
-        return op, pos + 2
-    op = _WORD_OPERATORS.get(text[pos : pos + 3])
-    if op is not None:
-        return op, pos + 3
-    raise NCError(
-        f"expected a binary operator ({_OPERATOR_LIST}) or ']' to close the '[' at "
-        f"column {open_pos + 1}, found '{c}'",
-        column=pos + 1,
-    )
-
-
 def _expression(text: str, pos: int, n: int, params: Parameters, depth: int) -> tuple[float, int]:
     """Evaluate the bracketed expression whose '[' is at ``pos``.
 
@@ -546,6 +586,90 @@ def _expression(text: str, pos: int, n: int, params: Parameters, depth: int) -> 
         value, end = _value(text, after, n, params, depth + 1)
         values.append(value)
         op, after = _operator(text, end, n, pos)
+
+
+def _function(text: str, pos: int, n: int, params: Parameters, depth: int) -> tuple[float, int]:
+    """Evaluate the function call whose name starts at ``pos``."""
+    bracket = pos
+    while bracket < n and "a" <= text[bracket] <= "z":
+        bracket += 1
+    name = text[pos:bracket]
+    if name not in _FUNCTIONS:
+        raise NCError(
+            f"unknown function or word '{name}': expected a value or one of the "
+            f"functions {_FUNCTION_LIST}",
+            column=pos + 1,
+        )
+    if bracket >= n or text[bracket] != "[":
+        raise NCError(
+            f"function {name} must be followed by '[', e.g. {name}[1]"
+            if name != "atan"
+            else "function atan must be followed by '[', e.g. atan[1]/[2]",
+            column=bracket + 1,
+        )
+    if name == "exists":
+        return _exists(text, bracket, n, params, depth)
+    x, end = _expression(text, bracket, n, params, depth + 1)
+    if name == "atan":
+        if end + 1 >= n or text[end] != "/" or text[end + 1] != "[":
+            raise NCError(
+                "atan takes two arguments written atan[y]/[x]; expected '/[' after "
+                f"atan[{_fmt(x)}]",
+                column=end + 1,
+            )
+        x2, end = _expression(text, end + 1, n, params, depth + 1)
+        return math.atan2(x, x2) * _RAD, end
+    return _function_value(name, x, pos + 1), end
+
+
+def _exists(text: str, bracket: int, n: int, params: Parameters, depth: int) -> tuple[float, int]:
+    """Evaluate ``exists[#<name>]`` or ``exists[#n]`` whose '[' is at ``bracket``."""
+    hash_pos = bracket + 1
+    if hash_pos >= n or text[hash_pos] != "#":
+        raise NCError("exists takes a parameter, e.g. exists[#<depth>]", column=hash_pos + 1)
+    if hash_pos + 1 < n and text[hash_pos + 1] == "<":
+        name, end = _name(text, hash_pos, n)
+        found = name in (params._globals if name[0] == "_" else params._locals)
+    else:
+        number, end = _value(text, hash_pos + 1, n, params, depth + 1)
+        index = round(number)
+        if abs(number - index) > _INDEX_TOLERANCE:
+            raise NCError(
+                f"parameter number #{_fmt(number)} is not an integer; {_range_text()}",
+                column=hash_pos + 1,
+            )
+        found = 1 <= index <= MAX_PARAMETER
+    if end >= n or text[end] != "]":
+        raise NCError(
+            "exists takes a single parameter; expected ']' after it, e.g. exists[#<depth>]",
+            column=end + 1,
+        )
+    return (1.0 if found else 0.0), end + 1
+
+
+def _operator(text: str, pos: int, n: int, open_pos: int) -> tuple[int, int]:
+    """Read the binary operator or ']' at ``pos``; return its code and its end."""
+    if pos >= n:
+        raise NCError(f"missing ']' to close the '[' at column {open_pos + 1}", column=pos + 1)
+    c = text[pos]
+    if c == "]":
+        return _CLOSE, pos + 1
+    op = _SYMBOL_OPERATORS.get(c)
+    if op is not None:
+        if op == _MUL and pos + 1 < n and text[pos + 1] == "*":
+            return _POW, pos + 2
+        return op, pos + 1
+    op = _WORD_OPERATORS.get(text[pos : pos + 2])
+    if op is not None:
+        return op, pos + 2
+    op = _WORD_OPERATORS.get(text[pos : pos + 3])
+    if op is not None:
+        return op, pos + 3
+    raise NCError(
+        f"expected a binary operator ({_OPERATOR_LIST}) or ']' to close the '[' at "
+        f"column {open_pos + 1}, found '{c}'",
+        column=pos + 1,
+    )
 
 
 def _apply(op: int, a: float, b: float, pos: int) -> float:
@@ -613,100 +737,467 @@ def _apply(op: int, a: float, b: float, pos: int) -> float:
     return result
 
 
-def _function(text: str, pos: int, n: int, params: Parameters, depth: int) -> tuple[float, int]:
-    """Evaluate the function call whose name starts at ``pos``."""
+# ---------------------------------------------------------------------------------------
+# Compiled reading. A value is read once per place of a line (text, position) into a
+# node: a float when it is a constant, else an Evaluator that computes it from the
+# parameters at the time it is called, so a line repeated by an O-word loop, or written
+# again later, is not read again. Every error, malformed text included, becomes a node
+# that raises when it is evaluated, placed where the reader met it: the nodes before it
+# are evaluated first, so that a line raises the same error, at the same column, as a
+# reader that evaluates while it reads (LinuxCNC's order: ``[1/0+]`` is a division by
+# zero, not a missing value). A piece whose evaluation raises ends at _STOP.
+
+#: A value compiled for one place of one line; called with the parameters, it returns the
+#: value or raises the error of that place.
+Evaluator = Callable[[Parameters], float]
+Node = float | Evaluator
+#: A compiled parameter setting: the key's reader, the value's evaluator and the end.
+Setting = tuple[Callable[[Parameters], int | str], Evaluator, int]
+
+#: The end of a compiled piece that always raises when evaluated.
+RAISES = -1
+_STOP = RAISES
+_C = TypeVar("_C", tuple["Evaluator", int], None)
+_S = TypeVar("_S", "Setting", None)
+#: Most compiled places kept; the store is emptied when full, so memory stays bounded
+#: whatever the program's length.
+CACHE_SIZE = 4096
+#: Compiled places by (text, position); None for a place seen once (read directly then:
+#: compiling costs about one more reading, so only places met again are compiled).
+_COMPILED: dict[tuple[str, int], tuple[Evaluator, int] | None] = {}
+_COMPILED_SETTINGS: dict[tuple[str, int], Setting | None] = {}
+_UNSEEN: Any = object()
+
+
+def _remember(key: tuple[str, int], compiled: _C) -> _C:
+    if len(_COMPILED) >= CACHE_SIZE:
+        _COMPILED.clear()
+    _COMPILED[key] = compiled
+    return compiled
+
+
+def _remember_setting(key: tuple[str, int], compiled: _S) -> _S:
+    if len(_COMPILED_SETTINGS) >= CACHE_SIZE:
+        _COMPILED_SETTINGS.clear()
+    _COMPILED_SETTINGS[key] = compiled
+    return compiled
+
+
+def _evaluator(node: Node) -> Evaluator:
+    if isinstance(node, float):
+        constant = node
+        return lambda params: constant
+    return node
+
+
+def raising(message: str, column: int | None) -> Evaluator:
+    """An evaluator that raises a new NCError(message, column) each time it is evaluated."""
+
+    def evaluate(params: Parameters) -> float:
+        raise NCError(message, column=column)
+
+    return evaluate
+
+
+def _failing(error: NCError) -> Evaluator:
+    return raising(error.message, error.column)
+
+
+def _then(first: Sequence[Node], last: Evaluator) -> Evaluator:
+    """Evaluate the nodes ``first`` in order (for the errors they raise), then ``last``."""
+    before = [node for node in first if not isinstance(node, float)]
+
+    def evaluate(params: Parameters) -> float:
+        for node in before:
+            node(params)
+        return last(params)
+
+    return evaluate
+
+
+def _compile_value(text: str, pos: int, n: int, depth: int) -> tuple[Node, int]:
+    """Compile the real value at ``pos`` (see :func:`read_value`)."""
+    if pos >= n:
+        return raising(
+            "expected a value (number, #parameter, [expression] or function) but the line ends",
+            pos + 1,
+        ), _STOP
+    if depth > MAX_NESTING:
+        return raising(f"expression nested deeper than {MAX_NESTING} levels", pos + 1), _STOP
+    c = text[pos]
+    if c == "[":
+        return _compile_expression(text, pos, n, depth)
+    if c == "#":
+        return _compile_parameter(text, pos, n, depth)
+    if c in _SIGNS and pos + 1 < n and text[pos + 1] not in _NUMBER_START:
+        inner, end = _compile_value(text, pos + 1, n, depth + 1)
+        if end == _STOP or c == "+":
+            return inner, end
+        if isinstance(inner, float):
+            return -inner, end
+        negated = inner
+        return (lambda params: -negated(params)), end
+    if "a" <= c <= "z":
+        return _compile_function(text, pos, n, depth)
+    found = _number(text, pos)
+    if found is None:
+        return raising(
+            f"expected a value (number, #parameter, [expression] or function), found '{c}'",
+            pos + 1,
+        ), _STOP
+    literal = found.group()
+    try:
+        check_number_text(literal, pos + 1)  # so that float() is finite
+    except NCError as err:
+        return _failing(err), _STOP
+    return float(literal), found.end()
+
+
+def _compile_parameter(text: str, pos: int, n: int, depth: int) -> tuple[Node, int]:
+    """Compile ``#<name>``, ``#n``, ``#[expr]`` or ``##n`` whose '#' is at ``pos``."""
+    column = pos + 1
+    if pos + 1 < n and text[pos + 1] == "<":
+        try:
+            name, end = _name(text, pos, n)
+        except NCError as err:
+            return _failing(err), _STOP
+        if name[0] == "_":
+
+            def named(params: Parameters) -> float:
+                value = params._globals.get(name)
+                if value is None:
+                    raise _undefined(name, column)
+                return value
+
+        else:
+
+            def named(params: Parameters) -> float:
+                value = params._locals.get(name)
+                if value is None:
+                    raise _undefined(name, column)
+                return value
+
+        return named, end
+    number, end = _compile_value(text, pos + 1, n, depth + 1)
+    if end == _STOP:
+        return number, end
+    if isinstance(number, float):
+        try:
+            index = _index(number, column)
+        except NCError as err:
+            return _failing(err), _STOP
+        return (lambda params: params._numbered[index]), end
+    indirect = number
+    return (lambda params: params._numbered[_index(indirect(params), column)]), end
+
+
+def _compile_expression(text: str, pos: int, n: int, depth: int) -> tuple[Node, int]:
+    """Compile the bracketed expression whose '[' is at ``pos``.
+
+    Operator precedence is resolved with an operand stack and an operator stack, as the
+    operators are met; the nodes evaluate their operands and apply their operators in
+    that same order.
+    """
+    value, end = _compile_value(text, pos + 1, n, depth + 1)
+    if end == _STOP:
+        return value, end
+    values = [value]
+    try:
+        op, after = _operator(text, end, n, pos)
+    except NCError as err:
+        return _then(values, _failing(err)), _STOP
+    if op == _CLOSE:
+        return value, after
+    pending: list[tuple[int, int]] = []  # (operator, its 0-based position)
+    while True:
+        prec = _PRECEDENCE[op]
+        while pending and _PRECEDENCE[pending[-1][0]] >= prec:
+            top, top_pos = pending.pop()
+            right = values.pop()
+            values[-1] = _binary(top, values[-1], right, top_pos)
+        if op == _CLOSE:
+            return values[0], after
+        pending.append((op, end))
+        value, end = _compile_value(text, after, n, depth + 1)
+        if end == _STOP:
+            return _then(values, _evaluator(value)), _STOP
+        values.append(value)
+        try:
+            op, after = _operator(text, end, n, pos)
+        except NCError as err:
+            return _then(values, _failing(err)), _STOP
+
+
+def _binary(op: int, a: Node, b: Node, pos: int) -> Node:
+    """The node of ``a op b``: :func:`_apply` of the operands' values."""
+    if isinstance(a, float) and isinstance(b, float):
+        try:
+            return _apply(op, a, b, pos)
+        except NCError as err:
+            return _failing(err)
+    if isinstance(b, float) and op in (_ADD, _SUB, _MUL):
+        return _binary_constant(op, _evaluator(a), b, pos)
+    left, right = _evaluator(a), _evaluator(b)
+    if op == _ADD:
+
+        def evaluate(params: Parameters) -> float:
+            x = left(params)
+            y = right(params)
+            result = x + y
+            return result if _isfinite(result) else _apply(_ADD, x, y, pos)
+
+    elif op == _SUB:
+
+        def evaluate(params: Parameters) -> float:
+            x = left(params)
+            y = right(params)
+            result = x - y
+            return result if _isfinite(result) else _apply(_SUB, x, y, pos)
+
+    elif op == _MUL:
+
+        def evaluate(params: Parameters) -> float:
+            x = left(params)
+            y = right(params)
+            result = x * y
+            return result if _isfinite(result) else _apply(_MUL, x, y, pos)
+
+    else:
+
+        def evaluate(params: Parameters) -> float:
+            return _apply(op, left(params), right(params), pos)
+
+    return evaluate
+
+
+def _binary_constant(op: int, left: Evaluator, y: float, pos: int) -> Evaluator:
+    """The node of ``left op y`` for ``+``, ``-`` and ``*`` with a constant ``y``."""
+    if op == _ADD:
+
+        def evaluate(params: Parameters) -> float:
+            x = left(params)
+            result = x + y
+            return result if _isfinite(result) else _apply(_ADD, x, y, pos)
+
+    elif op == _SUB:
+
+        def evaluate(params: Parameters) -> float:
+            x = left(params)
+            result = x - y
+            return result if _isfinite(result) else _apply(_SUB, x, y, pos)
+
+    else:
+
+        def evaluate(params: Parameters) -> float:
+            x = left(params)
+            result = x * y
+            return result if _isfinite(result) else _apply(_MUL, x, y, pos)
+
+    return evaluate
+
+
+def _compile_function(text: str, pos: int, n: int, depth: int) -> tuple[Node, int]:
+    """Compile the function call whose name starts at ``pos``."""
     bracket = pos
     while bracket < n and "a" <= text[bracket] <= "z":
         bracket += 1
     name = text[pos:bracket]
     if name not in _FUNCTIONS:
-        raise NCError(
+        return raising(
             f"unknown function or word '{name}': expected a value or one of the "
             f"functions {_FUNCTION_LIST}",
-            column=pos + 1,
-        )
+            pos + 1,
+        ), _STOP
     if bracket >= n or text[bracket] != "[":
-        raise NCError(
+        return raising(
             f"function {name} must be followed by '[', e.g. {name}[1]"
             if name != "atan"
             else "function atan must be followed by '[', e.g. atan[1]/[2]",
-            column=bracket + 1,
-        )
+            bracket + 1,
+        ), _STOP
     if name == "exists":
-        return _exists(text, bracket, n, params, depth)
-    x, end = _expression(text, bracket, n, params, depth + 1)
-    column = pos + 1
-    if name == "sin":
-        return math.sin(x * _DEG), end
-    if name == "cos":
-        return math.cos(x * _DEG), end
-    if name == "tan":
-        return math.tan(x * _DEG), end
-    if name == "abs":
-        return abs(x), end
+        return _compile_exists(text, bracket, n, depth)
+    x, end = _compile_expression(text, bracket, n, depth + 1)
+    if end == _STOP:
+        return x, end
     if name == "atan":
-        if end + 1 >= n or text[end] != "/" or text[end + 1] != "[":
+        return _compile_atan(text, x, end, n, depth)
+    column = pos + 1
+    if isinstance(x, float):
+        try:
+            return _function_value(name, x, column), end
+        except NCError as err:
+            return _failing(err), _STOP
+    argument = x
+    return (lambda params: _function_value(name, argument(params), column)), end
+
+
+def _compile_atan(text: str, y: Node, end: int, n: int, depth: int) -> tuple[Node, int]:
+    """Compile ``/[x]`` of ``atan[y]/[x]``, ``y`` compiled and ending at ``end``."""
+    first = _evaluator(y)
+    if end + 1 >= n or text[end] != "/" or text[end + 1] != "[":
+        column = end + 1
+
+        def missing(params: Parameters) -> float:
             raise NCError(
                 "atan takes two arguments written atan[y]/[x]; expected '/[' after "
-                f"atan[{_fmt(x)}]",
-                column=end + 1,
+                f"atan[{_fmt(first(params))}]",
+                column=column,
             )
-        x2, end = _expression(text, end + 1, n, params, depth + 1)
-        return math.atan2(x, x2) * _RAD, end
+
+        return missing, _STOP
+    x, end = _compile_expression(text, end + 1, n, depth + 1)
+    if end == _STOP:
+        return _then([y], _evaluator(x)), _STOP
+    second = _evaluator(x)
+    return (lambda params: math.atan2(first(params), second(params)) * _RAD), end
+
+
+def _function_value(name: str, x: float, column: int) -> float:
+    """``name[x]`` for the functions of one argument; ``column`` locates errors."""
+    if name == "sin":
+        return math.sin(x * _DEG)
+    if name == "cos":
+        return math.cos(x * _DEG)
+    if name == "tan":
+        return math.tan(x * _DEG)
+    if name == "abs":
+        return abs(x)
     if name == "sqrt":
         if x < 0.0:
             raise NCError(
                 f"sqrt[{_fmt(x)}]: the argument of sqrt must not be negative", column=column
             )
-        return math.sqrt(x), end
+        return math.sqrt(x)
     if name == "asin" or name == "acos":
         if not -1.0 <= x <= 1.0:
             raise NCError(
                 f"{name}[{_fmt(x)}]: the argument of {name} must lie in [-1, 1]",
                 column=column,
             )
-        return (math.asin(x) if name == "asin" else math.acos(x)) * _RAD, end
+        return (math.asin(x) if name == "asin" else math.acos(x)) * _RAD
     if name == "ln":
         if x <= 0.0:
             raise NCError(f"ln[{_fmt(x)}]: the argument of ln must be positive", column=column)
-        return math.log(x), end
+        return math.log(x)
     if name == "exp":
         try:
-            return math.exp(x), end
+            return math.exp(x)
         except OverflowError:
             raise NCError(
                 f"exp[{_fmt(x)}] overflows: the argument must be at most about 709.78",
                 column=column,
             ) from None
     if name == "fix":
-        return float(math.floor(x)), end
+        return float(math.floor(x))
     if name == "fup":
-        return float(math.ceil(x)), end
+        return float(math.ceil(x))
     # round: to nearest, halves away from zero (LinuxCNC), not Python's half-to-even.
     magnitude = math.floor(abs(x) + 0.5)
-    return float(magnitude if x >= 0.0 else -magnitude), end
+    return float(magnitude if x >= 0.0 else -magnitude)
 
 
-def _exists(text: str, bracket: int, n: int, params: Parameters, depth: int) -> tuple[float, int]:
-    """Evaluate ``exists[#<name>]`` or ``exists[#n]`` whose '[' is at ``bracket``."""
+def _compile_exists(text: str, bracket: int, n: int, depth: int) -> tuple[Node, int]:
+    """Compile ``exists[#<name>]`` or ``exists[#n]`` whose '[' is at ``bracket``."""
     hash_pos = bracket + 1
     if hash_pos >= n or text[hash_pos] != "#":
-        raise NCError("exists takes a parameter, e.g. exists[#<depth>]", column=hash_pos + 1)
+        return raising("exists takes a parameter, e.g. exists[#<depth>]", hash_pos + 1), _STOP
+    closed = "exists takes a single parameter; expected ']' after it, e.g. exists[#<depth>]"
     if hash_pos + 1 < n and text[hash_pos + 1] == "<":
-        name, end = _name(text, hash_pos, n)
-        found = name in (params._globals if name[0] == "_" else params._locals)
-    else:
-        number, end = _value(text, hash_pos + 1, n, params, depth + 1)
-        index = round(number)
-        if abs(number - index) > _INDEX_TOLERANCE:
+        try:
+            name, end = _name(text, hash_pos, n)
+        except NCError as err:
+            return _failing(err), _STOP
+        if end >= n or text[end] != "]":
+            return raising(closed, end + 1), _STOP
+        if name[0] == "_":
+            return (lambda params: 1.0 if name in params._globals else 0.0), end + 1
+        return (lambda params: 1.0 if name in params._locals else 0.0), end + 1
+    number, end = _compile_value(text, hash_pos + 1, n, depth + 1)
+    if end == _STOP:
+        return number, end
+    argument = _evaluator(number)
+    bracket_end = end if end < n and text[end] == "]" else _STOP
+
+    def exists(params: Parameters) -> float:
+        value = argument(params)
+        index = round(value)
+        if abs(value - index) > _INDEX_TOLERANCE:
             raise NCError(
-                f"parameter number #{_fmt(number)} is not an integer; {_range_text()}",
+                f"parameter number #{_fmt(value)} is not an integer; {_range_text()}",
                 column=hash_pos + 1,
             )
-        found = 1 <= index <= MAX_PARAMETER
-    if end >= n or text[end] != "]":
-        raise NCError(
-            "exists takes a single parameter; expected ']' after it, e.g. exists[#<depth>]",
-            column=end + 1,
+        if bracket_end == _STOP:
+            raise NCError(closed, column=end + 1)
+        return 1.0 if 1 <= index <= MAX_PARAMETER else 0.0
+
+    return exists, (_STOP if bracket_end == _STOP else end + 1)
+
+
+def compile_setting(text: str, pos: int) -> Setting:
+    """Compile the parameter setting whose '#' is at ``text[pos]`` (see
+    :func:`read_assignment`).
+
+    Returns
+    -------
+    read_key : callable
+        Called with the parameters, returns the key (parameter number or name).
+    evaluate : Evaluator
+        Called with the parameters after ``read_key``, returns the value to assign.
+    end : int
+        Index just after the value; :data:`RAISES` when the setting is malformed: then
+        ``read_key`` raises, or ``evaluate`` does, the error that reading it raises.
+    """
+    n = len(text)
+    unused = raising("internal: a malformed setting's value is not evaluated", None)
+    if pos >= n or text[pos] != "#":
+        message = "expected a parameter setting such as #1=2 or #<name>=2" + (
+            f", found '{text[pos]}'" if pos < n else ", found the end of the line"
         )
-    return (1.0 if found else 0.0), end + 1
+        return _keyraising(raising(message, pos + 1)), unused, _STOP
+    read_key: Callable[[Parameters], int | str]
+    after = pos + 1
+    if after < n and text[after] == "<":
+        try:
+            name, after = _name(text, pos, n)
+        except NCError as err:
+            return _keyraising(_failing(err)), unused, _STOP
+        read_key = lambda params: name  # noqa: E731
+    else:
+        number, after = _compile_value(text, after, n, 1)
+        if after == _STOP:
+            return _keyraising(_evaluator(number)), unused, _STOP
+        column = pos + 1
+        if isinstance(number, float):
+            try:
+                index = _index(number, column)
+            except NCError as err:
+                return _keyraising(_failing(err)), unused, _STOP
+            read_key = lambda params: index  # noqa: E731
+        else:
+            indirect = number
+            read_key = lambda params: _index(indirect(params), column)  # noqa: E731
+    if after >= n or text[after] != "=":
+        message = "expected '=' after the parameter in a setting such as #1=2, found " + (
+            f"'{text[after]}'" if after < n else "the end of the line"
+        )
+        key_only = read_key
+        equals_column = after + 1
+
+        def bad_key(params: Parameters) -> int | str:
+            key_only(params)
+            raise NCError(message, column=equals_column)
+
+        return bad_key, unused, _STOP
+    value, end = _compile_value(text, after + 1, n, 0)
+    return read_key, _evaluator(value), end
+
+
+def _keyraising(raising: Evaluator) -> Callable[[Parameters], int | str]:
+    """A key reader that raises the error of ``raising``."""
+
+    def read_key(params: Parameters) -> int | str:
+        raising(params)
+        raise AssertionError("unreachable: the node raises")
+
+    return read_key

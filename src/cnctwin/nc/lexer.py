@@ -4,16 +4,30 @@ A block is read in two passes of the kind RS274NGC prescribes: comments are remo
 (``(...)`` anywhere, ``;`` to the end of the line), all white space is dropped and the
 text is lower-cased; then the words are read. Lines made only of letters and numbers take
 a fast path through two compiled regular expressions; lines with parameters, expressions
-or O-words go through :mod:`cnctwin.nc.expressions`.
+or O-words go through :mod:`cnctwin.nc.expressions`, compiled once per distinct line: a
+line met again (an O-word loop's body, or the same text later) only evaluates its
+compiled values with the parameters of the moment.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from cnctwin.errors import NCError
-from cnctwin.nc.expressions import Parameters, read_assignment, read_value
+from cnctwin.nc.expressions import (
+    CACHE_SIZE,
+    RAISES,
+    Evaluator,
+    Parameters,
+    compile_setting,
+    compile_value,
+    raising,
+    read_assignment_once,
+    read_value_once,
+)
 from cnctwin.nc.limits import MAX_NUMBER_CHARS, check_number_text, check_word
 
 __all__ = ["Block", "OWord", "lex_block", "strip_comments", "O_KEYWORDS"]
@@ -24,6 +38,22 @@ _WORD = re.compile(rf"([a-z@^])({_NUMBER})")
 _MESSAGE = re.compile(r"^\s*(msg|debug|print)\s*,(.*)$", re.IGNORECASE | re.DOTALL)
 _PROGRAM_NUMBER = re.compile(r"^[o:][0-9]+$")
 _NO_ASSIGNMENTS: list[tuple[int | str, float]] = []  # shared, never mutated
+
+#: One word or setting of a compiled line: ``("#", read_key, value)`` for a parameter
+#: setting, ``(letter, _NO_KEY, value)`` for a word.
+_Step = tuple[str, Callable[[Parameters], int | str], Evaluator]
+#: Lines read the general way, by the raw line: their messages and compiled steps, or None
+#: for a line seen once (read directly then: compiling costs about one more reading, so
+#: only lines met again are compiled). Bounded like the expressions' store.
+_COMPILED_LINES: dict[str, tuple[tuple[tuple[str, str], ...], tuple[_Step, ...]] | None] = {}
+_UNSEEN: Any = object()
+
+
+def _no_key(params: Parameters) -> int | str:
+    raise AssertionError("a word has no parameter key")
+
+
+_NO_KEY = _no_key
 
 #: O-word keywords (LinuxCNC subroutines and control flow).
 O_KEYWORDS = (
@@ -176,6 +206,9 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
         For anything that is not valid RS274NGC; ``line`` is left 0 and ``column`` refers
         to the comment-free, space-free text.
     """
+    compiled = _COMPILED_LINES.get(raw, _UNSEEN)
+    if compiled is not None and compiled is not _UNSEEN:
+        return _evaluate_line(compiled[0], compiled[1], params)
     messages: list[tuple[str, str]] = []
     text = strip_comments(raw, messages) if "(" in raw or ";" in raw else raw
     text = text.replace(" ", "")
@@ -199,7 +232,16 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
                 check_number_text(number)
         _sort_words(block, [(letter, float(number)) for letter, number in found])
         return block
-    return _lex_general(text, params, messages)
+    if text[0] == "o":
+        return _oword(text, messages)
+    if len(_COMPILED_LINES) >= CACHE_SIZE:
+        _COMPILED_LINES.clear()
+    if compiled is _UNSEEN:  # first sight: read and evaluate in one pass
+        _COMPILED_LINES[raw] = None
+        return _lex_once(text, params, messages)
+    steps = _compile_line(text)  # met again: compiled, evaluated from now on
+    _COMPILED_LINES[raw] = (tuple(messages), steps)
+    return _evaluate_line(messages, steps, params)
 
 
 def _sort_words(block: Block, pairs: list[tuple[str, float]]) -> None:
@@ -225,38 +267,83 @@ def _sort_words(block: Block, pairs: list[tuple[str, float]]) -> None:
             words[letter] = value
 
 
-def _lex_general(text: str, params: Parameters, messages: list[tuple[str, str]]) -> Block:
-    """Slow path: parameters, expressions, O-words."""
+def _oword(text: str, messages: list[tuple[str, str]]) -> Block:
+    """The block of an O-word line (its arguments are read when it runs)."""
     block = Block(messages=messages)
-    if text[0] == "o":
-        found = _O_WORD.match(text)
-        if found:
-            block.oword = OWord(found.group(1), found.group(2), text, found.end())
-            return block
-        if _PROGRAM_NUMBER.match(text):
-            return block
-        raise NCError(
-            f"unrecognised O-word statement '{text}': expected o<label> followed by one of "
-            + ", ".join(O_KEYWORDS),
-            column=1,
-        )
+    found = _O_WORD.match(text)
+    if found:
+        block.oword = OWord(found.group(1), found.group(2), text, found.end())
+        return block
+    if _PROGRAM_NUMBER.match(text):
+        return block
+    raise NCError(
+        f"unrecognised O-word statement '{text}': expected o<label> followed by one of "
+        + ", ".join(O_KEYWORDS),
+        column=1,
+    )
+
+
+def _lex_once(text: str, params: Parameters, messages: list[tuple[str, str]]) -> Block:
+    """The block of a line with parameters or expressions, read and evaluated in one
+    pass (as :func:`_compile_line` then :func:`_evaluate_line` would give it)."""
+    block = Block(messages=messages)
     pairs: list[tuple[str, float]] = []
     pos = 0
     n = len(text)
     while pos < n:
         ch = text[pos]
         if ch == "#":
-            key, value, pos = read_assignment(text, pos, params)
+            key, value, pos = read_assignment_once(text, pos, params)
             block.assignments.append((key, value))
             continue
         if "a" <= ch <= "z" or ch == "@" or ch == "^":
-            value, pos = read_value(text, pos + 1, params)
+            value, pos = read_value_once(text, pos + 1, params)
             pairs.append((ch, value))
             continue
-        raise NCError(
-            f"unexpected character '{ch}' in '{text}': expected a word letter (A-Z, @, ^) or '#'",
-            column=pos + 1,
-        )
+        raise NCError(_unexpected(ch, text), column=pos + 1)
+    _sort_words(block, pairs)
+    return block
+
+
+def _unexpected(ch: str, text: str) -> str:
+    return f"unexpected character '{ch}' in '{text}': expected a word letter (A-Z, @, ^) or '#'"
+
+
+def _compile_line(text: str) -> tuple[_Step, ...]:
+    """Compile a line with parameters or expressions into its steps, in the order
+    written. A malformed line ends with a step that raises its error."""
+    steps: list[_Step] = []
+    pos = 0
+    n = len(text)
+    while pos < n:
+        ch = text[pos]
+        if ch == "#":
+            read_key, value, pos = compile_setting(text, pos)
+            steps.append(("#", read_key, value))
+        elif "a" <= ch <= "z" or ch == "@" or ch == "^":
+            value, pos = compile_value(text, pos + 1)
+            steps.append((ch, _NO_KEY, value))
+        else:
+            steps.append(("?", _NO_KEY, raising(_unexpected(ch, text), pos + 1)))
+            break
+        if pos == RAISES:
+            break
+    return tuple(steps)
+
+
+def _evaluate_line(
+    messages: Sequence[tuple[str, str]], steps: tuple[_Step, ...], params: Parameters
+) -> Block:
+    """The block of a compiled line, its values read from ``params`` now."""
+    block = Block(messages=list(messages))
+    assignments = block.assignments
+    pairs: list[tuple[str, float]] = []
+    for letter, read_key, value in steps:
+        if letter == "#":
+            key = read_key(params)
+            assignments.append((key, value(params)))
+        else:
+            pairs.append((letter, value(params)))
     _sort_words(block, pairs)
     return block
 

@@ -13,7 +13,11 @@ from dataclasses import dataclass, field
 from cnctwin.nc.limits import MAX_PROGRAM_BYTES, MAX_REPEATED_LINES, MAX_SEGMENTS
 from cnctwin.nc.segments import Vec3
 
-__all__ = ["NCSetup", "ToolEntry"]
+__all__ = ["DEFAULT_RAPID_MM_MIN", "NCSetup", "ToolEntry"]
+
+#: Rapid traverse rate in mm/min of a machine that is not configured (the default of the
+#: configuration's ``[machine] rapid_mm_min``).
+DEFAULT_RAPID_MM_MIN = 10_000.0
 
 
 @dataclass(frozen=True, slots=True)

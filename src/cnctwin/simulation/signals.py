@@ -50,9 +50,8 @@ from cnctwin.drives import (
     spindle_preset,
 )
 from cnctwin.errors import ConfigError
-from cnctwin.geometry import AXIAL_KINDS, Cutter, DexelStock
+from cnctwin.geometry import AXIAL_KINDS, Cutter, DexelStock, slice_low_mm
 from cnctwin.geometry import Engagement as DexelEngagement
-from cnctwin.geometry.engagement import slice_low_mm
 from cnctwin.mechanics import (
     CuttingCoefficients,
     DrillingMaterial,
