@@ -252,3 +252,47 @@ def test_bad_configuration_is_refused_in_one_line(tmp_path: Path) -> None:
 
     with pytest.raises(ConfigError, match="twin.chatter.avoid needs the NC program"):
         asyncio.run(build())
+
+
+class _Garbage(_Blocks):
+    """Serves good blocks, or (``bad``) one the machine's decoder refuses."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.bad = False
+
+    async def read_block(self, name: str, since: int) -> SampleBlock:
+        if self.bad:
+            raise DataError("block 'vibration': Machine.Vibration.Block: rate nan Hz; valid: ...")
+        return await super().read_block(name, since)
+
+
+def _cycle(stage: ChatterStage, k: int) -> CycleState:
+    state = CycleState(k, 0.0, 1.0 + 0.01 * k, connected=True, tool=1, line=14)
+    state.measured = {"spindle_rpm": 8000.0, "t_s": 1.0 + 0.01 * k}
+    return asyncio.run(stage.process(state))
+
+
+def test_a_garbage_block_after_good_ones_is_rejected_and_the_stage_goes_on() -> None:
+    blocks = _Garbage()
+    stage = ChatterStage(
+        ChatterConfig(enabled=True, avoid=False), blocks, {1: 4}, None, (50, 120), (0, 150)
+    )  # type: ignore[arg-type]
+    _cycle(stage, 0)  # a good block: the machine serves vibration
+    blocks.bad = True
+    state = _cycle(stage, 1)
+    assert [e.kind for e in state.events] == ["chatter_block_rejected"]
+    assert "rate nan Hz" in state.events[0].message and not state.commands
+    blocks.bad = False
+    state = _cycle(stage, 2)  # the next good block is taken again
+    assert not state.events and "chatter_vibration_um" in state.predicted
+
+
+def test_a_machine_whose_first_block_is_garbage_is_refused() -> None:
+    blocks = _Garbage()
+    blocks.bad = True
+    stage = ChatterStage(
+        ChatterConfig(enabled=True, avoid=False), blocks, {1: 4}, None, (50, 120), (0, 150)
+    )  # type: ignore[arg-type]
+    with pytest.raises(DataError, match=r"^twin\.chatter: block 'vibration'"):
+        _cycle(stage, 0)

@@ -40,8 +40,11 @@ app = typer.Typer(
 )
 
 #: With ``--once``: seconds the server still answers after the program ends, so that a client
-#: polling it (a twin over MTConnect or Modbus) reads the finished state before it goes.
-END_GRACE_S = 2.0
+#: polling it (a twin over MTConnect or Modbus, or one whose cycles run late on a loaded
+#: machine) reads the finished state before it goes. A twin that misses it keeps waiting for
+#: the machine to come back (docs/twin.md, "The lost-connection policy"); 2 s was missed by
+#: twins on a 2-core machine at load 10.
+END_GRACE_S = 10.0
 
 #: The packaged twin configuration whose [virtual] table is served by default.
 DEFAULT_CONFIG = "demo_twin.toml"

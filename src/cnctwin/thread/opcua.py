@@ -77,8 +77,6 @@ _RESTORE_S = 10.0
 #: Session timeout the client asks for, ms (asyncua servers grant at most 10 min).
 _SESSION_TIMEOUT_MS = 600_000
 
-#: Canonical signal name -> string identifier of its node in :data:`NAMESPACE_URI`.
-#: The dotted identifier is also the browse path below ``Objects/Machines``.
 #: The node a machine serves its vibration samples in (node id in the namespace
 #: :data:`NAMESPACE_URI`): a ByteString of little-endian float64 ``[first index, rate (Hz),
 #: channels, samples row by row...]`` of the newest samples, made when read
@@ -86,6 +84,15 @@ _SESSION_TIMEOUT_MS = 600_000
 #: coded value by value).
 BLOCK_NODE = "Machine.Vibration.Block"
 
+#: What a block read from a machine may hold (it is untrusted): channels, the sampling rate
+#: (Hz), the first sample's index and the number of values (16 MiB of float64).
+_BLOCK_CHANNELS = (1, 8)
+_BLOCK_RATE_HZ = (1.0, 1.0e6)
+_BLOCK_FIRST_MAX = 2**53
+_BLOCK_VALUES_MAX = 2**21
+
+#: Canonical signal name -> string identifier of its node in :data:`NAMESPACE_URI`.
+#: The dotted identifier is also the browse path below ``Objects/Machines``.
 NODE_MAP: dict[str, str] = {
     "t_s": "Machine.Production.ActiveProgram.ElapsedTime",
     "program_line": "Machine.Production.ActiveProgram.LineNumber",
@@ -376,14 +383,7 @@ class OpcUaConnection(MachineConnection):
             raise DataError(
                 f"block {name!r}: {self.endpoint} serves no {BLOCK_NODE} ({err})"
             ) from None
-        raw = packed if isinstance(packed, bytes) else b""
-        values = np.frombuffer(raw[: len(raw) // 8 * 8], dtype="<f8")
-        if values.size < 3 or values[2] < 1 or (values.size - 3) % int(values[2]):
-            raise DataError(f"block {name!r}: {BLOCK_NODE} of {values.size} values is garbage")
-        first, rate, channels = int(values[0]), float(values[1]), int(values[2])
-        samples = values[3:].reshape(-1, channels)
-        skip = min(max(since - first, 0), samples.shape[0])
-        return SampleBlock(name, first + skip, rate, samples[skip:])
+        return _decode_block(name, packed, since)
 
     async def _read_signal(self, name: str) -> float:
         client = self._client
@@ -687,3 +687,45 @@ def _checked(name: str, result: ua.DataValue) -> tuple[float, str | None]:
     if (spec.low is not None and value < spec.low) or (spec.high is not None and value > spec.high):
         return math.nan, f"value {value!r} outside {spec.low}..{spec.high} {spec.unit}"
     return value, None
+
+
+def _decode_block(name: str, packed: object, since: int) -> SampleBlock:
+    """The samples of a :data:`BLOCK_NODE` value from index ``since`` on, checked.
+
+    The value comes from the machine and is not trusted: a ByteString of little-endian
+    float64 ``[first index, rate (Hz), channels, samples row by row...]`` whose header is
+    finite and within :data:`_BLOCK_CHANNELS`, :data:`_BLOCK_RATE_HZ` and
+    :data:`_BLOCK_FIRST_MAX`, at most :data:`_BLOCK_VALUES_MAX` values, whole rows of finite
+    samples.
+
+    Raises
+    ------
+    DataError
+        Naming the block, the node and what is wrong.
+    """
+    where = f"block {name!r}: {BLOCK_NODE}"
+    if not isinstance(packed, bytes):
+        raise DataError(f"{where} holds {type(packed).__name__}; expected a ByteString")
+    if len(packed) % 8 or not 24 <= len(packed) <= 8 * _BLOCK_VALUES_MAX:
+        raise DataError(
+            f"{where} of {len(packed)} bytes; expected whole float64 values, "
+            f"3 to {_BLOCK_VALUES_MAX}"
+        )
+    values = np.frombuffer(packed, dtype="<f8")
+    first, rate, channels = (float(v) for v in values[:3])
+    low, high = _BLOCK_CHANNELS
+    if not (math.isfinite(channels) and channels.is_integer() and low <= channels <= high):
+        raise DataError(f"{where}: {channels!r} channels; valid: whole numbers {low} to {high}")
+    if not (math.isfinite(rate) and _BLOCK_RATE_HZ[0] <= rate <= _BLOCK_RATE_HZ[1]):
+        raise DataError(
+            f"{where}: rate {rate!r} Hz; valid: {_BLOCK_RATE_HZ[0]:g} to {_BLOCK_RATE_HZ[1]:g}"
+        )
+    if not (math.isfinite(first) and first.is_integer() and 0 <= first < _BLOCK_FIRST_MAX):
+        raise DataError(f"{where}: first index {first!r}; valid: whole numbers >= 0")
+    if (values.size - 3) % int(channels):
+        raise DataError(f"{where}: {values.size - 3} samples are not whole rows of {channels:g}")
+    samples = values[3:].reshape(-1, int(channels))
+    if not np.isfinite(samples).all():
+        raise DataError(f"{where}: a sample is not a finite number")
+    skip = min(max(since - int(first), 0), samples.shape[0])
+    return SampleBlock(name, int(first) + skip, rate, samples[skip:])

@@ -221,6 +221,7 @@ class ChatterStage:
         self._detected = False
         self._avoided: set[tuple[int, int]] = set()
         self._blind = False
+        self._served = False  # a valid block has come: a later bad one is the machine's fault
         self._latest: tuple[float, float] = (math.nan, math.nan)
         self._pending: asyncio.Future[SampleBlock] | None = None
         self._outputs: dict[str, float] = {}
@@ -255,7 +256,14 @@ class ChatterStage:
             self._blind = True
             return state
         except DataError as err:
-            raise DataError(f"twin.chatter: {err}") from None
+            if not self._served:  # the machine serves no usable block: a configuration error
+                raise DataError(f"twin.chatter: {err}") from None
+            # a garbage block from a machine that served good ones: rejected, never fed; the
+            # windows start again with the next good block
+            state.events.append(TwinEvent("chatter_block_rejected", str(err), state.received_s, {}))
+            self._blind = True
+            return state
+        self._served = True
         if block.first_index > self._next and self._next > 0:
             state.events.append(
                 TwinEvent(
