@@ -13,7 +13,7 @@ run. :func:`cnctwin.nc.summary.summarize` sums a run without making a segment pe
 ``segments()`` gives the segments the line-by-line path gives. Every number is computed with
 the same floating-point operations in the same order as on the line-by-line path (Motion.
 xyz_move, Motion.arc, ``arc_sweep_rad``), so the results are equal to the bit
-(``tests/nc/test_runs.py`` compares both ways).
+(``tests/nc/test_bulk_runs.py`` compares both ways).
 
 A run ends before the first line that is not such a line, that the line-by-line path would
 refuse or treat otherwise (a line over :data:`~cnctwin.nc.limits.MAX_NUMBER_CHARS`
