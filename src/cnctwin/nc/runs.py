@@ -132,7 +132,29 @@ def _numpy() -> Any:
 
 
 @dataclass(frozen=True, slots=True, eq=False)
-class StraightRun:
+class _Run:
+    """What every run holds: lines, positions and the state around its moves (the
+    attributes of :class:`StraightRun` and :class:`ArcRun`)."""
+
+    file: str
+    first_line: int
+    start_mm: Vec3
+    end_mm: NDArray[np.float64]
+    state: MachineState
+    spindle_rpm: float
+    abc_deg: Vec3
+
+    def __len__(self) -> int:
+        return len(self.end_mm)
+
+    @property
+    def last_line(self) -> int:
+        """1-based line of the last move."""
+        return self.first_line + len(self.end_mm) - 1
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class StraightRun(_Run):
     """Consecutive straight moves (``G0``/``G1``) of consecutive lines, in one state but
     the feed.
 
@@ -161,24 +183,9 @@ class StraightRun:
         Rotary axes A, B, C during the run, degrees.
     """
 
-    file: str
-    first_line: int
-    start_mm: Vec3
-    end_mm: NDArray[np.float64]
     rapid: NDArray[np.bool_]
     feed_mm_min: NDArray[np.float64]
     programmed_feed: NDArray[np.float64]
-    state: MachineState
-    spindle_rpm: float
-    abc_deg: Vec3
-
-    def __len__(self) -> int:
-        return len(self.rapid)
-
-    @property
-    def last_line(self) -> int:
-        """1-based line of the last move."""
-        return self.first_line + len(self.rapid) - 1
 
     @property
     def end_state(self) -> MachineState:
@@ -224,7 +231,7 @@ class StraightRun:
 
 
 @dataclass(frozen=True, slots=True, eq=False)
-class ArcRun:
+class ArcRun(_Run):
     """Consecutive arcs (``G2``/``G3`` with I, J centres, XY plane) of consecutive lines,
     in one state.
 
@@ -249,24 +256,9 @@ class ArcRun:
         Spindle speed (rpm) and rotary axes A, B, C (degrees) during the run.
     """
 
-    file: str
-    first_line: int
-    start_mm: Vec3
-    end_mm: NDArray[np.float64]
     center_mm: NDArray[np.float64]
     turns: NDArray[np.int64]
     feed_mm_min: float
-    state: MachineState
-    spindle_rpm: float
-    abc_deg: Vec3
-
-    def __len__(self) -> int:
-        return len(self.turns)
-
-    @property
-    def last_line(self) -> int:
-        """1-based line of the last arc."""
-        return self.first_line + len(self.turns) - 1
 
     def segments(self) -> Iterator[Segment]:
         """The segments of the run, equal to those the line-by-line path makes."""
