@@ -200,6 +200,7 @@ class OpcUaConnection(MachineConnection):
         self._last_heartbeat: float | None = None
         self._client: Client | None = None
         self._targets: dict[str, _Target] = {}
+        self._block_node: ua.NodeId | None = None  # BLOCK_NODE's id, once the namespace is known
         self._read_all: ua.ReadRequest | None = None
         self._read_one: dict[str, ua.ReadRequest] = {}
         self._write_one: dict[str, ua.WriteRequest] = {}
@@ -374,12 +375,15 @@ class OpcUaConnection(MachineConnection):
             raise ConnectionLost("OPC UA client is not open")
         if name != "vibration":
             raise DataError(f"block {name!r}: an OPC UA machine serves 'vibration' only")
+        node = self._block_node
+        if node is None:
+            raise DataError(
+                f"block {name!r}: {self.endpoint} serves no {BLOCK_NODE} "
+                f"(no namespace {NAMESPACE_URI!r})"
+            )
         try:
-            ns = await client.get_namespace_index(NAMESPACE_URI)
-            packed = await client.get_node(
-                ua.NodeId(ua.String(BLOCK_NODE), ua.Int16(ns))
-            ).read_value()
-        except (ValueError, UaStatusCodeError) as err:
+            packed = await client.get_node(node).read_value()
+        except UaStatusCodeError as err:
             raise DataError(
                 f"block {name!r}: {self.endpoint} serves no {BLOCK_NODE} ({err})"
             ) from None
@@ -565,11 +569,13 @@ class OpcUaConnection(MachineConnection):
         return path
 
     async def _resolve(self, client: Client) -> dict[str, _Target]:
-        """NodeId of every mapped signal (the default map's namespace looked up by URI)."""
+        """NodeId of every mapped signal (the default map's namespace looked up by URI); also
+        notes :data:`BLOCK_NODE`'s id in that namespace, so a block read looks nothing up."""
         try:
             ns = await client.get_namespace_index(NAMESPACE_URI)
         except ValueError:
             ns = None
+        self._block_node = None if ns is None else ua.NodeId(ua.String(BLOCK_NODE), ua.Int16(ns))
         targets: dict[str, _Target] = {}
         for name, address in self.addresses.items():
             if address == "none":  # the machine has no such signal (docs/opcua.md, presets)
