@@ -1,5 +1,6 @@
 """The hand-built GPR graph against scikit-learn's predict(return_std=True) and against the
-closed form of the posterior (Rasmussen & Williams 2006, eqs. 2.25-2.26) solved with numpy."""
+closed form of the posterior (Rasmussen & Williams 2006, eqs. 2.25-2.26) solved with numpy,
+in both of its variance forms (low rank with a bound, blocks of L^-1)."""
 
 from __future__ import annotations
 
@@ -7,10 +8,25 @@ import numpy as np
 import pytest
 
 from cnctwin.errors import InputError
-from cnctwin.learn.gpr_graph import BLOCK_ROWS, gpr_graph
+from cnctwin.learn.gpr_graph import BLOCK_ROWS, VARIANCE_RTOL, gpr_graph, low_rank_cut
+
+#: Length scales of the smooth kernel (its spectrum decays: the low-rank form) and of the
+#: rough one (it does not: the blocks), of the scaled features.
+SMOOTH = [3.0, 3.0, 3.0]
+ROUGH = [0.7, 1.3, 2.0]
 
 
-def _fit(points: int, noise: float, seed: int = 0):
+def _rows(points: int, clustered: bool, rng: np.random.Generator) -> np.ndarray:
+    """Training inputs of 3 features: uniform, or 10 near-copies of each of ``points / 10``
+    centres (then ``|k*|^2 / s`` is large, as on the twin's example)."""
+    low, high = np.array([0, 1, 100]), np.array([1, 3, 500])
+    if not clustered:
+        return rng.uniform(low, high, size=(points, 3))
+    centres = rng.uniform(low, high, size=(points // 10, 3)).repeat(10, axis=0)
+    return centres + 1e-3 * (high - low) * rng.normal(size=centres.shape)
+
+
+def _fit(points: int, lengths: list[float], noise: float, clustered: bool = False, seed: int = 0):
     """A scaler + GPR pipeline on a smooth function of 3 inputs (fixed kernel: no fit)."""
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, WhiteKernel
@@ -18,9 +34,9 @@ def _fit(points: int, noise: float, seed: int = 0):
     from sklearn.preprocessing import StandardScaler
 
     rng = np.random.default_rng(seed)
-    x = rng.uniform([0, 1, 100], [1, 3, 500], size=(points, 3))
-    y = np.sin(3 * x[:, 0]) * x[:, 1] + 0.002 * x[:, 2] + 0.05 * rng.normal(size=points)
-    kernel = RBF([0.7, 1.3, 2.0]) + WhiteKernel(noise)
+    x = _rows(points, clustered, rng)
+    y = np.sin(3 * x[:, 0]) * x[:, 1] + 0.002 * x[:, 2] + 0.05 * rng.normal(size=len(x))
+    kernel = RBF(lengths) + WhiteKernel(noise)
     gpr = GaussianProcessRegressor(kernel, optimizer=None, normalize_y=False)
     return make_pipeline(StandardScaler(), gpr).fit(x, y), x, y
 
@@ -36,7 +52,7 @@ def _run(model, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _closed_form(pipeline, x_train, y, x) -> tuple[np.ndarray, np.ndarray]:
     """Posterior mean and variance by hand: the RBF in numpy, one dense solve."""
     scaler, gpr = pipeline[0], pipeline[-1]
-    lengths = np.array([0.7, 1.3, 2.0])
+    lengths = np.asarray(gpr.kernel_.k1.length_scale)
     noise = gpr.kernel_.k2.noise_level
 
     def scaled(a: np.ndarray) -> np.ndarray:
@@ -54,14 +70,54 @@ def _closed_form(pipeline, x_train, y, x) -> tuple[np.ndarray, np.ndarray]:
     return mean, var
 
 
-@pytest.mark.parametrize(("points", "noise"), [(2 * BLOCK_ROWS + 45, 1e-2), (60, 1e-3)])
-def test_graph_equals_sklearn_and_the_closed_form(points: int, noise: float) -> None:
+def _held(model, part: str) -> int:
+    """Doubles the graph's initializers named with ``part`` hold."""
+    return sum(int(np.prod(t.dims)) for t in model.graph.initializer if part in t.name)
+
+
+def _rank(pipeline, rtol: float = VARIANCE_RTOL) -> int:
+    """Eigenvalues of the training RBF matrix above the cut: the low-rank form's ``r``."""
+    gpr = pipeline[-1]
+    noise = gpr.kernel_.k2.noise_level
+    eigenvalues = np.linalg.eigvalsh(gpr.kernel_.k1(gpr.X_train_))
+    return int(np.sum(eigenvalues > low_rank_cut(noise + gpr.alpha, rtol * noise)))
+
+
+def _blocks(points: int) -> int:
+    """Doubles the blocks of L^-1 hold: about half of the n x n matrix."""
+    return sum(
+        min(s + BLOCK_ROWS, points) * (min(s + BLOCK_ROWS, points) - s)
+        for s in range(0, points, BLOCK_ROWS)
+    )
+
+
+@pytest.mark.parametrize(
+    ("points", "lengths", "noise", "clustered", "form"),
+    [
+        (600, SMOOTH, 1e-2, False, "eigenpairs"),
+        (400, SMOOTH, 1e-2, True, "eigenpairs"),
+        (2 * BLOCK_ROWS + 45, ROUGH, 1e-2, False, "blocks"),
+        (60, ROUGH, 1e-3, False, "blocks"),
+        (60, ROUGH, 1e6, False, "blocks"),  # noise above every eigenvalue: none kept
+    ],
+)
+def test_graph_equals_sklearn_and_the_closed_form(
+    points: int, lengths: list[float], noise: float, clustered: bool, form: str
+) -> None:
     from cnctwin.learn.onnx_model import _OPSET
 
-    pipeline, x_train, y = _fit(points, noise)
+    pipeline, x_train, y = _fit(points, lengths, noise, clustered)
     model = gpr_graph(pipeline, 3, _OPSET)
-    # held-out rows: another draw, some beyond the training range
-    x = np.random.default_rng(7).uniform([-0.2, 0.8, 80], [1.2, 3.2, 520], size=(200, 3))
+    assert form in model.graph.doc_string
+    # held-out rows: another draw, some beyond the training range; near-copies of training
+    # rows (where the variance is smallest and |k*| largest)
+    rng = np.random.default_rng(7)
+    x = np.vstack(
+        [
+            rng.uniform([-0.2, 0.8, 80], [1.2, 3.2, 520], size=(200, 3)),
+            x_train[:50] * (1 + 1e-4 * rng.normal(size=(50, 3))),
+        ]
+    )
     mean, std = _run(model, x)
     want_mean, want_std = pipeline.predict(x, return_std=True)
     scale = np.max(np.abs(want_mean))
@@ -70,12 +126,45 @@ def test_graph_equals_sklearn_and_the_closed_form(points: int, noise: float) -> 
     form_mean, form_var = _closed_form(pipeline, x_train, y, x)
     np.testing.assert_allclose(mean, form_mean, rtol=1e-8, atol=1e-8 * scale)
     np.testing.assert_allclose(std**2, form_var, rtol=1e-8)
-    # the graph reads L^-1 in blocks: it holds about half of the n x n matrix
-    held = sum(int(np.prod(t.dims)) for t in model.graph.initializer if "linv" in t.name)
-    assert held == sum(
-        min(s + BLOCK_ROWS, points) * (min(s + BLOCK_ROWS, points) - s)
-        for s in range(0, points, BLOCK_ROWS)
-    )
+    rank = _rank(pipeline)
+    if form == "eigenpairs":
+        # Q_r twice, r of n eigenpairs, fewer doubles than the blocks would hold
+        assert f"from {rank} of {points} eigenpairs" in model.graph.doc_string
+        assert _held(model, "gp_q") == 2 * rank * points < _blocks(points)
+        assert _held(model, "linv") == 0
+    else:
+        assert rank == 0 or 2 * rank * points >= _blocks(points)
+        assert _held(model, "linv") == _blocks(points)
+        assert _held(model, "gp_q") == 0
+
+
+def test_low_rank_variance_keeps_its_bound() -> None:
+    """With a loose tolerance the dropped eigenpairs show: the graph's variance is below the
+    exact one by more than rounding, and by no more than rtol * noise (a worst case over every
+    x: here about 1e4 times what is left out), on the training rows and held-out rows."""
+    from cnctwin.learn.onnx_model import _OPSET
+
+    noise, rtol = 1e-2, 1e-4
+    pipeline, x_train, y = _fit(600, SMOOTH, noise)
+    model = gpr_graph(pipeline, 3, _OPSET, rtol=rtol)
+    rank = _rank(pipeline, rtol)
+    assert f"from {rank} of 600 eigenpairs" in model.graph.doc_string
+    assert rank < _rank(pipeline)  # the loose tolerance drops more
+    rng = np.random.default_rng(3)
+    x = np.vstack([x_train, rng.uniform([-0.2, 0.8, 80], [1.2, 3.2, 520], size=(300, 3))])
+    _, std = _run(model, x)
+    _, exact_var = _closed_form(pipeline, x_train, y, x)
+    left_out = exact_var - std**2
+    assert np.all(left_out >= -1e-12)
+    assert np.all(left_out <= rtol * noise)
+    assert np.max(left_out) > 1e-11  # rounding: about 1e-13 (the cases above)
+
+
+@pytest.mark.parametrize(("diagonal", "bound"), [(0.1, 1e-13), (1e-5, 1e-12), (3.0, 0.5)])
+def test_low_rank_cut_solves_its_equation(diagonal: float, bound: float) -> None:
+    cut = low_rank_cut(diagonal, bound)
+    assert cut > 0
+    np.testing.assert_allclose(cut**2 / (diagonal * (cut + diagonal)), bound, rtol=1e-12)
 
 
 def test_other_kernel_refused() -> None:

@@ -10,9 +10,38 @@ kernel, what scikit-learn's ``predict(x, return_std=True)`` computes (Rasmussen 
 - ``z = (x - mean) / scale`` (the scaler), ``k* = exp(-0.5 |z / l - X / l|^2)`` against the
   ``n`` training rows ``X`` (length scales ``l``, eq. 5.1), unitless;
 - ``mean = k* . alpha`` with ``alpha = K^-1 y`` (the standardised target's unit);
-- ``var = k(x, x) - |L^-1 k*|^2`` with ``K = L L^T`` (the training kernel matrix, white noise
-  and the regressor's ``alpha`` on its diagonal), ``std = sqrt(max(var, 0))``.
+- ``var = k(x, x) - k*^T K^-1 k*`` with ``K = K_f + s I`` (``K_f`` the RBF part of the
+  training kernel matrix, ``s`` the white-noise level ``w`` plus the regressor's ``alpha``
+  jitter), ``std = sqrt(max(var, 0))``.
 
+The variance term ``V = k*^T K^-1 k*`` takes one of two forms, whichever holds fewer doubles
+(a window reads them all: the time is memory-bound, ``k*`` itself costs about 5 %).
+
+**Low rank, exact to a bound** (:data:`VARIANCE_RTOL`). With ``K_f = Q diag(lambda) Q^T``
+(eigenpairs ``lambda_i >= 0``, ``q_i``), ``V = sum_i (q_i . k*)^2 / (lambda_i + s)``. The graph
+keeps the ``r`` eigenpairs with ``lambda_i > lambda_cut`` (``Q_r``) and computes
+
+    u = Q_r^T k*,   p = k* - Q_r u,   V_r = sum_i u_i^2 / (lambda_i + s) + |p|^2 / s.
+
+``p`` is ``k*`` without its part in the kept eigenvectors, ``|p|^2 = sum_dropped (q_i .
+k*)^2``, so ``V_r - V = sum_dropped c_i (q_i . k*)^2`` with ``c_i = 1 / s - 1 / (lambda_i + s)
+= lambda_i / (s (lambda_i + s))``: the dropped eigenpairs enter as if ``lambda_i`` were 0. That
+is at most ``g(lambda_cut)`` with ``g(lambda) = lambda^2 / (s (lambda + s))``, for every ``x``:
+``c_i (q_i . k*)^2 = g(lambda_i) (q_i . k*)^2 / lambda_i``, ``g`` grows with ``lambda``, and
+``sum_i (q_i . k*)^2 / lambda_i = k*^T K_f^+ k* <= k_f(x, x) = 1`` (the Schur complement of
+the kernel matrix of ``X`` and ``x``, positive semi-definite). :func:`low_rank_cut` solves
+``g(lambda_cut) = VARIANCE_RTOL * w``, so the graph's variance is below scikit-learn's by at
+most ``VARIANCE_RTOL * w <= VARIANCE_RTOL * var`` (``var >= w``): the standard deviation by at
+most ``VARIANCE_RTOL / 2`` relative, plus rounding. ``p`` is formed as a vector, not as
+``|k*|^2 - |u|^2``: on clustered training rows ``|k*|^2 / s`` reaches 1e4 (the twin's example)
+and that difference would lose the dot products' rounding (3e-10 relative on the standard
+deviation, measured) where ``p`` keeps it near 1e-13. The graph reads ``2 r n`` doubles
+(``Q_r`` twice). ``r`` depends on the kernel's spectrum, not on ``x``: smooth kernels on
+correlated features (the twin's force model, 4 features: ``r = 127`` of 2,000) decay fast,
+rough kernels on many independent features (``benchmarks/bench_learn.py``'s 8 uniform
+features at length scale 1: ``r = n``) do not.
+
+**Block-triangular ``L^-1``** otherwise: ``V = |L^-1 k*|^2`` with ``K = L L^T``.
 scikit-learn solves ``L v = k*`` per call; an ONNX graph has no triangular solve, so the
 graph holds ``L^-1`` (computed once at export, ``solve_triangular(L, I)``) and multiplies.
 skl2onnx's conversion holds the full ``K^-1`` (``n x n`` doubles: 32 MB at ``n = 2000``) and
@@ -20,8 +49,10 @@ multiplies the row vector ``k*`` from the left, which onnxruntime does several t
 than a matrix times a column. Here ``L^-1`` is lower triangular: its rows are cut into blocks
 of :data:`BLOCK_ROWS` and each block keeps only the columns up to its last row, so a window
 reads ``(n / 2 + BLOCK_ROWS / 2) n`` doubles instead of ``n^2``, each block multiplied as a
-matrix times the column ``k*^T``. The result differs from scikit-learn's by rounding only
-(``tests/learn/test_gpr_graph.py``: 1e-9 relative on held-out rows).
+matrix times the column ``k*^T``.
+
+Either way the result equals scikit-learn's to 1e-9 relative on held-out rows
+(``tests/learn/test_gpr_graph.py``). The graph's ``doc_string`` says which form it holds.
 """
 
 from __future__ import annotations
@@ -33,10 +64,13 @@ from numpy.typing import NDArray
 
 from cnctwin.errors import InputError
 
-__all__ = ["BLOCK_ROWS", "gpr_graph"]
+__all__ = ["BLOCK_ROWS", "VARIANCE_RTOL", "gpr_graph", "low_rank_cut"]
 
 #: Rows of ``L^-1`` per block (a block reads its rows up to its last column).
 BLOCK_ROWS = 128
+#: The most the low-rank form may leave out of the variance, relative to the white-noise
+#: level (so to the variance itself): the standard deviation to half of it, relative.
+VARIANCE_RTOL = 1e-12
 #: onnxruntime's contrib domain (``CDist``: the squared distances as scipy's ``cdist``).
 _MS = "com.microsoft"
 
@@ -56,7 +90,31 @@ def _kernel_parts(kernel: Any) -> tuple[NDArray[np.float64], float]:
     )
 
 
-def gpr_graph(estimator: Any, n_features: int, opset: dict[str, int]) -> Any:
+def low_rank_cut(diagonal: float, bound: float) -> float:
+    """The eigenvalue ``lambda_cut`` of ``K_f`` at which a dropped eigenpair's share of the
+    variance may reach ``bound``: the root of ``lambda^2 / (diagonal (lambda + diagonal)) =
+    bound`` (module docstring).
+
+    Parameters
+    ----------
+    diagonal
+        ``s``: what ``K`` adds to ``K_f``'s diagonal (white noise plus jitter; the fitted
+        target's unit squared), positive.
+    bound
+        The variance an eigenpair at ``lambda_cut`` may leave out (the same unit), >= 0.
+
+    Returns
+    -------
+    float
+        ``lambda_cut`` (the same unit; ``K_f`` of an RBF is unitless, its amplitude 1).
+    """
+    product = bound * diagonal
+    return float(0.5 * (product + np.sqrt(product * product + 4.0 * product * diagonal)))
+
+
+def gpr_graph(
+    estimator: Any, n_features: int, opset: dict[str, int], rtol: float = VARIANCE_RTOL
+) -> Any:
     """The ONNX model of a fitted ``StandardScaler`` + ``GaussianProcessRegressor`` pipeline.
 
     Parameters
@@ -68,18 +126,21 @@ def gpr_graph(estimator: Any, n_features: int, opset: dict[str, int]) -> Any:
         Columns of the input ``features`` (double, ``(rows, n_features)``, feature units).
     opset
         ONNX opsets by domain (``""``: at least 13).
+    rtol
+        The most the low-rank variance may leave out, relative to the white-noise level
+        (:data:`VARIANCE_RTOL`; module docstring).
 
     Returns
     -------
     onnx.ModelProto
-        Outputs ``GPmean`` and ``GPstd`` (``(rows, 1)``, the fitted target's unit).
+        Outputs ``GPmean`` and ``GPstd`` (``(rows, 1)``, the fitted target's unit); the
+        graph's ``doc_string`` names the variance's form (rank or blocks).
 
     Raises
     ------
     cnctwin.errors.InputError
         For another pipeline or kernel.
     """
-    import scipy.linalg
     from onnx import TensorProto, helper, numpy_helper
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.preprocessing import StandardScaler
@@ -96,12 +157,11 @@ def gpr_graph(estimator: Any, n_features: int, opset: dict[str, int]) -> Any:
             "(normalize_y=False)"
         )
     scaler, gpr = steps
-    scales, _ = _kernel_parts(gpr.kernel_)
+    scales, noise = _kernel_parts(gpr.kernel_)
     x_train = np.asarray(gpr.X_train_, dtype=float)
     n = x_train.shape[0]
     # k(x, x) of a stationary kernel: the RBF's 1 plus the white noise (scikit-learn's diag)
     kss = float(gpr.kernel_.diag(x_train[:1])[0])
-    l_inv = scipy.linalg.solve_triangular(gpr.L_, np.eye(n), lower=True, check_finite=False)
     alpha = np.asarray(gpr.alpha_, dtype=float).reshape(n, 1)
 
     def const(name: str, value: Any, dtype: Any = np.float64) -> Any:
@@ -117,6 +177,7 @@ def gpr_graph(estimator: Any, n_features: int, opset: dict[str, int]) -> Any:
         const("gp_half", [-0.5]),
         const("gp_zero", [0.0]),
         const("gp_axis0", [0], np.int64),
+        const("gp_axis1", [1], np.int64),
     ]
     nodes = [
         helper.make_node("Sub", ["features", "gp_x_mean"], ["gp_centred"]),
@@ -130,6 +191,108 @@ def gpr_graph(estimator: Any, n_features: int, opset: dict[str, int]) -> Any:
         helper.make_node("MatMul", ["gp_k", "gp_alpha"], ["GPmean"]),
         helper.make_node("Transpose", ["gp_k"], ["gp_kt"], perm=[1, 0]),  # (n, rows)
     ]
+    low_rank = _low_rank(gpr, noise, rtol)
+    if low_rank is not None:
+        form = _low_rank_variance(low_rank, inits, nodes, const)
+    else:
+        form = _blocked_variance(gpr, inits, nodes, const)
+    nodes += [
+        helper.make_node("Max", ["gp_var_raw", "gp_zero"], ["gp_var"]),
+        helper.make_node("Sqrt", ["gp_var"], ["gp_std_row"]),
+        helper.make_node("Unsqueeze", ["gp_std_row", "gp_axis1"], ["GPstd"]),
+    ]
+    double = TensorProto.DOUBLE
+    graph = helper.make_graph(
+        nodes,
+        "cnctwin_gpr",
+        [helper.make_tensor_value_info("features", double, [None, n_features])],
+        [
+            helper.make_tensor_value_info("GPmean", double, [None, 1]),
+            helper.make_tensor_value_info("GPstd", double, [None, 1]),
+        ],
+        inits,
+        doc_string=f"GPR of {n} points, variance {form}",
+    )
+    imports = [helper.make_opsetid(domain, version) for domain, version in opset.items()]
+    imports.append(helper.make_opsetid(_MS, 1))
+    return helper.make_model(graph, opset_imports=imports)
+
+
+def _low_rank(
+    gpr: Any, noise: float, rtol: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float, float] | None:
+    """``(Q_r^T, lambda_r, s, lambda_cut)`` of the low-rank variance (module docstring), or
+    None where it would hold at least as many doubles as the blocks of ``L^-1``, where no
+    eigenpair is kept (a white noise far above the RBF's eigenvalues) or where ``K``'s jitter
+    is not one number (so ``K`` is not ``K_f + s I``)."""
+    import scipy.linalg
+
+    if np.ndim(gpr.alpha) != 0:
+        return None
+    x_train = np.asarray(gpr.X_train_, dtype=float)
+    n = x_train.shape[0]
+    k_f = gpr.kernel_.k1(x_train)
+    diagonal = noise + float(gpr.alpha)
+    cut = low_rank_cut(diagonal, rtol * noise)
+    eigenvalues = scipy.linalg.eigvalsh(k_f, check_finite=False)
+    rank = int(np.count_nonzero(eigenvalues > cut))
+    if rank == 0 or 2 * rank * n >= _blocked_size(n):
+        return None
+    kept, vectors = scipy.linalg.eigh(k_f, subset_by_index=[n - rank, n - 1], check_finite=False)
+    return np.ascontiguousarray(vectors.T), kept, diagonal, cut
+
+
+def _blocked_size(n: int) -> int:
+    """Doubles the blocks of ``L^-1`` hold for ``n`` training points."""
+    return sum(
+        (stop := min(start + BLOCK_ROWS, n)) * (stop - start) for start in range(0, n, BLOCK_ROWS)
+    )
+
+
+def _low_rank_variance(
+    low_rank: tuple[NDArray[np.float64], NDArray[np.float64], float, float],
+    inits: list[Any],
+    nodes: list[Any],
+    const: Any,
+) -> str:
+    """Append ``gp_var_raw = k(x, x) - V_r`` to the graph (module docstring); its form."""
+    from onnx import helper
+
+    q_t, kept, diagonal, cut = low_rank
+    inits += [
+        const("gp_qt", q_t),
+        # Q_r once more, (n, r): a Gemm with transA on Q_r^T runs slower
+        const("gp_q", q_t.T.copy()),
+        const("gp_inv_kept", (1.0 / (kept + diagonal)).reshape(-1, 1)),
+        const("gp_inv_s", [1.0 / diagonal]),
+    ]
+    nodes += [
+        helper.make_node("MatMul", ["gp_qt", "gp_kt"], ["gp_u"]),  # (r, rows)
+        helper.make_node("MatMul", ["gp_q", "gp_u"], ["gp_back"]),  # (n, rows)
+        helper.make_node("Sub", ["gp_kt", "gp_back"], ["gp_p"]),
+        helper.make_node("Mul", ["gp_p", "gp_p"], ["gp_pp"]),
+        helper.make_node("ReduceSum", ["gp_pp", "gp_axis0"], ["gp_p2"], keepdims=0),
+        helper.make_node("Mul", ["gp_p2", "gp_inv_s"], ["gp_left"]),
+        helper.make_node("Mul", ["gp_u", "gp_u"], ["gp_uu"]),
+        helper.make_node("Mul", ["gp_uu", "gp_inv_kept"], ["gp_uu_k"]),
+        helper.make_node("ReduceSum", ["gp_uu_k", "gp_axis0"], ["gp_kept"], keepdims=0),
+        helper.make_node("Add", ["gp_kept", "gp_left"], ["gp_vv"]),
+        helper.make_node("Sub", ["gp_kss", "gp_vv"], ["gp_var_raw"]),
+    ]
+    return (
+        f"from {q_t.shape[0]} of {q_t.shape[1]} eigenpairs of K_f "
+        f"(those above {cut:.3g}), exact to a bound"
+    )
+
+
+def _blocked_variance(gpr: Any, inits: list[Any], nodes: list[Any], const: Any) -> str:
+    """Append ``gp_var_raw = k(x, x) - |L^-1 k*|^2`` (``L^-1`` in blocks) to the graph; its
+    form."""
+    import scipy.linalg
+    from onnx import helper
+
+    n = gpr.L_.shape[0]
+    l_inv = scipy.linalg.solve_triangular(gpr.L_, np.eye(n), lower=True, check_finite=False)
     parts = []
     for b, start in enumerate(range(0, n, BLOCK_ROWS)):
         stop = min(start + BLOCK_ROWS, n)
@@ -149,22 +312,5 @@ def gpr_graph(estimator: Any, n_features: int, opset: dict[str, int]) -> Any:
         helper.make_node("Mul", ["gp_v", "gp_v"], ["gp_sq"]),
         helper.make_node("ReduceSum", ["gp_sq", "gp_axis0"], ["gp_vv"], keepdims=0),
         helper.make_node("Sub", ["gp_kss", "gp_vv"], ["gp_var_raw"]),
-        helper.make_node("Max", ["gp_var_raw", "gp_zero"], ["gp_var"]),
-        helper.make_node("Sqrt", ["gp_var"], ["gp_std_row"]),
-        helper.make_node("Unsqueeze", ["gp_std_row", "gp_axis1"], ["GPstd"]),
     ]
-    inits.append(const("gp_axis1", [1], np.int64))
-    double = TensorProto.DOUBLE
-    graph = helper.make_graph(
-        nodes,
-        "cnctwin_gpr",
-        [helper.make_tensor_value_info("features", double, [None, n_features])],
-        [
-            helper.make_tensor_value_info("GPmean", double, [None, 1]),
-            helper.make_tensor_value_info("GPstd", double, [None, 1]),
-        ],
-        inits,
-    )
-    imports = [helper.make_opsetid(domain, version) for domain, version in opset.items()]
-    imports.append(helper.make_opsetid(_MS, 1))
-    return helper.make_model(graph, opset_imports=imports)
+    return f"from L^-1 in blocks of {BLOCK_ROWS} rows (no eigenvalue cut: full rank)"
