@@ -75,12 +75,14 @@ def _held(model, part: str) -> int:
     return sum(int(np.prod(t.dims)) for t in model.graph.initializer if part in t.name)
 
 
-def _rank(pipeline, rtol: float = VARIANCE_RTOL) -> int:
-    """Eigenvalues of the training RBF matrix above the cut: the low-rank form's ``r``."""
+def _rank(pipeline, rtol: float = VARIANCE_RTOL) -> tuple[int, int]:
+    """Eigenvalues of the training RBF matrix above the cut and above ``s`` (at least one):
+    the low-rank form's ``r`` and ``m``."""
     gpr = pipeline[-1]
     noise = gpr.kernel_.k2.noise_level
     eigenvalues = np.linalg.eigvalsh(gpr.kernel_.k1(gpr.X_train_))
-    return int(np.sum(eigenvalues > low_rank_cut(noise + gpr.alpha, rtol * noise)))
+    cut = low_rank_cut(noise + gpr.alpha, rtol * noise)
+    return int(np.sum(eigenvalues > cut)), max(1, int(np.sum(eigenvalues > noise + gpr.alpha)))
 
 
 def _blocks(points: int) -> int:
@@ -126,14 +128,16 @@ def test_graph_equals_sklearn_and_the_closed_form(
     form_mean, form_var = _closed_form(pipeline, x_train, y, x)
     np.testing.assert_allclose(mean, form_mean, rtol=1e-8, atol=1e-8 * scale)
     np.testing.assert_allclose(std**2, form_var, rtol=1e-8)
-    rank = _rank(pipeline)
+    rank, top = _rank(pipeline)
     if form == "eigenpairs":
-        # Q_r twice, r of n eigenpairs, fewer doubles than the blocks would hold
+        # Q_r and Q_m: r + m of n eigenvectors, fewer doubles than the blocks would hold
         assert f"from {rank} of {points} eigenpairs" in model.graph.doc_string
-        assert _held(model, "gp_q") == 2 * rank * points < _blocks(points)
+        assert f"{top} above s back-projected" in model.graph.doc_string
+        assert top < rank
+        assert _held(model, "gp_q") == (rank + top) * points < _blocks(points)
         assert _held(model, "linv") == 0
     else:
-        assert rank == 0 or 2 * rank * points >= _blocks(points)
+        assert rank == 0 or (rank + top) * points >= _blocks(points)
         assert _held(model, "linv") == _blocks(points)
         assert _held(model, "gp_q") == 0
 
@@ -147,9 +151,9 @@ def test_low_rank_variance_keeps_its_bound() -> None:
     noise, rtol = 1e-2, 1e-4
     pipeline, x_train, y = _fit(600, SMOOTH, noise)
     model = gpr_graph(pipeline, 3, _OPSET, rtol=rtol)
-    rank = _rank(pipeline, rtol)
+    rank = _rank(pipeline, rtol)[0]
     assert f"from {rank} of 600 eigenpairs" in model.graph.doc_string
-    assert rank < _rank(pipeline)  # the loose tolerance drops more
+    assert rank < _rank(pipeline)[0]  # the loose tolerance drops more
     rng = np.random.default_rng(3)
     x = np.vstack([x_train, rng.uniform([-0.2, 0.8, 80], [1.2, 3.2, 520], size=(300, 3))])
     _, std = _run(model, x)

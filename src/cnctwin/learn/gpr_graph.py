@@ -32,14 +32,23 @@ is at most ``g(lambda_cut)`` with ``g(lambda) = lambda^2 / (s (lambda + s))``, f
 the kernel matrix of ``X`` and ``x``, positive semi-definite). :func:`low_rank_cut` solves
 ``g(lambda_cut) = VARIANCE_RTOL * w``, so the graph's variance is below scikit-learn's by at
 most ``VARIANCE_RTOL * w <= VARIANCE_RTOL * var`` (``var >= w``): the standard deviation by at
-most ``VARIANCE_RTOL / 2`` relative, plus rounding. ``p`` is formed as a vector, not as
-``|k*|^2 - |u|^2``: on clustered training rows ``|k*|^2 / s`` reaches 1e4 (the twin's example)
-and that difference would lose the dot products' rounding (3e-10 relative on the standard
-deviation, measured) where ``p`` keeps it near 1e-13. The graph reads ``2 r n`` doubles
-(``Q_r`` twice). ``r`` depends on the kernel's spectrum, not on ``x``: smooth kernels on
-correlated features (the twin's force model, 4 features: ``r = 127`` of 2,000) decay fast,
-rough kernels on many independent features (``benchmarks/bench_learn.py``'s 8 uniform
-features at length scale 1: ``r = n``) do not.
+most ``VARIANCE_RTOL / 2`` relative, plus rounding.
+
+Rounding decides how ``p`` is formed. ``|p|^2 = |k*|^2 - |u|^2`` costs nothing more, but on
+clustered training rows ``|k*|^2 / s`` reaches 1e4 (the twin's example) and the difference
+loses the dot products' rounding: 3e-10 relative on the standard deviation, measured. The
+graph subtracts as a vector the part in the ``m`` eigenvectors with ``lambda_i > s``
+(``Q_m``, at least one) and the rest as squares: ``p_m = k* - Q_m u_m``, ``|p|^2 = |p_m|^2 -
+sum_{i > m} u_i^2``, so ``V_r = sum_i a_i u_i^2 + |p_m|^2 / s`` with ``a_i = 1 / (lambda_i +
+s)`` for ``i <= m`` and ``-c_i`` after. Both ``|p_m|^2`` and ``sum_{i > m} u_i^2`` are at most
+``s`` (the weights' sum above), so their difference costs no more rounding than the kept
+terms near ``lambda = s`` do themselves: 3e-13 on the twin's example, with ``m = r`` alike.
+The graph reads ``(r + m) n`` doubles. ``r`` and ``m`` depend on the kernel's spectrum, not
+on ``x``: smooth kernels on correlated features decay fast (the twin's force model, 4
+features: ``r = 127``, ``m = 47`` of 2,000; ``bench_learn.py``'s data with a kernel fitted by
+marginal likelihood, 8 features of which 3 matter: ``r = 500``, ``m = 37``), rough kernels on
+many independent features do not (``bench_learn.py``'s fixed kernel, 8 uniform features at
+length scale 1: ``r = n``, the blocks below).
 
 **Block-triangular ``L^-1``** otherwise: ``V = |L^-1 k*|^2`` with ``K = L L^T``.
 scikit-learn solves ``L v = k*`` per call; an ONNX graph has no triangular solve, so the
@@ -57,6 +66,7 @@ Either way the result equals scikit-learn's to 1e-9 relative on held-out rows
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -218,13 +228,24 @@ def gpr_graph(
     return helper.make_model(graph, opset_imports=imports)
 
 
-def _low_rank(
-    gpr: Any, noise: float, rtol: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64], float, float] | None:
-    """``(Q_r^T, lambda_r, s, lambda_cut)`` of the low-rank variance (module docstring), or
-    None where it would hold at least as many doubles as the blocks of ``L^-1``, where no
-    eigenpair is kept (a white noise far above the RBF's eigenvalues) or where ``K``'s jitter
-    is not one number (so ``K`` is not ``K_f + s I``)."""
+@dataclass(frozen=True)
+class _LowRank:
+    """The low-rank variance's parts (module docstring): ``q_t`` is ``Q_r^T`` (``(r, n)``, the
+    largest eigenvalue first), ``weights`` the ``u_i^2`` weights (``(r, 1)``: ``1 / (lambda_i +
+    s)`` for the first ``top``, ``1 / (lambda_i + s) - 1 / s`` after), ``diagonal`` is ``s``,
+    ``cut`` is ``lambda_cut``."""
+
+    q_t: NDArray[np.float64]
+    weights: NDArray[np.float64]
+    top: int
+    diagonal: float
+    cut: float
+
+
+def _low_rank(gpr: Any, noise: float, rtol: float) -> _LowRank | None:
+    """The low-rank variance's parts, or None where they would hold at least as many doubles
+    as the blocks of ``L^-1``, where no eigenpair is kept (a white noise far above the RBF's
+    eigenvalues) or where ``K``'s jitter is not one number (so ``K`` is not ``K_f + s I``)."""
     import scipy.linalg
 
     if np.ndim(gpr.alpha) != 0:
@@ -236,10 +257,15 @@ def _low_rank(
     cut = low_rank_cut(diagonal, rtol * noise)
     eigenvalues = scipy.linalg.eigvalsh(k_f, check_finite=False)
     rank = int(np.count_nonzero(eigenvalues > cut))
-    if rank == 0 or 2 * rank * n >= _blocked_size(n):
+    # at least one back-projected: K_f's largest eigenvalue is at least its mean diagonal, 1
+    top = max(1, int(np.count_nonzero(eigenvalues > diagonal)))
+    if rank == 0 or (rank + top) * n >= _blocked_size(n):
         return None
     kept, vectors = scipy.linalg.eigh(k_f, subset_by_index=[n - rank, n - 1], check_finite=False)
-    return np.ascontiguousarray(vectors.T), kept, diagonal, cut
+    kept, vectors = kept[::-1], vectors[:, ::-1]
+    weights = 1.0 / (kept + diagonal)
+    weights[top:] -= 1.0 / diagonal
+    return _LowRank(vectors.T.copy(), weights.reshape(-1, 1), top, diagonal, cut)
 
 
 def _blocked_size(n: int) -> int:
@@ -249,39 +275,36 @@ def _blocked_size(n: int) -> int:
     )
 
 
-def _low_rank_variance(
-    low_rank: tuple[NDArray[np.float64], NDArray[np.float64], float, float],
-    inits: list[Any],
-    nodes: list[Any],
-    const: Any,
-) -> str:
+def _low_rank_variance(low_rank: _LowRank, inits: list[Any], nodes: list[Any], const: Any) -> str:
     """Append ``gp_var_raw = k(x, x) - V_r`` to the graph (module docstring); its form."""
     from onnx import helper
 
-    q_t, kept, diagonal, cut = low_rank
+    rank, n = low_rank.q_t.shape
     inits += [
-        const("gp_qt", q_t),
-        # Q_r once more, (n, r): a Gemm with transA on Q_r^T runs slower
-        const("gp_q", q_t.T.copy()),
-        const("gp_inv_kept", (1.0 / (kept + diagonal)).reshape(-1, 1)),
-        const("gp_inv_s", [1.0 / diagonal]),
+        const("gp_qt", low_rank.q_t),
+        # Q_m, (n, m): a Gemm with transA on a slice of Q_r^T runs slower
+        const("gp_q_top", low_rank.q_t[: low_rank.top].T.copy()),
+        const("gp_weights", low_rank.weights),
+        const("gp_inv_s", [1.0 / low_rank.diagonal]),
+        const("gp_top", [low_rank.top], np.int64),
     ]
     nodes += [
         helper.make_node("MatMul", ["gp_qt", "gp_kt"], ["gp_u"]),  # (r, rows)
-        helper.make_node("MatMul", ["gp_q", "gp_u"], ["gp_back"]),  # (n, rows)
+        helper.make_node("Slice", ["gp_u", "gp_axis0", "gp_top", "gp_axis0"], ["gp_u_top"]),
+        helper.make_node("MatMul", ["gp_q_top", "gp_u_top"], ["gp_back"]),  # (n, rows)
         helper.make_node("Sub", ["gp_kt", "gp_back"], ["gp_p"]),
         helper.make_node("Mul", ["gp_p", "gp_p"], ["gp_pp"]),
         helper.make_node("ReduceSum", ["gp_pp", "gp_axis0"], ["gp_p2"], keepdims=0),
-        helper.make_node("Mul", ["gp_p2", "gp_inv_s"], ["gp_left"]),
+        helper.make_node("Mul", ["gp_p2", "gp_inv_s"], ["gp_rest"]),
         helper.make_node("Mul", ["gp_u", "gp_u"], ["gp_uu"]),
-        helper.make_node("Mul", ["gp_uu", "gp_inv_kept"], ["gp_uu_k"]),
-        helper.make_node("ReduceSum", ["gp_uu_k", "gp_axis0"], ["gp_kept"], keepdims=0),
-        helper.make_node("Add", ["gp_kept", "gp_left"], ["gp_vv"]),
+        helper.make_node("Mul", ["gp_uu", "gp_weights"], ["gp_uu_w"]),
+        helper.make_node("ReduceSum", ["gp_uu_w", "gp_axis0"], ["gp_kept"], keepdims=0),
+        helper.make_node("Add", ["gp_kept", "gp_rest"], ["gp_vv"]),
         helper.make_node("Sub", ["gp_kss", "gp_vv"], ["gp_var_raw"]),
     ]
     return (
-        f"from {q_t.shape[0]} of {q_t.shape[1]} eigenpairs of K_f "
-        f"(those above {cut:.3g}), exact to a bound"
+        f"from {rank} of {n} eigenpairs of K_f (those above {low_rank.cut:.3g}; "
+        f"{low_rank.top} above s back-projected), exact to a bound"
     )
 
 
