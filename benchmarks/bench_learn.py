@@ -12,8 +12,13 @@ Targets: gbm and mlp under 0.2 ms, GPR with 2,000 training points under 1 ms (p9
 standard deviation in double). ``--quick`` (CI) uses 1,000 rows, a trained GPR of 150 points
 and fewer repetitions. The full run's trained GPR fits its kernel on 2,000 points four times
 (three folds and the final fit): tens of minutes on a loaded 2-core machine. Both runs also
-time a GPR of ``--gpr-fixed`` points (default 2,000) with a fixed kernel: the time per window
-depends on the number of points, not on the kernel's values.
+time a GPR of ``--gpr-fixed`` points (default 2,000) with a fixed kernel (RBF of length scale 1
+on each feature: a spectrum that does not decay, so the graph holds ``L^-1`` in blocks) and,
+when the trained GPR ran, one of as many points with the trained GPR's kernel (fitted by
+marginal likelihood: long length scales on the features the target does not depend on, a
+spectrum that decays, so the graph's variance is low-rank; ``cnctwin.learn.gpr_graph``). The
+time per window depends on the number of points and on the kernel's spectrum; the lines below
+the table say which variance form each GPR's graph holds.
 """
 
 from __future__ import annotations
@@ -24,8 +29,10 @@ import platform
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import onnx
 
 from cnctwin.learn import (
     Dataset,
@@ -105,10 +112,12 @@ def time_windows(model: Predictor, repeats: int) -> tuple[float, float, float, f
     )
 
 
-def fixed_kernel_gpr(data: Dataset, target: str, points: int) -> TrainResult:
+def fixed_kernel_gpr(
+    data: Dataset, target: str, points: int, kernel: Any | None = None
+) -> TrainResult:
     """A GPR on ``points`` evenly spaced rows of ``data`` with a fixed RBF + white kernel
-    (no marginal-likelihood fit, which takes minutes at 2,000 points), in the form
-    :func:`train` gives, for timing."""
+    (no marginal-likelihood fit, which takes minutes at 2,000 points; by default length scale 1
+    on each scaled feature and noise 0.1), in the form :func:`train` gives, for timing."""
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, WhiteKernel
     from sklearn.pipeline import make_pipeline
@@ -120,7 +129,8 @@ def fixed_kernel_gpr(data: Dataset, target: str, points: int) -> TrainResult:
         raise SystemExit(f"{points} GPR points asked for, the data has {rows.size} rows")
     pick = rows[np.linspace(0, rows.size - 1, points).round().astype(int)]
     x, y = data.features[pick], y_all[pick]
-    kernel = RBF(np.ones(x.shape[1])) + WhiteKernel(0.1)
+    if kernel is None:
+        kernel = RBF(np.ones(x.shape[1])) + WhiteKernel(0.1)
     gpr = GaussianProcessRegressor(kernel, optimizer=None, normalize_y=False)
     estimator = make_pipeline(StandardScaler(), gpr).fit(x, (y - y.mean()) / y.std())
     report = {"model": "gpr", "target": target, "training_rows": points}
@@ -172,6 +182,8 @@ def main() -> None:
         "| CPU p99 ms | feature update CPU p99 ms |"
     )
     print("|---|---|---|---|---|---|---|---|")
+    forms = []
+    trained_kernel = None
     with tempfile.TemporaryDirectory() as folder:
         for kind, rows in [c for c in cases if c[0] in args.models.split(",")]:
             data = dataset(rows)
@@ -179,23 +191,34 @@ def main() -> None:
             result = train(data, "torque_nm", kind, "run", quick=True, max_gpr_points=gpr_points)
             trained_s = time.perf_counter() - t0
             path = export_onnx(result, data.schema, Path(folder) / f"{kind}.onnx")
+            if kind == "gpr":
+                trained_kernel = result.estimator[-1].kernel_
+                forms.append(f"gpr: {onnx.load(path).graph.doc_string}")
             model = Predictor.load(path)
             median, p99, cpu_median, cpu_p99, update = time_windows(model, repeats)
             print(
                 f"| {kind} | {result.report['training_rows']} | {trained_s:.1f} | "
                 f"{median:.3f} | {p99:.3f} | {cpu_median:.3f} | {cpu_p99:.3f} | {update:.3f} |"
             )
-        if args.gpr_fixed:
+        kernels = [("fixed kernel", None)] if args.gpr_fixed else []
+        if args.gpr_fixed and trained_kernel is not None:
+            kernels.append(("trained kernel", trained_kernel))
+        for label, kernel in kernels:
             t0 = time.perf_counter()
             data = dataset(args.gpr_fixed)
-            result = fixed_kernel_gpr(data, "torque_nm", args.gpr_fixed)
+            result = fixed_kernel_gpr(data, "torque_nm", args.gpr_fixed, kernel)
             trained_s = time.perf_counter() - t0
-            model = Predictor.load(export_onnx(result, data.schema, Path(folder) / "fixed.onnx"))
+            path = export_onnx(result, data.schema, Path(folder) / "fixed.onnx")
+            forms.append(f"gpr, {label}: {onnx.load(path).graph.doc_string}")
+            model = Predictor.load(path)
             median, p99, cpu_median, cpu_p99, update = time_windows(model, repeats)
             print(
-                f"| gpr, fixed kernel | {args.gpr_fixed} | {trained_s:.1f} | "
+                f"| gpr, {label} | {args.gpr_fixed} | {trained_s:.1f} | "
                 f"{median:.3f} | {p99:.3f} | {cpu_median:.3f} | {cpu_p99:.3f} | {update:.3f} |"
             )
+    print()
+    for form in forms:
+        print(f"- {form}")
 
 
 if __name__ == "__main__":

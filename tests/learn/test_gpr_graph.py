@@ -26,8 +26,16 @@ def _rows(points: int, clustered: bool, rng: np.random.Generator) -> np.ndarray:
     return centres + 1e-3 * (high - low) * rng.normal(size=centres.shape)
 
 
-def _fit(points: int, lengths: list[float], noise: float, clustered: bool = False, seed: int = 0):
-    """A scaler + GPR pipeline on a smooth function of 3 inputs (fixed kernel: no fit)."""
+def _fit(
+    points: int,
+    lengths: list[float],
+    noise: float,
+    clustered: bool = False,
+    per_row_alpha: bool = False,
+    seed: int = 0,
+):
+    """A scaler + GPR pipeline on a smooth function of 3 inputs (fixed kernel: no fit; the
+    regressor's jitter ``alpha`` 1e-10, or one per row)."""
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, WhiteKernel
     from sklearn.pipeline import make_pipeline
@@ -37,7 +45,8 @@ def _fit(points: int, lengths: list[float], noise: float, clustered: bool = Fals
     x = _rows(points, clustered, rng)
     y = np.sin(3 * x[:, 0]) * x[:, 1] + 0.002 * x[:, 2] + 0.05 * rng.normal(size=len(x))
     kernel = RBF(lengths) + WhiteKernel(noise)
-    gpr = GaussianProcessRegressor(kernel, optimizer=None, normalize_y=False)
+    alpha = np.linspace(1e-10, 1e-3, len(x)) if per_row_alpha else 1e-10
+    gpr = GaussianProcessRegressor(kernel, alpha=alpha, optimizer=None, normalize_y=False)
     return make_pipeline(StandardScaler(), gpr).fit(x, y), x, y
 
 
@@ -62,7 +71,7 @@ def _closed_form(pipeline, x_train, y, x) -> tuple[np.ndarray, np.ndarray]:
         return np.exp(-0.5 * np.sum((a[:, None, :] - b[None, :, :]) ** 2, axis=2))
 
     a, b = scaled(x_train), scaled(x)
-    k_mat = rbf(a, a) + (noise + gpr.alpha) * np.eye(len(a))
+    k_mat = rbf(a, a) + np.diag(noise + gpr.alpha * np.ones(len(a)))
     k_star = rbf(b, a)
     solved = np.linalg.solve(k_mat, np.column_stack([y, k_star.T]))
     mean = k_star @ solved[:, 0]
@@ -98,17 +107,19 @@ def _blocks(points: int) -> int:
     [
         (600, SMOOTH, 1e-2, False, "eigenpairs"),
         (400, SMOOTH, 1e-2, True, "eigenpairs"),
-        (2 * BLOCK_ROWS + 45, ROUGH, 1e-2, False, "blocks"),
-        (60, ROUGH, 1e-3, False, "blocks"),
-        (60, ROUGH, 1e6, False, "blocks"),  # noise above every eigenvalue: none kept
+        (2 * BLOCK_ROWS + 45, ROUGH, 1e-2, False, "would hold more"),
+        (60, ROUGH, 1e-3, False, "would hold more"),
+        (60, ROUGH, 1e6, False, "no eigenvalue of K_f above the cut"),  # noise above them all
+        (600, SMOOTH, 1e-2, "alpha per row", "alpha is one per row"),  # K is not K_f + s I
     ],
 )
 def test_graph_equals_sklearn_and_the_closed_form(
-    points: int, lengths: list[float], noise: float, clustered: bool, form: str
+    points: int, lengths: list[float], noise: float, clustered: bool | str, form: str
 ) -> None:
     from cnctwin.learn.onnx_model import _OPSET
 
-    pipeline, x_train, y = _fit(points, lengths, noise, clustered)
+    per_row_alpha = clustered == "alpha per row"
+    pipeline, x_train, y = _fit(points, lengths, noise, clustered is True, per_row_alpha)
     model = gpr_graph(pipeline, 3, _OPSET)
     assert form in model.graph.doc_string
     # held-out rows: another draw, some beyond the training range; near-copies of training
@@ -128,7 +139,7 @@ def test_graph_equals_sklearn_and_the_closed_form(
     form_mean, form_var = _closed_form(pipeline, x_train, y, x)
     np.testing.assert_allclose(mean, form_mean, rtol=1e-8, atol=1e-8 * scale)
     np.testing.assert_allclose(std**2, form_var, rtol=1e-8)
-    rank, top = _rank(pipeline)
+    rank, top = (0, 0) if per_row_alpha else _rank(pipeline)
     if form == "eigenpairs":
         # Q_r and Q_m: r + m of n eigenvectors, fewer doubles than the blocks would hold
         assert f"from {rank} of {points} eigenpairs" in model.graph.doc_string
@@ -138,6 +149,8 @@ def test_graph_equals_sklearn_and_the_closed_form(
         assert _held(model, "linv") == 0
     else:
         assert rank == 0 or (rank + top) * points >= _blocks(points)
+        if form == "would hold more":
+            assert f"{rank} + {top} of {points} eigenvectors" in model.graph.doc_string
         assert _held(model, "linv") == _blocks(points)
         assert _held(model, "gp_q") == 0
 

@@ -202,10 +202,10 @@ def gpr_graph(
         helper.make_node("Transpose", ["gp_k"], ["gp_kt"], perm=[1, 0]),  # (n, rows)
     ]
     low_rank = _low_rank(gpr, noise, rtol)
-    if low_rank is not None:
+    if isinstance(low_rank, _LowRank):
         form = _low_rank_variance(low_rank, inits, nodes, const)
     else:
-        form = _blocked_variance(gpr, inits, nodes, const)
+        form = _blocked_variance(gpr, inits, nodes, const, low_rank)
     nodes += [
         helper.make_node("Max", ["gp_var_raw", "gp_zero"], ["gp_var"]),
         helper.make_node("Sqrt", ["gp_var"], ["gp_std_row"]),
@@ -242,14 +242,15 @@ class _LowRank:
     cut: float
 
 
-def _low_rank(gpr: Any, noise: float, rtol: float) -> _LowRank | None:
-    """The low-rank variance's parts, or None where they would hold at least as many doubles
-    as the blocks of ``L^-1``, where no eigenpair is kept (a white noise far above the RBF's
-    eigenvalues) or where ``K``'s jitter is not one number (so ``K`` is not ``K_f + s I``)."""
+def _low_rank(gpr: Any, noise: float, rtol: float) -> _LowRank | str:
+    """The low-rank variance's parts, or why not: where they would hold at least as many
+    doubles as the blocks of ``L^-1``, where no eigenpair is kept (a white noise far above the
+    RBF's eigenvalues) or where ``K``'s jitter is not one number (so ``K`` is not ``K_f +
+    s I``)."""
     import scipy.linalg
 
     if np.ndim(gpr.alpha) != 0:
-        return None
+        return "the regressor's alpha is one per row"
     x_train = np.asarray(gpr.X_train_, dtype=float)
     n = x_train.shape[0]
     k_f = gpr.kernel_.k1(x_train)
@@ -259,8 +260,10 @@ def _low_rank(gpr: Any, noise: float, rtol: float) -> _LowRank | None:
     rank = int(np.count_nonzero(eigenvalues > cut))
     # at least one back-projected: K_f's largest eigenvalue is at least its mean diagonal, 1
     top = max(1, int(np.count_nonzero(eigenvalues > diagonal)))
-    if rank == 0 or (rank + top) * n >= _blocked_size(n):
-        return None
+    if rank == 0:
+        return f"no eigenvalue of K_f above the cut {cut:.3g}"
+    if (rank + top) * n >= _blocked_size(n):
+        return f"{rank} + {top} of {n} eigenvectors would hold more"
     kept, vectors = scipy.linalg.eigh(k_f, subset_by_index=[n - rank, n - 1], check_finite=False)
     kept, vectors = kept[::-1], vectors[:, ::-1]
     weights = 1.0 / (kept + diagonal)
@@ -308,9 +311,9 @@ def _low_rank_variance(low_rank: _LowRank, inits: list[Any], nodes: list[Any], c
     )
 
 
-def _blocked_variance(gpr: Any, inits: list[Any], nodes: list[Any], const: Any) -> str:
+def _blocked_variance(gpr: Any, inits: list[Any], nodes: list[Any], const: Any, why: str) -> str:
     """Append ``gp_var_raw = k(x, x) - |L^-1 k*|^2`` (``L^-1`` in blocks) to the graph; its
-    form."""
+    form, with ``why`` the low-rank form is not used."""
     import scipy.linalg
     from onnx import helper
 
@@ -336,4 +339,4 @@ def _blocked_variance(gpr: Any, inits: list[Any], nodes: list[Any], const: Any) 
         helper.make_node("ReduceSum", ["gp_sq", "gp_axis0"], ["gp_vv"], keepdims=0),
         helper.make_node("Sub", ["gp_kss", "gp_vv"], ["gp_var_raw"]),
     ]
-    return f"from L^-1 in blocks of {BLOCK_ROWS} rows (no eigenvalue cut: full rank)"
+    return f"from L^-1 in blocks of {BLOCK_ROWS} rows (low rank: {why})"
