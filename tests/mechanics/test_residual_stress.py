@@ -168,6 +168,45 @@ def test_model_equals_one_off_function() -> None:
     )
 
 
+def _profile_by_numpy(
+    model: ElasticMirsModel, normal: float, tangential: float, t: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """The model's profile as the whole field in NumPy (before the compiled kernel): the
+    reference the kernel's single pass must reproduce."""
+    n, q, m = model._normal, model._tangential, model.material
+    nu = m.poisson_ratio
+    thermal = (-m.youngs_modulus_pa * m.expansion_per_k / (1.0 - nu)) * t[None, :]
+    mxx = normal * n.sigma_xx + tangential * q.sigma_xx
+    szz = normal * n.sigma_zz + tangential * q.sigma_zz
+    txz = normal * n.tau_xz + tangential * q.tau_xz
+    sxx = mxx + thermal
+    syy = nu * (mxx + szz) + thermal
+    mises = np.sqrt(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3.0 * txz**2)
+    worst = np.argmax(mises, axis=0)
+    cols = np.arange(t.size)
+    rxx, ryy = elastic_release(sxx[worst, cols], syy[worst, cols], szz[worst, cols], t, m)
+    return rxx, ryy, model.x_m[worst], mises[worst, cols]
+
+
+@pytest.mark.parametrize("contact_m", [1e-4, 3.26e-3])
+def test_compiled_loaded_states_equal_the_numpy_field(contact_m: float) -> None:
+    depth = np.linspace(0.0, 200e-6, 41)
+    model = ElasticMirsModel(AL7050, contact_m, depth)
+    rng = np.random.default_rng(3)
+    loads = [(2e4, 4e4), (0.0, 1e4), (5e4, 0.0), (3e3, -2e4)]
+    loads += [(float(a), float(b)) for a, b in rng.uniform([0.0, -5e4], [1e5, 5e4], (20, 2))]
+    for normal, tangential in loads:
+        for t in (np.zeros_like(depth), np.linspace(80.0, 0.0, depth.size)):
+            got = model.profile(normal, tangential, t)
+            want = _profile_by_numpy(model, normal, tangential, t)
+            rxx, ryy, x, mises = want
+            np.testing.assert_array_equal(got.loaded_x_m, x)  # the same loaded states
+            scale = 1e-9 * max(float(np.max(mises)), 1.0)  # Pa
+            np.testing.assert_allclose(got.loaded_von_mises_pa, mises, rtol=0.0, atol=scale)
+            np.testing.assert_allclose(got.sigma_xx_pa, rxx, rtol=0.0, atol=scale)
+            np.testing.assert_allclose(got.sigma_yy_pa, ryy, rtol=0.0, atol=scale)
+
+
 def test_milling_surface_load_is_ward_eq1_per_unit_width() -> None:
     k = milling_material("AA7075-T6").coefficients
     load = milling_surface_load(k, 0.16e-3, 0.0, math.pi, 1e-4)

@@ -666,7 +666,12 @@ def _angle_tables(
     phi = np.arange(grid)[None, :] * dtheta - psi[:, None]
     overlap = np.zeros_like(phi)
     moment = np.zeros_like(phi)
+    # a shifted interval clear of every cell adds only zeros (exactly): it is skipped
+    first = float(phi.min()) - 0.5 * dtheta
+    last = float(phi.max()) + 0.5 * dtheta
     for shift in (-_TWO_PI, 0.0, _TWO_PI, 2.0 * _TWO_PI):
+        if process.exit_rad + shift <= first or process.entry_rad + shift >= last:
+            continue
         lo = np.maximum(phi - 0.5 * dtheta, process.entry_rad + shift)
         hi = np.minimum(phi + 0.5 * dtheta, process.exit_rad + shift)
         part = np.clip(hi - lo, 0.0, None)

@@ -69,6 +69,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cnctwin.errors import ConfigError
+from cnctwin.mechanics import _residual_stress_kernels as _kernels
 from cnctwin.mechanics.coefficients import CuttingCoefficients
 from cnctwin.mechanics.materials import ElasticMaterial
 
@@ -445,26 +446,35 @@ class ElasticMirsModel:
         e = self.material.youngs_modulus_pa
         nu = self.material.poisson_ratio
         alpha = self.material.expansion_per_k
-        thermal = (-e * alpha / (1.0 - nu)) * t[None, :]
-        mxx = normal_n_m * n.sigma_xx + tangential_n_m * q.sigma_xx
-        szz = normal_n_m * n.sigma_zz + tangential_n_m * q.sigma_zz
-        txz = normal_n_m * n.tau_xz + tangential_n_m * q.tau_xz
-        sxx = mxx + thermal
-        syy = nu * (mxx + szz) + thermal
-        mises = np.sqrt(
-            0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3.0 * txz**2
+        thermal = (-e * alpha / (1.0 - nu)) * t
+        # the loaded state of each depth: the largest von Mises stress of the field
+        # P n + Q q over x, with its sigma_xx, sigma_yy, sigma_zz (one compiled pass)
+        worst = np.empty(z.size, dtype=np.int64)
+        mises, sxx, syy, szz = (np.empty(z.size) for _ in range(4))
+        _kernels.loaded_states(
+            float(normal_n_m),
+            float(tangential_n_m),
+            nu,
+            thermal,
+            n.sigma_xx,
+            n.sigma_zz,
+            n.tau_xz,
+            q.sigma_xx,
+            q.sigma_zz,
+            q.tau_xz,
+            worst,
+            mises,
+            sxx,
+            syy,
+            szz,
         )
-        worst = np.argmax(mises, axis=0)
-        cols = np.arange(z.size)
-        rxx, ryy = elastic_release(
-            sxx[worst, cols], syy[worst, cols], szz[worst, cols], t, self.material
-        )
+        rxx, ryy = elastic_release(sxx, syy, szz, t, self.material)
         return ResidualStressProfile(
             depth_m=z,
             sigma_xx_pa=rxx,
             sigma_yy_pa=ryy,
             loaded_x_m=self.x_m[worst],
-            loaded_von_mises_pa=mises[worst, cols],
+            loaded_von_mises_pa=mises,
         )
 
 

@@ -277,8 +277,9 @@ class ChatterStage:
         self._next = block.end_index
         p = state.predicted
         samples = np.asarray(block.samples, dtype=np.float64)
-        rms = float(np.sqrt(np.mean(np.sum((samples - samples.mean(axis=0)) ** 2, axis=1))))
-        rms = rms if samples.shape[0] > 1 else math.nan
+        rms = math.nan  # a cycle of fewer than two samples has no RMS about their mean
+        if samples.shape[0] > 1:
+            rms = float(np.sqrt(np.mean(np.sum((samples - samples.mean(axis=0)) ** 2, axis=1))))
         p["chatter_vibration_um"] = rms
         segment = self._segments.get((state.tool, state.line))
         p["chatter_stable_rpm"] = segment.scheduled_rpm if segment is not None else math.nan
