@@ -124,6 +124,50 @@ def test_write_is_applied_and_read_back(shared: Shared) -> None:
     shared.run(body)
 
 
+@MODES
+def test_write_read_back_sends_the_read_before_the_write_is_answered(
+    shared: Shared, subscription_ms: float | None
+) -> None:
+    """Heide 2025's write and read-back in one go: the Read of the feedback is on the secure
+    channel before the Write's answer comes back, and still sees the value written (the server
+    answers a channel's requests in order); a refused write raises, and the read-back sent with
+    it does not disturb the requests after it."""
+
+    async def body(server: Shared, machine: FakeMachine) -> None:
+        async with OpcUaConnection(config(server), subscription_ms=subscription_ms) as conn:
+            assert conn._client is not None
+            protocol = conn._client.uaclient.protocol
+            assert protocol is not None
+            events: list[str] = []
+            send, answer = protocol._send_request, protocol._call_callback
+
+            def sent(request: Any, *args: Any, **kwargs: Any) -> Any:
+                events.append(type(request).__name__)
+                return send(request, *args, **kwargs)
+
+            def answered(request_id: int, body: Any) -> None:
+                events.append("answer")
+                answer(request_id, body)
+
+            protocol._send_request = sent  # type: ignore[method-assign]
+            protocol._call_callback = answered  # type: ignore[method-assign]
+            back = await conn.write_read_back("feed_override_pct", 37.0)
+            protocol._send_request = send  # type: ignore[method-assign]
+            protocol._call_callback = answer  # type: ignore[method-assign]
+            assert events[:4] == ["WriteRequest", "ReadRequest", "answer", "answer"]
+            assert back.value == 37.0 and machine.commands == [("feed_override_pct", 37.0)]
+            assert back.write_s > 0 and back.read_s >= 0
+            assert (await conn.read()).values["feed_override_pct"] == 37.0
+            with pytest.raises(CommandRejected, match="BadOutOfRange"):
+                await conn.write_read_back("feed_override_pct", 151.0)
+            assert conn.state is ConnectionState.CONNECTED
+            spindle = machine.values["spindle_override_pct"]
+            assert await conn.read_signal("spindle_override_pct") == spindle
+            assert (await conn.write_read_back("feed_override_pct", 38.0)).value == 38.0
+
+    shared.run(body)
+
+
 def test_invalid_write_is_rejected_with_the_bad_status_and_the_connection_stays(
     shared: Shared,
 ) -> None:
