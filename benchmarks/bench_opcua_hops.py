@@ -8,9 +8,8 @@ server in a child process (:func:`cnctwin.virtual.virtual_machine_server`), the 
 (:func:`cnctwin.thread.measure_latency`). Both processes stamp each hop with
 ``time.perf_counter_ns`` (CLOCK_MONOTONIC on Linux: one clock for both processes):
 
-- client: the round trip's start, each request's encoding and ``transport.write``
-  (``UASocketProtocol._send_request``), the arrival of each answer (``data_received``) and the
-  resumption of the coroutine that awaited it;
+- client: each request's encoding and ``transport.write`` (``UASocketProtocol._send_request``),
+  the arrival of each answer (``data_received``) and the end of the round trip;
 - server: the arrival of each request (``OPCUAProtocol.data_received``), the start of its
   processing (``UaProcessor.process``, after asyncua's per-connection queue) and the sending of
   the answer (``UaProcessor.send_response``, before encoding and after ``transport.write``).
@@ -20,10 +19,14 @@ imports this script there as ``__mp_main__`` before it runs the child's target, 
 installs them then (only then, see the end of the file). The child writes its stamps to the file
 named by ``$CNCTWIN_HOPS_FILE`` when the client's connection closes.
 
-Printed: the median and p90 of each hop in µs over the round trips, the round trip's median and
-p99 in ms, and the CPU time per round trip of the client process (``getrusage``) and of the
-server's event-loop thread while it handles the round trip's requests
-(``time.thread_time_ns`` from each request's arrival to its answer's ``write``).
+The round trips are :func:`~cnctwin.thread.measure_latency`'s own (a round trip's stamps run
+from its first request's encoding to its ``progress`` call), so the script measures whatever
+code is on the path, old or new. Printed: for the round trips whose stamps come in the
+commonest order, the median and p90 of the time from each stamp to the next in µs and the CPU
+time (``time.thread_time_ns``) the thread that made the later stamp spent since its own stamp
+before; ``measure_latency``'s round-trip median and p99 in ms; the CPU time per round trip of
+the client process (``getrusage``) and of the server's event-loop thread while it handles the
+round trip's requests (from a batch's arrival to its last answer's ``write``).
 ``--quick`` (CI) makes 20 round trips.
 """
 
@@ -119,41 +122,42 @@ class _ClientHops:
 
 
 async def _run(n: int, interval_s: float, hops_file: Path) -> dict[str, Any]:
-    from cnctwin.thread import ConnectionConfig, OpcUaConnection
+    from cnctwin.thread import ConnectionConfig, OpcUaConnection, measure_latency
     from cnctwin.virtual import virtual_machine_server
 
     client = _ClientHops()
+    ends: list[int] = []  # index in client.events where each round trip ended
     async with virtual_machine_server("opcua") as url:
         config = ConnectionConfig(transport="opcua", endpoint=url, timeout_s=2.0)
         async with OpcUaConnection(config, subscription_ms=None) as connection:
-            signal = "feed_override_pct"
-            start = await connection.read_signal(signal)
+            await connection.read_signal("feed_override_pct")  # as measure_latency's first read
             client.events.clear()
-            trips: list[list[tuple[str, int, int]]] = []
-            usage0 = resource.getrusage(resource.RUSAGE_SELF)
-            for i in range(n):
-                target = start - 1.0 - i % 10
-                first = len(client.events)
-                client.mark("c_start")
-                value = (await connection.write_read_back(signal, target)).value
-                while value != target:
-                    value = await connection.read_signal(signal)
+
+            def done(_: int) -> None:
                 client.mark("c_done")
-                trips.append(client.events[first:])
-                await asyncio.sleep(interval_s)
+                ends.append(len(client.events))
+
+            usage0 = resource.getrusage(resource.RUSAGE_SELF)
+            result = await measure_latency(connection, n=n, interval_s=interval_s, progress=done)
             usage1 = resource.getrusage(resource.RUSAGE_SELF)
-            await connection.write(signal, start)
         for _ in range(200):  # the child writes its stamps when the connection closes
             if hops_file.exists() and hops_file.stat().st_size:
                 break
             await asyncio.sleep(0.01)
+    # a round trip's stamps: from the end of the one before to its own end (the first round
+    # trip, behind measure_latency's read of the start value, is left out)
+    trips = [client.events[a:b] for a, b in itertools.pairwise(ends)]
     cpu_s = (usage1.ru_utime + usage1.ru_stime) - (usage0.ru_utime + usage0.ru_stime)
-    return {"trips": trips, "server": json.loads(hops_file.read_text()), "client_cpu_s": cpu_s}
+    return {
+        "trips": trips,
+        "server": json.loads(hops_file.read_text()),
+        "client_cpu_s": cpu_s,
+        "round_trip_ms": result.round_trip_ms,
+    }
 
 
 #: What happens between a stamp and the next, for the table.
 _MEANING = {
-    "c_start": "client: round trip starts",
     "c_encode": "client: asyncua encodes a request",
     "c_sent": "client: request written to the socket",
     "s_recv": "server: request bytes arrive (data_received)",
@@ -161,8 +165,7 @@ _MEANING = {
     "s_encode": "server: answer made, being encoded",
     "s_sent": "server: answer written to the socket",
     "c_recv": "client: answer bytes arrive (data_received)",
-    "c_written": "client: write's answer decoded, awaiting coroutine resumed",
-    "c_done": "client: read-back decoded and checked, round trip over",
+    "c_done": "client: answers decoded and checked, round trip over",
 }
 
 
@@ -185,20 +188,29 @@ def _analyse(
         theirs = server[lo:hi]
         line = sorted(trip + [(hop, t, cpu) for t, hop, cpu in theirs], key=lambda e: e[1])
         timelines.append(line)
-        spent, begin = 0, None
-        for _, hop, cpu in theirs:
-            if hop == "s_recv" and begin is None:
-                begin = cpu
-            elif hop == "s_sent" and begin is not None:
-                spent += cpu - begin
-                begin = None
-        server_cpu.append(spent / 1e3)
+        server_cpu.append(_batches_cpu([(hop, cpu) for _, hop, cpu in theirs]))
     orders = Counter(tuple(hop for hop, _, _ in line) for line in timelines)
     order = list(orders.most_common(1)[0][0])
     chosen = [line for line in timelines if [h for h, _, _ in line] == order]
     rows = np.array([np.diff([t for _, t, _ in line]) / 1e3 for line in chosen])
     cpus = np.array([_cpu_steps(line) for line in chosen])
     return order, rows, cpus, rtts, server_cpu
+
+
+def _batches_cpu(stamps: list[tuple[str, int]]) -> float:
+    """The server's CPU (µs) from each batch of requests' arrival to its last answer's write."""
+    spent, begin, sent = 0, None, None
+    for hop, cpu in stamps:
+        if hop == "s_recv" and sent is not None and begin is not None:  # the next batch
+            spent += sent - begin
+            begin = sent = None
+        if hop == "s_recv" and begin is None:
+            begin = cpu
+        elif hop == "s_sent":
+            sent = cpu
+    if begin is not None and sent is not None:
+        spent += sent - begin
+    return spent / 1e3
 
 
 def _cpu_steps(line: list[tuple[str, int, int]]) -> list[float]:
@@ -237,10 +249,12 @@ def main() -> None:
             f"| {_MEANING[a]} | {_MEANING[b]} | {np.median(rows[:, k]):.0f} | "
             f"{np.percentile(rows[:, k], 90):.0f} | {cpu} |"
         )
+    stats = data["round_trip_ms"]
     print(
-        f"round trip: median {np.median(rtts):.3f} ms, p99 {np.percentile(rtts, 99):.3f} ms; CPU "
-        f"per round trip: client process {1e6 * data['client_cpu_s'] / n:.0f} µs, server loop "
-        f"thread {np.median(server_cpu):.0f} µs (median)"
+        f"round trip (measure_latency): median {stats.median:.3f} ms, p99 {stats.p99:.3f} ms; "
+        f"first stamp to last: median {np.median(rtts):.3f} ms; CPU per round trip: client "
+        f"process {1e6 * data['client_cpu_s'] / n:.0f} µs, server event-loop thread "
+        f"{np.median(server_cpu):.0f} µs (median)"
     )
 
 
