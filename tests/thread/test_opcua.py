@@ -129,9 +129,9 @@ def test_write_read_back_sends_the_read_before_the_write_is_answered(
     shared: Shared, subscription_ms: float | None
 ) -> None:
     """Heide 2025's write and read-back in one go: the Read of the feedback is on the secure
-    channel before the Write's answer comes back, and still sees the value written (the server
-    answers a channel's requests in order); a refused write raises, and the read-back sent with
-    it does not disturb the requests after it."""
+    channel before the Write's answer comes back, and still sees the value written (asyncua's
+    server answers a channel's requests in order); a refused write raises, and the read-back
+    sent with it does not disturb the requests after it."""
 
     async def body(server: Shared, machine: FakeMachine) -> None:
         async with OpcUaConnection(config(server), subscription_ms=subscription_ms) as conn:
@@ -157,7 +157,7 @@ def test_write_read_back_sends_the_read_before_the_write_is_answered(
             assert events[:4] == ["WriteRequest", "ReadRequest", "answer", "answer"]
             assert back.value == 37.0 and machine.commands == [("feed_override_pct", 37.0)]
             assert back.write_s > 0 and back.read_s >= 0
-            assert (await conn.read()).values["feed_override_pct"] == 37.0
+            assert await conn.read_signal("feed_override_pct") == 37.0
             with pytest.raises(CommandRejected, match="BadOutOfRange"):
                 await conn.write_read_back("feed_override_pct", 151.0)
             assert conn.state is ConnectionState.CONNECTED

@@ -98,7 +98,7 @@ class ReadBack:
     Attributes
     ----------
     value
-        The command's feedback as read after the write, in the command's unit.
+        The command's feedback as read back, in the command's unit.
     write_s
         From the call to the machine's answer to the write, s.
     read_s
@@ -316,11 +316,13 @@ class MachineConnection(ABC):
         """Write one command and read its feedback, in one timeout: Heide 2025's
         write-to-read-back step (:func:`~cnctwin.thread.measure_latency`).
 
-        The read is sent after the write, on the same link; a transport that may have both
-        in flight at once (OPC UA: the server answers the requests of a secure channel in
-        order) sends it without waiting for the write's answer. :class:`CommandRejected`
-        when the machine refuses the write, :class:`ConnectionLost` (and a reconnect) on
-        failure, :class:`~cnctwin.errors.DataError` when the feedback is garbage.
+        The read is sent after the write, on the same link. A transport that may have both
+        in flight at once (OPC UA) sends it right behind the write, without waiting for the
+        write's answer; a server that answers out of order may then return the value before
+        the write (the caller reads again, as :func:`~cnctwin.thread.measure_latency` does).
+        :class:`CommandRejected` when the machine refuses the write, :class:`ConnectionLost`
+        (and a reconnect) on failure, :class:`~cnctwin.errors.DataError` when the feedback is
+        garbage.
         """
         self._require_connected()
         try:

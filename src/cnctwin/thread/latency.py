@@ -185,8 +185,9 @@ async def measure_latency(
     """Measure ``n`` write-to-read-back round trips of ``signal`` (Heide 2025, section 2.5).
 
     Each round trip is :meth:`~cnctwin.thread.connection.MachineConnection.write_read_back`
-    (over OPC UA the read-back is on its way before the write is answered, and the server
-    answers both in order), then reads of the feedback until it shows the value written.
+    (over OPC UA the read-back is on its way before the write is answered), then reads of
+    the feedback until it shows the value written (a read-back the server answered before
+    the write, or a machine that applies the write later, takes another read).
 
     Parameters
     ----------

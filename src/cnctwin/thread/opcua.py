@@ -406,7 +406,7 @@ class OpcUaConnection(MachineConnection):
             raise ConnectionLost("OPC UA client is not open")
         target = self._target(name)
         read = self._send(client, self._read_one[name], f"read of {name}")
-        return self._feedback(name, target, await self._read_answer(read, name))
+        return self._feedback(name, target, await self._read_answer(read))
 
     def _target(self, name: str) -> _Target:
         target = self._targets.get(name)
@@ -475,7 +475,8 @@ class OpcUaConnection(MachineConnection):
         """Send one request (:meth:`_send`) and wait for its decoded answer (:meth:`_answer`)."""
         return await self._answer(self._send(client, request, what), response_type)
 
-    async def _read_answer(self, sent: _Sent, name: str) -> ua.DataValue:
+    async def _read_answer(self, sent: _Sent) -> ua.DataValue:
+        """The one value of the answer to a one-node Read of :meth:`_send`."""
         result: ua.DataValue = (await self._answer(sent, ua.ReadResponse)).Results[0]
         return result
 
@@ -515,16 +516,21 @@ class OpcUaConnection(MachineConnection):
         client = self._client
         if client is None:
             raise ConnectionLost("OPC UA client is not open")
-        if self._cache is None:
-            await self._check_written(self._send_write(client, name, value), name, value)
-            return
-        # refresh the cache with the read-back now, so a read() after the write shows it
-        await self._write_read_back(name, value)
+        await self._check_written(self._send_write(client, name, value), name, value)
+        if self._cache is not None:
+            # Refresh the cache with the read-back now, so a read() after the write shows it
+            # (the Read sent after the Write's answer: a server may answer a channel's
+            # requests in any order, OPC 10000-6 7.1).
+            read = self._send(client, self._read_one[name], f"read-back of {name}")
+            self._cache.values[name] = await self._read_answer(read)
 
     async def _write_read_back(self, name: str, value: float) -> ReadBack:
-        """The Write and the Read of its feedback both in flight on the secure channel: the
-        server answers a channel's requests in order (asyncua's, one after the other), so
-        the Read sees what the Write left, without waiting for the Write's answer first."""
+        """The Write and the Read of its feedback both in flight on the secure channel, the
+        Read right behind the Write. A server that handles a channel's requests one after the
+        other (asyncua's, so cnctwin's) reads what the Write left; one that answers in another
+        order (OPC 10000-6 7.1 allows it) may return the value before, which the caller sees
+        (:func:`~cnctwin.thread.measure_latency` reads again). The subscription's cache is not
+        touched (:meth:`write` refreshes it)."""
         client = self._client
         if client is None:
             raise ConnectionLost("OPC UA client is not open")
@@ -537,10 +543,8 @@ class OpcUaConnection(MachineConnection):
             read.future.add_done_callback(_dropped)  # its answer or failure is not wanted
             raise
         t1 = time.perf_counter()
-        result = await self._read_answer(read, name)
+        result = await self._read_answer(read)
         t2 = time.perf_counter()
-        if self._cache is not None:
-            self._cache.values[name] = result
         return ReadBack(self._feedback(name, self._targets[name], result), t1 - t0, t2 - t1)
 
     # Helpers --------------------------------------------------------------------------
