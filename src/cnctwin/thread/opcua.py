@@ -225,6 +225,9 @@ class OpcUaConnection(MachineConnection):
         self._token: ua.NodeId | None = None
         self._restoring = False
         self._how: str | None = None
+        #: write_read_back sends the Read right behind the Write (until a read-back shows
+        #: another value than the one written)
+        self._pipelined = True
 
     # Transport hooks ------------------------------------------------------------------
     async def _open(self) -> None:
@@ -527,25 +530,41 @@ class OpcUaConnection(MachineConnection):
     async def _write_read_back(self, name: str, value: float) -> ReadBack:
         """The Write and the Read of its feedback both in flight on the secure channel, the
         Read right behind the Write. A server that handles a channel's requests one after the
-        other (asyncua's, so cnctwin's) reads what the Write left; one that answers in another
-        order (OPC 10000-6 7.1 allows it) may return the value before, which the caller sees
-        (:func:`~cnctwin.thread.measure_latency` reads again). The subscription's cache is not
-        touched (:meth:`write` refreshes it)."""
+        other (asyncua's, so cnctwin's) reads what the Write left. One that answers in another
+        order (OPC 10000-6 7.1 allows it; node-opcua often answers the Read first) returns the
+        value before, which the caller sees (:func:`~cnctwin.thread.measure_latency` reads
+        again); from the first read-back that does not show the value written on (such a
+        server, or a machine that applies or rounds a command later), the connection sends
+        the Read after the Write's answer. The subscription's cache is not touched
+        (:meth:`write` refreshes it)."""
         client = self._client
         if client is None:
             raise ConnectionLost("OPC UA client is not open")
+        what = f"read-back of {name}"
         t0 = time.perf_counter()
         write = self._send_write(client, name, value)
-        read = self._send(client, self._read_one[name], f"read-back of {name}")
+        read = self._send(client, self._read_one[name], what) if self._pipelined else None
         try:
             await self._check_written(write, name, value)
         except BaseException:
-            read.future.add_done_callback(_dropped)  # its answer or failure is not wanted
+            if read is not None:  # its answer or failure is not wanted
+                read.future.add_done_callback(_dropped)
             raise
         t1 = time.perf_counter()
-        result = await self._read_answer(read)
+        result = await self._read_answer(read or self._send(client, self._read_one[name], what))
         t2 = time.perf_counter()
-        return ReadBack(self._feedback(name, self._targets[name], result), t1 - t0, t2 - t1)
+        back = self._feedback(name, self._targets[name], result)
+        if read is not None and back != value:
+            self._pipelined = False
+            logger.info(
+                "%s: the read-back of %s sent with the write showed %r, not %r: reading back "
+                "after the write's answer from now on",
+                self.endpoint,
+                name,
+                back,
+                value,
+            )
+        return ReadBack(back, t1 - t0, t2 - t1)
 
     # Helpers --------------------------------------------------------------------------
     async def _apply_security(self, client: Client, security: OpcUaSecurityConfig) -> None:
