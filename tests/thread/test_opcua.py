@@ -166,7 +166,13 @@ def test_write_read_back_sends_the_read_before_the_write_is_answered(
             assert conn.state is ConnectionState.CONNECTED
             spindle = machine.values["spindle_override_pct"]
             assert await conn.read_signal("spindle_override_pct") == spindle
+            events.clear()
             assert (await conn.write_read_back("feed_override_pct", 38.0)).value == 38.0
+            assert events == ["Write", "Read", "Write answered", "Read answered"]
+            events.clear()  # as measure_latency with jitter asks (one proxy delay each)
+            back = await conn.write_read_back("feed_override_pct", 39.0, pipelined=False)
+            assert back.value == 39.0
+            assert events == ["Write", "Write answered", "Read", "Read answered"]
             # a read-back that does not show the value written (here: a machine that rounds
             # the override) makes the connection wait for the write's answer from then on
             monkeypatch.setattr(machine, "quantised", True)

@@ -218,9 +218,9 @@ class MachineConnection(ABC):
     async def _write(self, name: str, value: float) -> None:
         """Write one command (a name of :data:`~cnctwin.thread.signals.COMMANDS`)."""
 
-    async def _write_read_back(self, name: str, value: float) -> ReadBack:
+    async def _write_read_back(self, name: str, value: float, pipelined: bool) -> ReadBack:
         """Write command ``name``, then read its feedback; this default waits for the write's
-        answer before it sends the read."""
+        answer before it sends the read (``pipelined`` or not)."""
         t0 = time.perf_counter()
         await self._write(name, value)
         t1 = time.perf_counter()
@@ -312,14 +312,16 @@ class MachineConnection(ABC):
             self._lost(err)
             raise ConnectionLost(f"write of {name}={value!r} failed: {err}") from err
 
-    async def write_read_back(self, name: str, value: float) -> ReadBack:
+    async def write_read_back(self, name: str, value: float, *, pipelined: bool = True) -> ReadBack:
         """Write one command and read its feedback, in one timeout: Heide 2025's
         write-to-read-back step (:func:`~cnctwin.thread.measure_latency`).
 
-        The read is sent after the write, on the same link. A transport that may have both
-        in flight at once (OPC UA) sends it right behind the write, without waiting for the
-        write's answer; a server that answers out of order may then return the value before
-        the write (the caller reads again, as :func:`~cnctwin.thread.measure_latency` does).
+        The read is sent after the write, on the same link. With ``pipelined`` a transport
+        that may have both in flight at once (OPC UA) sends it right behind the write, without
+        waiting for the write's answer; a server that answers out of order may then return the
+        value before the write (the caller reads again, as
+        :func:`~cnctwin.thread.measure_latency` does). ``pipelined=False`` waits for the
+        write's answer on every transport.
         :class:`CommandRejected` when the machine refuses the write, :class:`ConnectionLost`
         (and a reconnect) on failure, :class:`~cnctwin.errors.DataError` when the feedback is
         garbage.
@@ -327,7 +329,7 @@ class MachineConnection(ABC):
         self._require_connected()
         try:
             async with asyncio.timeout(self.timeout_s):
-                return await self._write_read_back(name, value)
+                return await self._write_read_back(name, value, pipelined)
         except (OSError, TimeoutError, ConnectionLost) as err:
             self._lost(err)
             raise ConnectionLost(

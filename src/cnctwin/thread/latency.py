@@ -181,13 +181,15 @@ async def measure_latency(
     timeout_s: float = 2.0,
     jitter_ms: float = 0.0,
     progress: Callable[[int], None] | None = None,
+    pipelined: bool = True,
 ) -> LatencyResult:
     """Measure ``n`` write-to-read-back round trips of ``signal`` (Heide 2025, section 2.5).
 
     Each round trip is :meth:`~cnctwin.thread.connection.MachineConnection.write_read_back`
-    (over OPC UA the read-back is on its way before the write is answered), then reads of
-    the feedback until it shows the value written (a read-back the server answered before
-    the write, or a machine that applies the write later, takes another read).
+    (over OPC UA, ``pipelined``, the read-back is on its way before the write is answered),
+    then reads of the feedback until it shows the value written (a read-back the server
+    answered before the write, or a machine that applies the write later, takes another
+    read).
 
     Parameters
     ----------
@@ -205,6 +207,10 @@ async def measure_latency(
         Jitter injected on the path (by a :class:`JitterProxy`), recorded in the result, ms.
     progress
         Called with the number of round trips done after each one.
+    pipelined
+        Send the first read-back without waiting for the write's answer where the transport
+        can (OPC UA); ``False`` waits for it, as a :class:`JitterProxy` needs to give the
+        write and the read a delay each.
 
     Returns
     -------
@@ -223,7 +229,7 @@ async def measure_latency(
     try:
         for i, target in enumerate(_targets(signal, start, n)):
             t0 = time.perf_counter()
-            back = await connection.write_read_back(signal, target)
+            back = await connection.write_read_back(signal, target, pipelined=pipelined)
             value, read_s = back.value, back.read_s
             polls += 1
             while abs(value - target) > 1e-6 * max(1.0, abs(target)):
@@ -528,6 +534,10 @@ async def measure_endpoint_latency(
                 interval_s=interval_s,
                 timeout_s=timeout_s,
                 jitter_ms=jitter_ms,
+                # the proxy gives a message that comes while the one before is held that one's
+                # delay: a read sent behind the write would share the write's (Heide 2025
+                # delays each write and each read)
+                pipelined=jitter_ms <= 0,
             )
             # the bench's session is anonymous with the default [connection.security]: no
             # message security (docs/latency.md compares Sign and SignAndEncrypt)

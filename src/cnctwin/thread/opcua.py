@@ -527,23 +527,24 @@ class OpcUaConnection(MachineConnection):
             read = self._send(client, self._read_one[name], f"read-back of {name}")
             self._cache.values[name] = await self._read_answer(read)
 
-    async def _write_read_back(self, name: str, value: float) -> ReadBack:
-        """The Write and the Read of its feedback both in flight on the secure channel, the
-        Read right behind the Write. A server that handles a channel's requests one after the
-        other (asyncua's, so cnctwin's) reads what the Write left. One that answers in another
-        order (OPC 10000-6 7.1 allows it; node-opcua often answers the Read first) returns the
-        value before, which the caller sees (:func:`~cnctwin.thread.measure_latency` reads
-        again); from the first read-back that does not show the value written on (such a
-        server, or a machine that applies or rounds a command later), the connection sends
-        the Read after the Write's answer. The subscription's cache is not touched
-        (:meth:`write` refreshes it)."""
+    async def _write_read_back(self, name: str, value: float, pipelined: bool) -> ReadBack:
+        """With ``pipelined``, the Write and the Read of its feedback both in flight on the
+        secure channel, the Read right behind the Write. A server that handles a channel's
+        requests one after the other (asyncua's, so cnctwin's) reads what the Write left. One
+        that answers in another order (OPC 10000-6 7.1 allows it; node-opcua often answers
+        the Read first) returns the value before, which the caller sees
+        (:func:`~cnctwin.thread.measure_latency` reads again); from the first read-back that
+        does not show the value written on (such a server, or a machine that applies or
+        rounds a command later), the connection sends the Read after the Write's answer. The
+        subscription's cache is not touched (:meth:`write` refreshes it)."""
         client = self._client
         if client is None:
             raise ConnectionLost("OPC UA client is not open")
         what = f"read-back of {name}"
         t0 = time.perf_counter()
         write = self._send_write(client, name, value)
-        read = self._send(client, self._read_one[name], what) if self._pipelined else None
+        ahead = pipelined and self._pipelined
+        read = self._send(client, self._read_one[name], what) if ahead else None
         try:
             await self._check_written(write, name, value)
         except BaseException:
