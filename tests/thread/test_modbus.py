@@ -123,6 +123,22 @@ def test_each_command_is_written_and_read_back(name: str, value: float) -> None:
     run(body, machine)
 
 
+def test_write_read_back_writes_then_reads_the_feedback() -> None:
+    """The default write and read-back of a connection: the read after the write's answer."""
+    machine = FakeMachine()
+
+    async def body(server: ModbusMachineServer, connection: ModbusConnection) -> None:
+        before = reads(server)
+        back = await connection.write_read_back("feed_override_pct", 42.0)
+        assert back.value == 42.0 == machine.values["feed_override_pct"]
+        assert back.write_s > 0 and back.read_s > 0
+        assert reads(server) == before + 1  # one read, after the write's answer
+        with pytest.raises(CommandRejected, match="ILLEGAL DATA VALUE"):
+            await connection.write_read_back("feed_override_pct", 151.0)
+
+    run(body, machine)
+
+
 def test_a_refused_write_raises_one_line_and_keeps_the_connection() -> None:
     machine = FakeMachine()
 

@@ -32,6 +32,7 @@ __all__ = [
     "ConnectionState",
     "MachineConnection",
     "Reading",
+    "ReadBack",
     "SampleBlock",
 ]
 
@@ -88,6 +89,27 @@ class Reading:
     source_time_s: float | None = None
     server_time_s: float | None = None
     sequence: float | None = None
+
+
+@dataclass(frozen=True)
+class ReadBack:
+    """A command written and read back (:meth:`MachineConnection.write_read_back`).
+
+    Attributes
+    ----------
+    value
+        The command's feedback as read back, in the command's unit.
+    write_s
+        From the call to the machine's answer to the write, s.
+    read_s
+        From the machine's answer to the write to its answer to the read, s (a transport
+        that sends the read before the write's answer, OPC UA, counts the read's share of
+        the round trip only).
+    """
+
+    value: float
+    write_s: float
+    read_s: float
 
 
 @dataclass(frozen=True, eq=False)
@@ -196,6 +218,15 @@ class MachineConnection(ABC):
     async def _write(self, name: str, value: float) -> None:
         """Write one command (a name of :data:`~cnctwin.thread.signals.COMMANDS`)."""
 
+    async def _write_read_back(self, name: str, value: float, pipelined: bool) -> ReadBack:
+        """Write command ``name``, then read its feedback; this default waits for the write's
+        answer before it sends the read (``pipelined`` or not)."""
+        t0 = time.perf_counter()
+        await self._write(name, value)
+        t1 = time.perf_counter()
+        back = await self._read_signal(name)
+        return ReadBack(back, t1 - t0, time.perf_counter() - t1)
+
     async def _read_block(self, name: str, since: int) -> SampleBlock:
         """The samples of block ``name`` from index ``since`` on; this default has none."""
         raise DataError(
@@ -280,6 +311,30 @@ class MachineConnection(ABC):
         except (OSError, TimeoutError, ConnectionLost) as err:
             self._lost(err)
             raise ConnectionLost(f"write of {name}={value!r} failed: {err}") from err
+
+    async def write_read_back(self, name: str, value: float, *, pipelined: bool = True) -> ReadBack:
+        """Write one command and read its feedback, in one timeout: Heide 2025's
+        write-to-read-back step (:func:`~cnctwin.thread.measure_latency`).
+
+        The read is sent after the write, on the same link. With ``pipelined`` a transport
+        that may have both in flight at once (OPC UA) sends it right behind the write, without
+        waiting for the write's answer; a server that answers out of order may then return the
+        value before the write (the caller reads again, as
+        :func:`~cnctwin.thread.measure_latency` does). ``pipelined=False`` waits for the
+        write's answer on every transport.
+        :class:`CommandRejected` when the machine refuses the write, :class:`ConnectionLost`
+        (and a reconnect) on failure, :class:`~cnctwin.errors.DataError` when the feedback is
+        garbage.
+        """
+        self._require_connected()
+        try:
+            async with asyncio.timeout(self.timeout_s):
+                return await self._write_read_back(name, value, pipelined)
+        except (OSError, TimeoutError, ConnectionLost) as err:
+            self._lost(err)
+            raise ConnectionLost(
+                f"write and read-back of {name}={value!r} failed: {err or type(err).__name__}"
+            ) from err
 
     async def close(self) -> None:
         """Stop reconnecting and close the transport."""

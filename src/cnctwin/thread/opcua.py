@@ -19,6 +19,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
+import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -28,7 +29,7 @@ from typing import Any, TypeVar
 import numpy as np
 from asyncua import ua
 from asyncua.client.client import Client
-from asyncua.client.ua_client import UaClientState
+from asyncua.client.ua_client import UaClientState, UASocketProtocol
 from asyncua.common.node import Node
 from asyncua.common.subscription import (
     DataChangeEvent,
@@ -47,6 +48,7 @@ from cnctwin.thread.connection import (
     CommandRejected,
     ConnectionLost,
     MachineConnection,
+    ReadBack,
     Reading,
     SampleBlock,
     now_s,
@@ -154,6 +156,15 @@ class _Target:
     node_id: ua.NodeId
 
 
+@dataclass(frozen=True)
+class _Sent:
+    """A request on its way: the channel it went on, the future of its answer, what it is."""
+
+    protocol: UASocketProtocol
+    future: asyncio.Future[Any]
+    what: str
+
+
 class OpcUaConnection(MachineConnection):
     """A machine reached over OPC UA.
 
@@ -221,6 +232,9 @@ class OpcUaConnection(MachineConnection):
         self._token: ua.NodeId | None = None
         self._restoring = False
         self._how: str | None = None
+        #: write_read_back sends the Read right behind the Write (until a read-back shows
+        #: another value than the one written)
+        self._pipelined = True
 
     # Transport hooks ------------------------------------------------------------------
     async def _open(self) -> None:
@@ -406,20 +420,66 @@ class OpcUaConnection(MachineConnection):
         client = self._client
         if client is None:
             raise ConnectionLost("OPC UA client is not open")
+        target = self._target(name)
+        read = self._send(client, self._read_one[name], f"read of {name}")
+        return self._feedback(name, target, await self._read_answer(read))
+
+    def _target(self, name: str) -> _Target:
         target = self._targets.get(name)
         if target is None:
             raise ConfigError(f"signal {name!r} is not mapped; valid: {', '.join(self._targets)}")
-        value, reason = _checked(name, await self._read_node(client, name))
+        return target
+
+    def _feedback(self, name: str, target: _Target, result: ua.DataValue) -> float:
+        """A signal's value read by request, checked; DataError when it is garbage."""
+        value, reason = _checked(name, result)
         if reason is not None:
             raise DataError(f"machine signal {name!r} at {target.address} unusable: {reason}")
         return value
 
-    async def _read_node(self, client: Client, name: str) -> ua.DataValue:
-        response = await self._call(
-            client, self._read_one[name], ua.ReadResponse, f"read of {name}"
-        )
-        result: ua.DataValue = response.Results[0]
-        return result
+    def _send(self, client: Client, request: ua.ReadRequest | ua.WriteRequest, what: str) -> _Sent:
+        """Send one service request on the session's secure channel; its answer comes later
+        (:meth:`_answer`).
+
+        The request goes through asyncua's secure channel as any of its requests does
+        (sequence numbers, chunking, signing and encryption of the session's policy), encoded
+        and written before this returns, so a request sent next is behind it on the channel;
+        what is left out are asyncua's per-request wrappers (a task and a timer of its own, a
+        wait while its supervisor reconnects): the caller's timeout (:class:`MachineConnection`,
+        ``timeout_s``) bounds the wait, and a link that is not up fails at once.
+
+        Raises
+        ------
+        ConnectionLost
+            The link is down.
+        """
+        uaclient = client.uaclient
+        protocol = uaclient.protocol
+        if protocol is None or uaclient.state is not UaClientState.CONNECTED:
+            raise ConnectionLost(f"{what} at {self.endpoint}: session is {uaclient.state.value}")
+        request.RequestHeader.Timestamp = datetime.now(UTC)
+        try:
+            future = protocol._send_request(request, self.timeout_s)
+        except (UaError, ConnectionError) as err:
+            raise ConnectionLost(f"{what} at {self.endpoint}: {err}") from err
+        return _Sent(protocol, future, what)
+
+    async def _answer(self, sent: _Sent, response_type: type[_Response]) -> _Response:
+        """The decoded answer to a request of :meth:`_send`.
+
+        Raises
+        ------
+        ConnectionLost
+            The link went down or the server answered with a service fault.
+        """
+        try:
+            data = await sent.future
+            sent.protocol.check_answer(data, f" in response to {sent.what}")  # a fault raises
+            response: _Response = struct_from_binary(response_type, data)
+            response.ResponseHeader.ServiceResult.check()
+        except (UaError, ConnectionError) as err:
+            raise ConnectionLost(f"{sent.what} at {self.endpoint}: {err}") from err
+        return response
 
     async def _call(
         self,
@@ -428,43 +488,20 @@ class OpcUaConnection(MachineConnection):
         response_type: type[_Response],
         what: str,
     ) -> _Response:
-        """Send one service request on the session's secure channel and decode the answer.
+        """Send one request (:meth:`_send`) and wait for its decoded answer (:meth:`_answer`)."""
+        return await self._answer(self._send(client, request, what), response_type)
 
-        The request goes through asyncua's secure channel as any of its requests does
-        (sequence numbers, chunking, signing and encryption of the session's policy); what is
-        left out are asyncua's per-request wrappers (a task and a timer of its own, a wait
-        while its supervisor reconnects): the caller's timeout (:class:`MachineConnection`,
-        ``timeout_s``) bounds the wait, and a link that is not up fails at once.
+    async def _read_answer(self, sent: _Sent) -> ua.DataValue:
+        """The one value of the answer to a one-node Read of :meth:`_send`."""
+        result: ua.DataValue = (await self._answer(sent, ua.ReadResponse)).Results[0]
+        return result
 
-        Raises
-        ------
-        ConnectionLost
-            The link is down or the server answered with a service fault.
-        """
-        uaclient = client.uaclient
-        protocol = uaclient.protocol
-        if protocol is None or uaclient.state is not UaClientState.CONNECTED:
-            raise ConnectionLost(f"{what} at {self.endpoint}: session is {uaclient.state.value}")
-        request.RequestHeader.Timestamp = datetime.now(UTC)
-        try:
-            # encoded (and signed, encrypted) and written before the first await
-            data = await protocol._send_request(request, self.timeout_s)
-            protocol.check_answer(data, f" in response to {what}")  # a ServiceFault raises
-            response: _Response = struct_from_binary(response_type, data)
-            response.ResponseHeader.ServiceResult.check()
-        except UaError as err:
-            raise ConnectionLost(f"{what} at {self.endpoint}: {err}") from err
-        return response
-
-    async def _write(self, name: str, value: float) -> None:
-        client = self._client
-        if client is None:
-            raise ConnectionLost("OPC UA client is not open")
+    def _send_write(self, client: Client, name: str, value: float) -> _Sent:
+        """Send a Write of command ``name`` (its answer: :meth:`_check_written`)."""
         spec = COMMANDS.get(name)
         if spec is None:
             raise ConfigError(f"{name!r} is not a command; valid: {', '.join(COMMANDS)}")
-        target = self._targets.get(name)
-        if target is None:
+        if name not in self._targets:
             raise CommandRejected(
                 f"{name} is not mapped at {self.endpoint} ([connection] mapping {name} = "
                 "'none'); valid: map it to a writable node"
@@ -474,19 +511,74 @@ class OpcUaConnection(MachineConnection):
         else:
             variant = ua.Variant(float(value), ua.VariantType.Double)
         request = self._write_one[name]
-        # no await between setting the value and _call encoding the request: a write of the
-        # same command from another task cannot slip in
+        # the request is encoded before _send returns: a write of the same command from
+        # another task cannot slip in between setting the value and sending it
         request.Parameters.NodesToWrite[0].Value = ua.DataValue(Value=variant)
-        response = await self._call(client, request, ua.WriteResponse, f"write of {name}")
-        (status,) = response.Results
+        return self._send(client, request, f"write of {name}")
+
+    async def _check_written(self, sent: _Sent, name: str, value: float) -> None:
+        """Wait for the answer to a Write of :meth:`_send_write`; CommandRejected on a Bad
+        status."""
+        (status,) = (await self._answer(sent, ua.WriteResponse)).Results
         if not status.is_good():
+            spec = COMMANDS[name]
             raise CommandRejected(
-                f"machine at {self.endpoint} rejected {name}={value!r} at {target.address}: "
-                f"{status.name}; valid: {spec.low}..{spec.high} {spec.unit}"
+                f"machine at {self.endpoint} rejected {name}={value!r} at "
+                f"{self._targets[name].address}: {status.name}; valid: {spec.low}..{spec.high} "
+                f"{spec.unit}"
             )
+
+    async def _write(self, name: str, value: float) -> None:
+        client = self._client
+        if client is None:
+            raise ConnectionLost("OPC UA client is not open")
+        await self._check_written(self._send_write(client, name, value), name, value)
         if self._cache is not None:
-            # Refresh the cache with the read-back now, so a read() after the write shows it.
-            self._cache.values[name] = await self._read_node(client, name)
+            # Refresh the cache with the read-back now, so a read() after the write shows it
+            # (the Read sent after the Write's answer: a server may answer a channel's
+            # requests in any order, OPC 10000-6 7.1).
+            read = self._send(client, self._read_one[name], f"read-back of {name}")
+            self._cache.values[name] = await self._read_answer(read)
+
+    async def _write_read_back(self, name: str, value: float, pipelined: bool) -> ReadBack:
+        """With ``pipelined``, the Write and the Read of its feedback both in flight on the
+        secure channel, the Read right behind the Write. A server that handles a channel's
+        requests one after the other (asyncua's, so cnctwin's) reads what the Write left. One
+        that answers in another order (OPC 10000-6 7.1 allows it; node-opcua often answers
+        the Read first) returns the value before, which the caller sees
+        (:func:`~cnctwin.thread.measure_latency` reads again); from the first read-back that
+        does not show the value written on (such a server, or a machine that applies or
+        rounds a command later), the connection sends the Read after the Write's answer. The
+        subscription's cache is not touched (:meth:`write` refreshes it)."""
+        client = self._client
+        if client is None:
+            raise ConnectionLost("OPC UA client is not open")
+        what = f"read-back of {name}"
+        t0 = time.perf_counter()
+        write = self._send_write(client, name, value)
+        ahead = pipelined and self._pipelined
+        read = self._send(client, self._read_one[name], what) if ahead else None
+        try:
+            await self._check_written(write, name, value)
+        except BaseException:
+            if read is not None:  # its answer or failure is not wanted
+                read.future.add_done_callback(_dropped)
+            raise
+        t1 = time.perf_counter()
+        result = await self._read_answer(read or self._send(client, self._read_one[name], what))
+        t2 = time.perf_counter()
+        back = self._feedback(name, self._targets[name], result)
+        if read is not None and back != value:
+            self._pipelined = False
+            logger.info(
+                "%s: the read-back of %s sent with the write showed %r, not %r: reading back "
+                "after the write's answer from now on",
+                self.endpoint,
+                name,
+                back,
+                value,
+            )
+        return ReadBack(back, t1 - t0, t2 - t1)
 
     # Helpers --------------------------------------------------------------------------
     async def _apply_security(self, client: Client, security: OpcUaSecurityConfig) -> None:
@@ -675,6 +767,12 @@ def _write_request(node_id: ua.NodeId) -> ua.WriteRequest:
         ua.WriteValue(NodeId=node_id, AttributeId=AttributeIds.Value)
     ]
     return request
+
+
+def _dropped(future: asyncio.Future[Any]) -> None:
+    """Take the outcome of a request whose answer nobody waits for (no "never retrieved")."""
+    if not future.cancelled():
+        future.exception()
 
 
 def _posix_s(stamp: datetime | None) -> float | None:
