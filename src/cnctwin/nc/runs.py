@@ -558,12 +558,15 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
     if len(first) <= MIN_RUN_LINES or b"".join(first[:-1]).translate(None, grammar.alphabet):
         return 1
     np = _numpy()
+    # Each window is checked from the end of the last, all of whose lines belong.
+    size = 0
     window = _FIRST_WINDOW
     while True:
-        part = data[:window]
+        part = data[size:window]
         cut = part.rfind(b"\n") + 1
-        size = _valid_prefix(grammar, part[:cut])
-        if size < cut or window >= len(data):
+        good = _valid_prefix(grammar, part[:cut])
+        size += good
+        if good < cut or window >= len(data):
             break
         window *= 4
     head = data[:size]
