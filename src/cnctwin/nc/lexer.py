@@ -273,13 +273,12 @@ def _sort_words(
 
 def _oword(text: str, messages: list[tuple[str, str]]) -> Block:
     """The block of an O-word line (its arguments are read when it runs)."""
-    block = Block(messages=messages)
     found = _O_WORD.match(text)
     if found:
-        block.oword = OWord(found.group(1), found.group(2), text, found.end())
-        return block
+        label, keyword = found.groups()
+        return Block([], [], {}, [], messages, OWord(label, keyword, text, found.end()))
     if _PROGRAM_NUMBER.match(text):
-        return block
+        return Block([], [], {}, [], messages)
     raise NCError(
         f"unrecognised O-word statement '{text}': expected o<label> followed by one of "
         + ", ".join(O_KEYWORDS),
