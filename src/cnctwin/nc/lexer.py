@@ -222,6 +222,10 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
         if messages:
             return Block(messages=messages)
         return None
+    if text[0] == "o":
+        statement = _O_WORD.match(text)
+        if statement is not None:  # never words alone: a letter follows the label
+            return _oword(text, statement, messages)
     if _SIMPLE_LINE.fullmatch(text):
         if text[0] in "o:" and _PROGRAM_NUMBER.match(text):
             return None
@@ -229,12 +233,10 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
         if len(text) > MAX_NUMBER_CHARS:
             for _, number in found:
                 check_number_text(number)
-        gcodes, mcodes, words = _sort_words(
-            [(letter, float(number)) for letter, number in found]
-        )
+        gcodes, mcodes, words = _sort_words([(letter, float(number)) for letter, number in found])
         return Block(gcodes, mcodes, words, _NO_ASSIGNMENTS, messages)
     if text[0] == "o":
-        return _oword(text, messages)
+        return _oword(text, None, messages)
     if len(_COMPILED_LINES) >= CACHE_SIZE:
         _COMPILED_LINES.clear()
     if compiled is _UNSEEN:  # first sight: read and evaluate in one pass
@@ -271,9 +273,9 @@ def _sort_words(
     return gcodes, mcodes, words
 
 
-def _oword(text: str, messages: list[tuple[str, str]]) -> Block:
-    """The block of an O-word line (its arguments are read when it runs)."""
-    found = _O_WORD.match(text)
+def _oword(text: str, found: re.Match[str] | None, messages: list[tuple[str, str]]) -> Block:
+    """The block of an O-word line (its arguments are read when it runs); ``found``: its
+    match of the O-word statement pattern."""
     if found:
         label, keyword = found.groups()
         return Block([], [], {}, [], messages, OWord(label, keyword, text, found.end()))
