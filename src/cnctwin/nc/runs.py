@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 import operator
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from itertools import repeat
 from operator import itemgetter
@@ -50,7 +50,15 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
-__all__ = ["MIN_RUN_LINES", "ArcRun", "StraightRun", "arc_run", "arc_sweeps", "straight_run"]
+__all__ = [
+    "MIN_RUN_LINES",
+    "ArcRun",
+    "StraightRun",
+    "arc_run",
+    "arc_sweeps",
+    "map_floats",
+    "straight_run",
+]
 
 #: Fewer lines than this are not worth a run (numpy's fixed cost per call).
 MIN_RUN_LINES = 32
@@ -306,15 +314,21 @@ def arc_sweeps(start: Any, end: Any, center: Any, turns: Any) -> tuple[Any, Any,
     v0 = (start[:, 1] - center[:, 1]).tolist()
     u1 = (end[:, 0] - center[:, 0]).tolist()
     v1 = (end[:, 1] - center[:, 1]).tolist()
-    a0 = np.array(list(map(math.atan2, v0, u0)))
-    a1 = np.array(list(map(math.atan2, v1, u1)))
-    radius = np.array(list(map(math.hypot, u0, v0)))
-    ccw = np.array(list(map(operator.mod, (a1 - a0).tolist(), repeat(_TWO_PI))))
+    a0 = map_floats(math.atan2, v0, u0)
+    a1 = map_floats(math.atan2, v1, u1)
+    radius = map_floats(math.hypot, u0, v0)
+    ccw = map_floats(operator.mod, (a1 - a0).tolist(), repeat(_TWO_PI, len(u0)))
     cw = _TWO_PI - ccw
     ccw[(ccw <= 1e-12) | (ccw >= _TWO_PI - 1e-12)] = _TWO_PI
     cw[(cw <= 1e-12) | (cw >= _TWO_PI - 1e-12)] = _TWO_PI
     sweep = np.where(turns > 0, ccw + 0.0, -(cw + 0.0))
     return radius, a0, sweep
+
+
+def map_floats(function: Callable[..., float], first: Sequence[Any], *rest: Iterable[Any]) -> Any:
+    """``function`` applied to the items of ``first`` and ``rest`` in parallel (as
+    :func:`map`, one call per item of ``first``), as a numpy array of floats."""
+    return _numpy().fromiter(map(function, first, *rest), dtype=float, count=len(first))
 
 
 def _valid_prefix(grammar: _Grammar, data: bytes) -> int:
@@ -497,23 +511,11 @@ def arc_run(
         offset = np.zeros(n)
         offset[line_of[mask]] = values[mask] * factor
         centers[:, axis] = starts[:, axis] + offset
-    r0 = np.array(
-        list(
-            map(
-                math.hypot,
-                (starts[:, 0] - centers[:, 0]).tolist(),
-                (starts[:, 1] - centers[:, 1]).tolist(),
-            )
-        )
+    r0 = map_floats(
+        math.hypot, (starts[:, 0] - centers[:, 0]).tolist(), (starts[:, 1] - centers[:, 1]).tolist()
     )
-    r1 = np.array(
-        list(
-            map(
-                math.hypot,
-                (ends[:, 0] - centers[:, 0]).tolist(),
-                (ends[:, 1] - centers[:, 1]).tolist(),
-            )
-        )
+    r1 = map_floats(
+        math.hypot, (ends[:, 0] - centers[:, 0]).tolist(), (ends[:, 1] - centers[:, 1]).tolist()
     )
     tolerance = (
         ARC_END_TOLERANCE_INCH * MM_PER_INCH if state.units == "inch" else ARC_END_TOLERANCE_MM
@@ -597,7 +599,7 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
             )
     rest = np.flatnonzero((which != ord("g")) & (which != ord("n")))
     try:
-        values[rest] = np.array(list(map(float, _pick(tokens, rest))))
+        values[rest] = map_floats(float, _pick(tokens, rest))
     except ValueError:
         return n
     return head, n, values, which, line_of, limit
