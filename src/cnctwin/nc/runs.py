@@ -77,8 +77,12 @@ _WRONG_PAIRS: Any = None
 class _Grammar:
     """The lines of one kind of run: their letters, word order and G words."""
 
-    def __init__(self, letters: bytes, order: bytes, g_words: tuple[bytes, ...]) -> None:
+    def __init__(
+        self, letters: bytes, order: bytes, g_words: tuple[bytes, ...], needed: bytes
+    ) -> None:
         self.letters = letters + letters.lower()
+        #: Finds one of the letters every such line has.
+        self.needed = re.compile(b"[" + needed + needed.lower() + b"]")
         #: The letters of a line, in order, as the per-line fast path accepts them.
         self.order = re.compile(rb"(?:" + order + rb"\n)*")
         #: bytes.translate tables: keep only letters and line ends; letters to blanks.
@@ -107,9 +111,11 @@ class _Grammar:
 
 
 #: Straight moves: (N) (G0/G1) X Y Z (F), one of X Y Z at least.
-_STRAIGHT = _Grammar(b"GNXYZF", rb"[nN]?[gG]?(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])[fF]?", (b"0", b"1"))
+_STRAIGHT = _Grammar(
+    b"GNXYZF", rb"[nN]?[gG]?(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])[fF]?", (b"0", b"1"), b"XYZ"
+)
 #: Arcs in the XY plane: (N) (G2/G3) X Y Z I J, one of I J at least.
-_ARC = _Grammar(b"GNXYZIJ", rb"[nN]?[gG]?[xX]?[yY]?[zZ]?(?:[iI][jJ]?|[jJ])", (b"2", b"3"))
+_ARC = _Grammar(b"GNXYZIJ", rb"[nN]?[gG]?[xX]?[yY]?[zZ]?(?:[iI][jJ]?|[jJ])", (b"2", b"3"), b"IJ")
 
 
 def _wrong_pair(before: int, after: int, apart: bool) -> bool:
@@ -554,10 +560,15 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
     path), their letters (lower case) and 0-based lines, and the lines before the first
     with an N or G word the fast path would not take. Only the lines looked at, if fewer
     than :data:`MIN_RUN_LINES` or a number that is none (such as ``1.2.3``)."""
-    # Too few lines, or a character no such line has within the first lines, make no run:
-    # numpy is not even imported.
+    # Too few lines, or within the first lines a character no such line has or a line
+    # without a letter each has (a G1 line among arcs), make no run: numpy is not even
+    # imported.
     first = data[: MIN_RUN_LINES * (MAX_NUMBER_CHARS + 2)].split(b"\n", MIN_RUN_LINES)
-    if len(first) <= MIN_RUN_LINES or b"".join(first[:-1]).translate(None, grammar.alphabet):
+    if (
+        len(first) <= MIN_RUN_LINES
+        or b"".join(first[:-1]).translate(None, grammar.alphabet)
+        or not all(map(grammar.needed.search, first[:-1]))
+    ):
         return 1
     np = _numpy()
     # Each window is checked from the end of the last, all of whose lines belong.
