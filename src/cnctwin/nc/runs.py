@@ -22,7 +22,9 @@ characters, F <= 0 or beyond its bound, a feed move without a feed rate, a posit
 would pass the segment limit: that line goes the general way and meets its error there.
 Lengths are in mm, feeds in mm/min, angles in rad.
 
-numpy is imported only when a run may follow, so reading a short program does not import it.
+numpy is imported only when a run may follow (32 lines of the right characters, each with a
+letter such a line needs), so reading a short program, or one whose kinds of lines alternate,
+does not import it.
 """
 
 from __future__ import annotations
