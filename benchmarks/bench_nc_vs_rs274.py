@@ -9,7 +9,8 @@ per CPU second and the ratio cnctwin / rs274 of lines/s (above 1: cnctwin is fas
 CPU time, not wall time, because the benchmark machine is shared and loaded.
 
 Programs (lines are lines of the file; a loop body counts once):
-``lines`` (G1 X Y moves), ``arcs`` (G2/G3 with I J centres), ``expressions`` (``#``
+``lines`` (G1 X Y moves), ``arcs`` (G2/G3 with I J centres), ``mixed`` (two G1 lines, a G3
+and a G2 in turn, as CAM output alternates them), ``expressions`` (``#``
 parameters, functions, an O-word ``if`` and a ``repeat`` loop in every block of 10 lines)
 and, when the shared data folder is present, ``3D_Chips.ngc``.
 
@@ -74,6 +75,28 @@ def write_arcs(path: Path, lines: int, seed: int = 2) -> None:
         out.write(FOOTER)
 
 
+def write_mixed(path: Path, lines: int, seed: int = 3) -> None:
+    """CAM output alternating straight moves and arcs: two ``G1 X.. Y..`` lines, then a half
+    circle out along X (``G3 ... I J``) and back (``G2 ... I J``), so that no run of one kind
+    of line is long enough to be read in bulk."""
+    rng = random.Random(seed)
+    x = y = r = 0.0
+    with path.open("w") as out:
+        out.write(HEADER)
+        for i in range(lines - 10):
+            kind = i % 4
+            if kind < 2:
+                x = round(x + rng.uniform(-1.0, 1.0), 3)
+                y = round(y + rng.uniform(-1.0, 1.0), 3)
+                out.write(f"G1 X{x:.3f} Y{y:.3f}\n")
+            elif kind == 2:
+                r = round(1.0 + 2.0 * rng.random(), 3)
+                out.write(f"G3 X{x + 2 * r:.3f} Y{y:.3f} I{r:.3f} J0\n")
+            else:
+                out.write(f"G2 X{x:.3f} Y{y:.3f} I{-r:.3f} J0\n")
+        out.write(FOOTER)
+
+
 def write_expressions(path: Path, lines: int) -> None:
     """Blocks of 10 lines: parameter assignments, functions, an O-word if and a repeat
     (labels unique: LinuxCNC refuses a label defined twice)."""
@@ -98,6 +121,7 @@ def write_expressions(path: Path, lines: int) -> None:
 PROGRAMS: dict[str, Callable[[Path, int], None]] = {
     "lines": write_lines,
     "arcs": write_arcs,
+    "mixed": write_mixed,
     "expressions": write_expressions,
 }
 

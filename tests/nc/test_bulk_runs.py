@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -274,3 +276,37 @@ def test_long_arc_runs_are_taken_and_match(offset: str) -> None:
     one_by_one, bulk, in_runs = both_ways(text, tools)
     assert in_runs > 2900
     assert bulk == one_by_one
+
+
+def test_alternating_lines_make_no_run_and_do_not_import_numpy() -> None:
+    """CAM output alternating G1 and G2/G3 lines has no run of 32 lines of one kind: read in
+    bulk it equals the line-by-line path, and no look for a run imports numpy (G1 X Y lines
+    use only arc letters, but have no I or J). The program starts with each kind of line,
+    so that runs are looked for after both."""
+    lines = []
+    for n in range(400):
+        r = 1.0 + (n * 7919 % 1000) / 500.0
+        x = (n * 37 % 100) / 10.0
+        lines += [f"G1 X{x:.3f} Y1", f"G1 X{x:.3f} Y0"]
+        lines += [f"G3 X{x + 2 * r:.4f} Y0 I{r:.4f} J0", f"G2 X{x:.3f} Y0 I{-r:.4f} J0"]
+    texts = [HEADER + "\n".join(body) + "\nM2\n" for body in (lines, lines[2:] + lines[:2])]
+    for text in texts:
+        one_by_one, bulk, in_runs = both_ways(text, NCSetup())
+        assert in_runs == 0
+        assert bulk == one_by_one
+    script = (
+        "import json, sys\n"
+        "from cnctwin.nc.interpreter import Interpreter\n"
+        "from cnctwin.nc.summary import summarize\n"
+        "for text in json.load(sys.stdin):\n"
+        "    summarize(Interpreter().run_text_bulk(text), rapid_mm_min=3000.0)\n"
+        "print('numpy' in sys.modules)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        input=json.dumps(texts),
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert done.stdout.strip() == "False"

@@ -186,3 +186,23 @@ def test_compiled_and_one_pass_readers_agree_on_any_text(body: str, setting: boo
         evaluate, end = compile_value(text, 3)
         compiled = outcome(lambda p: (evaluate(p), end))
     assert compiled == once
+
+
+def test_an_o_word_argument_shared_by_labels_raises_at_its_statements_columns() -> None:
+    """Statements of different labels with one argument share its compiled reading; its
+    errors still name the column in each statement's own text, in the message too."""
+    program = "".join(
+        f"#1 = {n}\no{label} if [10 / [3 - #1] GT 0]\no{label} endif\n"
+        for n, label in enumerate(("1", "22", "333", "4444"))
+    )
+    with pytest.raises(NCError) as caught:
+        list(interpret_text(program))
+    assert caught.value.line == 11
+    assert caught.value.message == "division by zero: 10 / 0; the divisor must not be 0"
+    assert caught.value.column == 11  # the "/" in "o4444if[10/[3-#1]gt0]"
+    for label in ("5", "66", "777"):  # read once, compiled, then evaluated
+        with pytest.raises(NCError) as caught:
+            list(interpret_text(f"o{label} repeat [1 + [2]\no{label} endrepeat\n"))
+        column = len(f"o{label}repeat") + 1
+        assert caught.value.message == f"missing ']' to close the '[' at column {column}"
+        assert caught.value.line == 1

@@ -186,7 +186,15 @@ class Interpreter:
                     cursor.line = lineno
                     if main and lineno > self.lines_read:
                         self.lines_read = lineno
-                    if motion.comp is None:
+                    # "[", "#" and "o" never occur in a line a fast path takes: a line of
+                    # expressions or an O-word goes straight to the lexer.
+                    if (
+                        motion.comp is None
+                        and "[" not in raw
+                        and "#" not in raw
+                        and "o" not in raw
+                        and "O" not in raw
+                    ):
                         plain = _XYZ_LINE.fullmatch(raw) if len(raw) <= MAX_NUMBER_CHARS else None
                         if plain is not None:
                             # Fastest path: a line of only (N) (G0/G1) X Y Z (F) words, in

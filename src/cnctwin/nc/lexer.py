@@ -222,18 +222,21 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
         if messages:
             return Block(messages=messages)
         return None
+    if text[0] == "o":
+        statement = _O_WORD.match(text)
+        if statement is not None:  # never words alone: a letter follows the label
+            return _oword(text, statement, messages)
     if _SIMPLE_LINE.fullmatch(text):
         if text[0] in "o:" and _PROGRAM_NUMBER.match(text):
             return None
-        block = Block(messages=messages, assignments=_NO_ASSIGNMENTS)
         found = _WORD.findall(text)
         if len(text) > MAX_NUMBER_CHARS:
             for _, number in found:
                 check_number_text(number)
-        _sort_words(block, [(letter, float(number)) for letter, number in found])
-        return block
+        gcodes, mcodes, words = _sort_words([(letter, float(number)) for letter, number in found])
+        return Block(gcodes, mcodes, words, _NO_ASSIGNMENTS, messages)
     if text[0] == "o":
-        return _oword(text, messages)
+        return _oword(text, None, messages)
     if len(_COMPILED_LINES) >= CACHE_SIZE:
         _COMPILED_LINES.clear()
     if compiled is _UNSEEN:  # first sight: read and evaluate in one pass
@@ -244,12 +247,14 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
     return _evaluate_line(messages, steps, params)
 
 
-def _sort_words(block: Block, pairs: list[tuple[str, float]]) -> None:
-    """File (letter, value) pairs into the block's G-codes, M-codes and other words, each
-    checked against :data:`cnctwin.nc.limits.WORD_LIMITS`."""
-    gcodes = block.gcodes
-    mcodes = block.mcodes
-    words = block.words
+def _sort_words(
+    pairs: list[tuple[str, float]],
+) -> tuple[list[int], list[int], dict[str, float]]:
+    """(letter, value) pairs filed into a block's G-codes, M-codes and other words (see
+    :class:`Block`), each checked against :data:`cnctwin.nc.limits.WORD_LIMITS`."""
+    gcodes: list[int] = []
+    mcodes: list[int] = []
+    words: dict[str, float] = {}
     for letter, value in pairs:
         check_word(letter, value)
         if letter == "g":
@@ -265,17 +270,17 @@ def _sort_words(block: Block, pairs: list[tuple[str, float]]) -> None:
             )
         else:
             words[letter] = value
+    return gcodes, mcodes, words
 
 
-def _oword(text: str, messages: list[tuple[str, str]]) -> Block:
-    """The block of an O-word line (its arguments are read when it runs)."""
-    block = Block(messages=messages)
-    found = _O_WORD.match(text)
+def _oword(text: str, found: re.Match[str] | None, messages: list[tuple[str, str]]) -> Block:
+    """The block of an O-word line (its arguments are read when it runs); ``found``: its
+    match of the O-word statement pattern."""
     if found:
-        block.oword = OWord(found.group(1), found.group(2), text, found.end())
-        return block
+        label, keyword = found.groups()
+        return Block([], [], {}, [], messages, OWord(label, keyword, text, found.end()))
     if _PROGRAM_NUMBER.match(text):
-        return block
+        return Block([], [], {}, [], messages)
     raise NCError(
         f"unrecognised O-word statement '{text}': expected o<label> followed by one of "
         + ", ".join(O_KEYWORDS),
@@ -286,7 +291,7 @@ def _oword(text: str, messages: list[tuple[str, str]]) -> Block:
 def _lex_once(text: str, params: Parameters, messages: list[tuple[str, str]]) -> Block:
     """The block of a line with parameters or expressions, read and evaluated in one
     pass (as :func:`_compile_line` then :func:`_evaluate_line` would give it)."""
-    block = Block(messages=messages)
+    assignments: list[tuple[int | str, float]] = []
     pairs: list[tuple[str, float]] = []
     pos = 0
     n = len(text)
@@ -294,15 +299,15 @@ def _lex_once(text: str, params: Parameters, messages: list[tuple[str, str]]) ->
         ch = text[pos]
         if ch == "#":
             key, value, pos = read_assignment_once(text, pos, params)
-            block.assignments.append((key, value))
+            assignments.append((key, value))
             continue
         if "a" <= ch <= "z" or ch == "@" or ch == "^":
             value, pos = read_value_once(text, pos + 1, params)
             pairs.append((ch, value))
             continue
         raise NCError(_unexpected(ch, text), column=pos + 1)
-    _sort_words(block, pairs)
-    return block
+    gcodes, mcodes, words = _sort_words(pairs)
+    return Block(gcodes, mcodes, words, assignments, messages)
 
 
 def _unexpected(ch: str, text: str) -> str:
@@ -335,8 +340,7 @@ def _evaluate_line(
     messages: Sequence[tuple[str, str]], steps: tuple[_Step, ...], params: Parameters
 ) -> Block:
     """The block of a compiled line, its values read from ``params`` now."""
-    block = Block(messages=list(messages))
-    assignments = block.assignments
+    assignments: list[tuple[int | str, float]] = []
     pairs: list[tuple[str, float]] = []
     for letter, read_key, value in steps:
         if letter == "#":
@@ -344,8 +348,8 @@ def _evaluate_line(
             assignments.append((key, value(params)))
         else:
             pairs.append((letter, value(params)))
-    _sort_words(block, pairs)
-    return block
+    gcodes, mcodes, words = _sort_words(pairs)
+    return Block(gcodes, mcodes, words, assignments, list(messages))
 
 
 def _gcode_key(value: float) -> int:

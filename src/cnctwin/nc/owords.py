@@ -14,7 +14,7 @@ from typing import Any
 
 from cnctwin.errors import NCError
 from cnctwin.nc.cursor import ProgramCursor
-from cnctwin.nc.expressions import Parameters, read_value
+from cnctwin.nc.expressions import Parameters, read_value, read_value_once
 from cnctwin.nc.lexer import OWord, lex_block, strip_comments
 from cnctwin.nc.source import LineSource
 
@@ -216,9 +216,18 @@ class OWordControl:
         return self._argument(ow) != 0.0
 
     def _argument(self, ow: OWord) -> float:
-        if ow.args_pos >= len(ow.text):
+        text, start = ow.text, ow.args_pos
+        if start >= len(text):
             raise self._where.error(f"o{ow.label} {ow.keyword} needs a [condition]")
-        value, pos = read_value(ow.text, ow.args_pos, self._params)
+        # Read from the argument's own text, so that the statements of every label with
+        # this argument share its compiled reading; an error is read again in place (its
+        # column, and a column its message names, count from the statement's start).
+        try:
+            value, end = read_value(text[start:], 0, self._params)
+        except NCError:
+            read_value_once(text, start, self._params)
+            raise
+        pos = start + end
         if pos != len(ow.text):
             raise self._where.error(
                 f"unexpected text '{ow.text[pos:]}' after o{ow.label} {ow.keyword} [...]"

@@ -22,7 +22,9 @@ characters, F <= 0 or beyond its bound, a feed move without a feed rate, a posit
 would pass the segment limit: that line goes the general way and meets its error there.
 Lengths are in mm, feeds in mm/min, angles in rad.
 
-numpy is imported only when a run may follow, so reading a short program does not import it.
+numpy is imported only when a run may follow (32 lines of the right characters, each with a
+letter such a line needs), so reading a short program, or one whose kinds of lines alternate,
+does not import it.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from __future__ import annotations
 import math
 import operator
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from itertools import repeat
 from operator import itemgetter
@@ -50,7 +52,15 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
-__all__ = ["MIN_RUN_LINES", "ArcRun", "StraightRun", "arc_run", "arc_sweeps", "straight_run"]
+__all__ = [
+    "MIN_RUN_LINES",
+    "ArcRun",
+    "StraightRun",
+    "arc_run",
+    "arc_sweeps",
+    "map_floats",
+    "straight_run",
+]
 
 #: Fewer lines than this are not worth a run (numpy's fixed cost per call).
 MIN_RUN_LINES = 32
@@ -69,8 +79,12 @@ _WRONG_PAIRS: Any = None
 class _Grammar:
     """The lines of one kind of run: their letters, word order and G words."""
 
-    def __init__(self, letters: bytes, order: bytes, g_words: tuple[bytes, ...]) -> None:
+    def __init__(
+        self, letters: bytes, order: bytes, g_words: tuple[bytes, ...], needed: bytes
+    ) -> None:
         self.letters = letters + letters.lower()
+        #: Finds one of the letters every such line has.
+        self.needed = re.compile(b"[" + needed + needed.lower() + b"]")
         #: The letters of a line, in order, as the per-line fast path accepts them.
         self.order = re.compile(rb"(?:" + order + rb"\n)*")
         #: bytes.translate tables: keep only letters and line ends; letters to blanks.
@@ -99,9 +113,11 @@ class _Grammar:
 
 
 #: Straight moves: (N) (G0/G1) X Y Z (F), one of X Y Z at least.
-_STRAIGHT = _Grammar(b"GNXYZF", rb"[nN]?[gG]?(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])[fF]?", (b"0", b"1"))
+_STRAIGHT = _Grammar(
+    b"GNXYZF", rb"[nN]?[gG]?(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])[fF]?", (b"0", b"1"), b"XYZ"
+)
 #: Arcs in the XY plane: (N) (G2/G3) X Y Z I J, one of I J at least.
-_ARC = _Grammar(b"GNXYZIJ", rb"[nN]?[gG]?[xX]?[yY]?[zZ]?(?:[iI][jJ]?|[jJ])", (b"2", b"3"))
+_ARC = _Grammar(b"GNXYZIJ", rb"[nN]?[gG]?[xX]?[yY]?[zZ]?(?:[iI][jJ]?|[jJ])", (b"2", b"3"), b"IJ")
 
 
 def _wrong_pair(before: int, after: int, apart: bool) -> bool:
@@ -306,15 +322,21 @@ def arc_sweeps(start: Any, end: Any, center: Any, turns: Any) -> tuple[Any, Any,
     v0 = (start[:, 1] - center[:, 1]).tolist()
     u1 = (end[:, 0] - center[:, 0]).tolist()
     v1 = (end[:, 1] - center[:, 1]).tolist()
-    a0 = np.array(list(map(math.atan2, v0, u0)))
-    a1 = np.array(list(map(math.atan2, v1, u1)))
-    radius = np.array(list(map(math.hypot, u0, v0)))
-    ccw = np.array(list(map(operator.mod, (a1 - a0).tolist(), repeat(_TWO_PI))))
+    a0 = map_floats(math.atan2, v0, u0)
+    a1 = map_floats(math.atan2, v1, u1)
+    radius = map_floats(math.hypot, u0, v0)
+    ccw = map_floats(operator.mod, (a1 - a0).tolist(), repeat(_TWO_PI, len(u0)))
     cw = _TWO_PI - ccw
     ccw[(ccw <= 1e-12) | (ccw >= _TWO_PI - 1e-12)] = _TWO_PI
     cw[(cw <= 1e-12) | (cw >= _TWO_PI - 1e-12)] = _TWO_PI
     sweep = np.where(turns > 0, ccw + 0.0, -(cw + 0.0))
     return radius, a0, sweep
+
+
+def map_floats(function: Callable[..., float], first: Sequence[Any], *rest: Iterable[Any]) -> Any:
+    """``function`` applied to the items of ``first`` and ``rest`` in parallel (as
+    :func:`map`, one call per item of ``first``), as a numpy array of floats."""
+    return _numpy().fromiter(map(function, first, *rest), dtype=float, count=len(first))
 
 
 def _valid_prefix(grammar: _Grammar, data: bytes) -> int:
@@ -497,23 +519,11 @@ def arc_run(
         offset = np.zeros(n)
         offset[line_of[mask]] = values[mask] * factor
         centers[:, axis] = starts[:, axis] + offset
-    r0 = np.array(
-        list(
-            map(
-                math.hypot,
-                (starts[:, 0] - centers[:, 0]).tolist(),
-                (starts[:, 1] - centers[:, 1]).tolist(),
-            )
-        )
+    r0 = map_floats(
+        math.hypot, (starts[:, 0] - centers[:, 0]).tolist(), (starts[:, 1] - centers[:, 1]).tolist()
     )
-    r1 = np.array(
-        list(
-            map(
-                math.hypot,
-                (ends[:, 0] - centers[:, 0]).tolist(),
-                (ends[:, 1] - centers[:, 1]).tolist(),
-            )
-        )
+    r1 = map_floats(
+        math.hypot, (ends[:, 0] - centers[:, 0]).tolist(), (ends[:, 1] - centers[:, 1]).tolist()
     )
     tolerance = (
         ARC_END_TOLERANCE_INCH * MM_PER_INCH if state.units == "inch" else ARC_END_TOLERANCE_MM
@@ -552,18 +562,26 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
     path), their letters (lower case) and 0-based lines, and the lines before the first
     with an N or G word the fast path would not take. Only the lines looked at, if fewer
     than :data:`MIN_RUN_LINES` or a number that is none (such as ``1.2.3``)."""
-    # Too few lines, or a character no such line has within the first lines, make no run:
-    # numpy is not even imported.
+    # Too few lines, or within the first lines a character no such line has or a line
+    # without a letter each has (a G1 line among arcs), make no run: numpy is not even
+    # imported.
     first = data[: MIN_RUN_LINES * (MAX_NUMBER_CHARS + 2)].split(b"\n", MIN_RUN_LINES)
-    if len(first) <= MIN_RUN_LINES or b"".join(first[:-1]).translate(None, grammar.alphabet):
+    if (
+        len(first) <= MIN_RUN_LINES
+        or b"".join(first[:-1]).translate(None, grammar.alphabet)
+        or not all(map(grammar.needed.search, first[:-1]))
+    ):
         return 1
     np = _numpy()
+    # Each window is checked from the end of the last, all of whose lines belong.
+    size = 0
     window = _FIRST_WINDOW
     while True:
-        part = data[:window]
+        part = data[size:window]
         cut = part.rfind(b"\n") + 1
-        size = _valid_prefix(grammar, part[:cut])
-        if size < cut or window >= len(data):
+        good = _valid_prefix(grammar, part[:cut])
+        size += good
+        if good < cut or window >= len(data):
             break
         window *= 4
     head = data[:size]
@@ -594,7 +612,7 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
             )
     rest = np.flatnonzero((which != ord("g")) & (which != ord("n")))
     try:
-        values[rest] = np.array(list(map(float, _pick(tokens, rest))))
+        values[rest] = map_floats(float, _pick(tokens, rest))
     except ValueError:
         return n
     return head, n, values, which, line_of, limit

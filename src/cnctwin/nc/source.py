@@ -101,6 +101,9 @@ class LineSource:
         self._cache = b""
         self._cache_base = 0
         self._cache_eof = False
+        # _cache decoded, when it is ASCII without CR (its lines end at LF and its
+        # character offsets are its byte offsets); else None.
+        self._cache_text: str | None = ""
         self.offset = 0
         self.lineno = 0
 
@@ -220,37 +223,48 @@ class LineSource:
             if base <= self.offset <= base + len(buf):
                 p = self.offset - base
                 eof = self._cache_eof
+                text = self._cache_text
             else:
                 base = self.offset
                 buf = b""
                 p = 0
                 eof = False
+                text = ""
             while True:
-                found = _EOL.search(buf, p)
-                if found is not None and (
-                    eof or found.end() < len(buf) or buf[found.start()] != _CR
-                ):
-                    stop, end = found.start(), found.end()
-                elif eof:
+                if text is not None:
+                    # ASCII without CR: the line ends at the next LF.
+                    stop = text.find("\n", p)
+                    found = stop >= 0
+                    end = stop + 1
+                else:
+                    match = _EOL.search(buf, p)
+                    found = match is not None and (
+                        eof or match.end() < len(buf) or buf[match.start()] != _CR
+                    )
+                    if match is not None:
+                        stop, end = match.span()
+                if not found:
+                    if not eof:
+                        if len(buf) - p > MAX_LINE_BYTES:
+                            raise self._too_long()
+                        self._stream.seek(base + len(buf))
+                        chunk = self._read(base + len(buf))
+                        if not chunk:
+                            eof = True
+                        buf = buf[p:] + chunk
+                        base += p
+                        p = 0
+                        text = buf.decode("ascii") if buf.isascii() and b"\r" not in buf else None
+                        self._cache, self._cache_base, self._cache_eof = buf, base, eof
+                        self._cache_text = text
+                        continue
                     if p >= len(buf):
                         return
                     stop = end = len(buf)
-                else:
-                    if len(buf) - p > MAX_LINE_BYTES:
-                        raise self._too_long()
-                    self._stream.seek(base + len(buf))
-                    chunk = self._read(base + len(buf))
-                    if not chunk:
-                        eof = True
-                    buf = buf[p:] + chunk
-                    base += p
-                    p = 0
-                    self._cache, self._cache_base, self._cache_eof = buf, base, eof
-                    continue
                 if stop - p > MAX_LINE_BYTES:
                     raise self._too_long()
                 start = base + p
-                raw = buf[p:stop]
+                line = text[p:stop] if text is not None else buf[p:stop].decode("utf-8", "replace")
                 p = end
                 self.offset = base + end
                 self.lineno += 1
@@ -258,7 +272,7 @@ class LineSource:
                     self.budget.charge(self.name, self.lineno)
                 else:
                     self._seen_to = self.offset
-                yield self.lineno, start, raw.decode("utf-8", "replace")
+                yield self.lineno, start, line
                 if self._pending is not None or self.offset != base + p:
                     # A seek, or another reader of this source (a forward scan for an
                     # O-word) moved on: continue from where it left the source.

@@ -13,7 +13,7 @@ from itertools import repeat
 from typing import Any
 
 from cnctwin.errors import ConfigError, NCError
-from cnctwin.nc.runs import ArcRun, StraightRun, arc_sweeps
+from cnctwin.nc.runs import ArcRun, StraightRun, arc_sweeps, map_floats
 from cnctwin.nc.segments import PLANE_AXES, FeedMode, MotionKind, Segment, Vec3, arc_sweep_rad
 
 __all__ = ["ProgramSummary", "arc_extreme_points", "summarize"]
@@ -264,7 +264,7 @@ def _add_run(
     starts[0] = run.start_mm
     starts[1:] = ends[:-1]
     x2, y2, z2 = (
-        np.array(list(map(pow, steps.tolist(), repeat(2)))) if steps.any() else steps
+        map_floats(pow, steps.tolist(), repeat(2)) if steps.any() else steps
         for steps in (ends - starts).T
     )
     lengths = np.sqrt(x2 + y2 + z2)
@@ -314,7 +314,7 @@ def _add_arc_run(
     starts[1:] = ends[:-1]
     radius, a0, sweep = arc_sweeps(starts, ends, run.center_mm, run.turns)
     rise = (ends[:, 2] - starts[:, 2]).tolist()
-    lengths = np.array(list(map(math.hypot, (radius * sweep).tolist(), rise)))
+    lengths = map_floats(math.hypot, (radius * sweep).tolist(), rise)
     feed_length = float(np.add.accumulate(np.append(feed_length, lengths))[-1])
     if run.feed_mm_min > 0:
         times = 60.0 * lengths / run.feed_mm_min
