@@ -90,7 +90,7 @@ _T = TypeVar("_T")
 class SteppedOffLoop:
     """A machine stepped in its own worker thread, as a machine's controller runs beside its
     server: the event loop answers requests while a step runs (it waits for the GIL at most,
-    never for the step; the numba kernels of a step release the GIL). Give it to a
+    never for the step; the vibration's time-domain kernels release the GIL). Give it to a
     :class:`MachineClock` and to the server in place of the machine; use as ``with`` (or call
     :meth:`close`) to end the thread.
 
