@@ -1,4 +1,4 @@
-"""The bench's machine steps in a thread beside its OPC UA server (cnctwin.virtual.spawned).
+"""A served machine steps in a thread beside its OPC UA server (cnctwin.virtual.SteppedOffLoop).
 
 Proven with a step held open on purpose, against a real asyncua client session: the server
 answers a Read while the step runs, and a Write of the feed override (a register the machine
@@ -12,18 +12,16 @@ from __future__ import annotations
 import asyncio
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 
 from timeouts import BODY_S
 
 from cnctwin.thread.config import ConnectionConfig
 from cnctwin.thread.opcua import OpcUaConnection
 from cnctwin.thread.signals import SIGNALS
-from cnctwin.virtual.clock import MachineClock
+from cnctwin.virtual.clock import MachineClock, SteppedOffLoop
 from cnctwin.virtual.config import VirtualMachineConfig
 from cnctwin.virtual.machine import VirtualMachine
 from cnctwin.virtual.opcua_server import OpcUaMachineServer
-from cnctwin.virtual.spawned import _SteppedOffLoop
 from cnctwin.virtual.users import UserTable
 
 HELD_S = 0.3
@@ -57,8 +55,7 @@ def test_during_a_step_a_read_and_an_override_are_answered_and_other_commands_wa
     async def body() -> None:
         machine = HeldMachine()
         loop = asyncio.get_running_loop()
-        with ThreadPoolExecutor(1) as pool:
-            stepped = _SteppedOffLoop(machine, pool)  # type: ignore[arg-type]
+        with SteppedOffLoop(machine) as stepped:
             users = UserTable(anonymous="operator")
             async with OpcUaMachineServer(stepped, users=users) as server:
                 config = ConnectionConfig(endpoint=server.endpoint, timeout_s=BODY_S)
@@ -106,8 +103,7 @@ def test_an_override_written_during_a_step_moves_the_real_machine_from_its_next_
 
         follower.advance = held_advance  # type: ignore[method-assign]
         loop = asyncio.get_running_loop()
-        with ThreadPoolExecutor(1) as pool:
-            stepped = _SteppedOffLoop(vm, pool)
+        with SteppedOffLoop(vm) as stepped:
             step = asyncio.ensure_future(stepped.step(vm.tick_s))
             assert await loop.run_in_executor(None, entered.wait, BODY_S)
             stepped.command("feed_override_pct", 50.0)  # returns while the step is held
@@ -126,10 +122,42 @@ def test_the_clock_awaits_a_step_run_in_a_thread() -> None:
     async def body() -> None:
         machine = HeldMachine()
         machine.release.set()
-        with ThreadPoolExecutor(1) as pool:
-            stepped = _SteppedOffLoop(machine, pool)  # type: ignore[arg-type]
+        with SteppedOffLoop(machine) as stepped:
             clock = MachineClock(stepped, machine.tick_s, speed=1e6)
             stats = await clock.run(duration_s=20 * machine.tick_s)
         assert stats.ticks == 20 and machine.steps == 20
 
     asyncio.run(asyncio.wait_for(body(), BODY_S))
+
+
+def test_between_steps_waits_for_the_step_in_progress_and_the_snapshot_shows_its_effect() -> None:
+    async def body() -> None:
+        machine = HeldMachine()
+        loop = asyncio.get_running_loop()
+        with SteppedOffLoop(machine) as stepped:  # type: ignore[arg-type]
+            step = asyncio.ensure_future(stepped.step(machine.tick_s))
+            assert await loop.run_in_executor(None, machine.entered.wait, BODY_S)
+            threading.Timer(HELD_S, machine.release.set).start()
+            t0 = time.monotonic()
+
+            def offset() -> int:
+                machine.values["work_offset"] = 2.0
+                return machine.steps
+
+            assert stepped.between_steps(offset) == 1  # after the held step, not during it
+            assert time.monotonic() - t0 >= HELD_S * 0.9
+            assert stepped.snapshot()["work_offset"] == 2.0
+            await step
+
+    asyncio.run(asyncio.wait_for(body(), BODY_S))
+
+
+def test_the_machine_s_block_is_served_as_is_where_the_machine_has_one() -> None:
+    class WithBlock(HeldMachine):
+        def block(self, name: str, since: int) -> tuple[str, int]:
+            return name, since
+
+    with SteppedOffLoop(HeldMachine()) as plain:  # type: ignore[arg-type]
+        assert getattr(plain, "block", None) is None  # the OPC UA server serves no block node
+    with SteppedOffLoop(WithBlock()) as stepped:  # type: ignore[arg-type]
+        assert stepped.block("vibration", 3) == ("vibration", 3)

@@ -11,6 +11,10 @@ tooth meets is ``h = p - surface`` with ``p = f_z sin(phi) i / m + u . r`` (the 
 so far plus the tool-tip displacement ``r``). When all teeth cut, this is Royandi 2026, Eq. 12,
 ``h = f_z sin(phi) + u . (r(t) - r(t - T))``; a tooth with ``h <= 0`` has left the cut, feels no
 force and leaves the surface as it was (Tlusty's memory of the surface).
+
+The kernels touch arrays and numbers only, no Python object: compiled ``nogil``, they run
+without the GIL, so the virtual machine's stepping thread (:class:`~cnctwin.virtual.
+SteppedOffLoop`) integrates its vibration while its server's thread answers requests.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def cutting_force(
     step: int,
     advance: float,
@@ -69,7 +73,7 @@ def cutting_force(
     return fx, fy
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def simulate(
     transition: np.ndarray,
     hold: np.ndarray,
@@ -108,7 +112,7 @@ def simulate(
           regenerative, out)  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def march(
     transition: np.ndarray,
     hold: np.ndarray,

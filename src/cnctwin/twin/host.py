@@ -6,7 +6,8 @@ reach over a real protocol. :class:`MachineServer` runs a
 an OPC UA or Modbus TCP server in the running event loop; :class:`MachineProcess` runs the
 same in a child process, so the machine's simulation and server do not share the twin's
 event loop and CPU time slices (the twin then measures its own cycle, as it would next to a
-real control).
+real control). In the child the machine steps in its own thread
+(:class:`~cnctwin.virtual.SteppedOffLoop`), so its server answers the twin while a tick runs.
 
 The clock starts *paused* until :meth:`MachineServer.go` (or :meth:`MachineProcess.go`), so
 the twin can connect before the machine moves and sees the whole program.
@@ -23,14 +24,22 @@ import select
 import signal
 import subprocess
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal, Protocol
+from typing import TYPE_CHECKING, Any, Literal, Protocol, TypeVar
 
 from cnctwin import finite_json
 from cnctwin.errors import CnctwinError, ConfigError
 from cnctwin.twin.config import RunConfig
-from cnctwin.virtual import MachineClock, ReplayMachine, UserTable, VirtualMachine
+from cnctwin.virtual import (
+    SWITCH_S,
+    MachineClock,
+    ReplayMachine,
+    SteppedOffLoop,
+    UserTable,
+    VirtualMachine,
+)
 
 if TYPE_CHECKING:
     from cnctwin.virtual import OpcUaServerSecurity
@@ -40,6 +49,7 @@ __all__ = ["MachineProcess", "MachineServer", "Transport", "serve"]
 logger = logging.getLogger(__name__)
 
 Transport = Literal["opcua", "modbus", "mtconnect", "ads"]
+_T = TypeVar("_T")
 
 
 class _Server(Protocol):
@@ -78,6 +88,11 @@ class MachineServer:
     machine_tool_model
         OPC UA: also serve the OPC 40501 MachineTool object (``cnctwin virtual serve`` does;
         docs/opcua.md).
+    threaded
+        Step the machine in its own thread (:class:`~cnctwin.virtual.SteppedOffLoop`), not on
+        the event loop: the server answers while a tick runs. For a process that serves the
+        machine alone (:class:`MachineProcess`'s child); beside a twin in the same process
+        the two threads would contend for the GIL.
     """
 
     config: RunConfig | None
@@ -90,6 +105,7 @@ class MachineServer:
     insecure: bool = False
     replay: ReplayMachine | None = None
     machine_tool_model: bool = False
+    threaded: bool = False
 
     def __post_init__(self) -> None:
         self.vm: VirtualMachine | ReplayMachine
@@ -104,7 +120,11 @@ class MachineServer:
         else:
             self.vm = VirtualMachine(self.config.virtual, self.config)
             speed = self.speed if self.speed is not None else self.config.virtual.speed
-        self.clock = MachineClock(self.vm, self.vm.tick_s, speed)
+        #: What the clock steps and the server serves: the machine, or it in its own thread.
+        self.source: VirtualMachine | ReplayMachine | SteppedOffLoop = (
+            SteppedOffLoop(self.vm) if self.threaded else self.vm
+        )
+        self.clock = MachineClock(self.source, self.vm.tick_s, speed)
         self.server: _Server = self._make_server(self.port)
         self.clock.add_listener(self._publish)
 
@@ -113,7 +133,7 @@ class MachineServer:
             from cnctwin.virtual import OpcUaMachineServer
 
             return OpcUaMachineServer(
-                self.vm,
+                self.source,
                 self.host,
                 port,
                 self.security,
@@ -124,15 +144,15 @@ class MachineServer:
         if self.transport == "modbus":
             from cnctwin.virtual import ModbusMachineServer
 
-            return ModbusMachineServer(self.vm, self.host, port, insecure=self.insecure)
+            return ModbusMachineServer(self.source, self.host, port, insecure=self.insecure)
         if self.transport == "mtconnect":
             from cnctwin.virtual import MTConnectAgent
 
-            return MTConnectAgent(self.vm, self.host, port, insecure=self.insecure)
+            return MTConnectAgent(self.source, self.host, port, insecure=self.insecure)
         if self.transport == "ads":
             from cnctwin.virtual import AdsMachineServer
 
-            return AdsMachineServer(self.vm, self.host, port, insecure=self.insecure)
+            return AdsMachineServer(self.source, self.host, port, insecure=self.insecure)
         raise ConfigError(
             f"transport {self.transport!r}; valid: 'opcua', 'modbus', 'mtconnect', 'ads'"
         )
@@ -166,11 +186,21 @@ class MachineServer:
         self.server = self._make_server(self.port)
         await self.server.start()
 
+    def between_steps(self, action: Callable[[], _T]) -> _T:
+        """Run ``action`` (on :attr:`vm`) between two ticks, the server then publishing its
+        effect at the next tick (threaded: once the step in progress has ended; on the loop,
+        no tick runs meanwhile). Returns what ``action`` returns."""
+        if isinstance(self.source, SteppedOffLoop):
+            return self.source.between_steps(action)
+        return action()
+
     async def stop(self) -> None:
-        """Stop the clock and the server."""
+        """Stop the clock and the server (and the machine's thread)."""
         if self.clock.running:
             await self.clock.stop()
         await self.server.stop()
+        if isinstance(self.source, SteppedOffLoop):
+            self.source.close()
 
     async def __aenter__(self) -> MachineServer:
         await self.start()
@@ -192,7 +222,9 @@ async def serve(
     loop = asyncio.get_running_loop()
     try:
         _warm_up(config)
-        machine = MachineServer(config, transport, speed, host, port)
+        # the loop gets the GIL back within 0.1 ms of the machine's thread taking it
+        sys.setswitchinterval(SWITCH_S)
+        machine = MachineServer(config, transport, speed, host, port, threaded=True)
         await machine.start()
     except (CnctwinError, OSError) as err:
         _answer({"error": str(err)})
@@ -205,28 +237,29 @@ async def serve(
             if command == "go":
                 machine.go()
             elif command == "restart":
-                machine.vm.restart()
+                machine.between_steps(machine.vm.restart)
                 _answer({"restarted": True})
             elif command == "state":
-                vm = machine.vm
-                values = vm.snapshot()
-                _answer(
-                    {
-                        "t_s": vm.time_s,
-                        "run_state": int(vm.run_state),
-                        "at_rest": vm.finished,
-                        "position_mm": [values["x_mm"], values["y_mm"], values["z_mm"]],
-                        "faults": [repr(e) for e in vm.fault_events],
-                        "tool_wear_mm": (
-                            vm.tool_wear_mm if isinstance(vm, VirtualMachine) else None
-                        ),
-                        "clock": dataclasses.asdict(machine.clock.stats),
-                    }
-                )
+                _answer(machine.between_steps(lambda: _state(machine)))
             elif command == "stop" or not line:
                 break
     finally:
         await machine.stop()
+
+
+def _state(machine: MachineServer) -> dict[str, Any]:
+    """The answer to ``state``: the machine's state as a whole tick left it."""
+    vm = machine.vm
+    values = vm.snapshot()
+    return {
+        "t_s": vm.time_s,
+        "run_state": int(vm.run_state),
+        "at_rest": vm.finished,
+        "position_mm": [values["x_mm"], values["y_mm"], values["z_mm"]],
+        "faults": [repr(e) for e in vm.fault_events],
+        "tool_wear_mm": vm.tool_wear_mm if isinstance(vm, VirtualMachine) else None,
+        "clock": dataclasses.asdict(machine.clock.stats),
+    }
 
 
 def _warm_up(config: RunConfig) -> None:

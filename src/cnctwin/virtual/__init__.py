@@ -22,7 +22,7 @@ Units: the signals' own (mm, mm/min, rpm, N, N m, A, W, %, s); see docs/virtual-
 from typing import TYPE_CHECKING
 
 from cnctwin import _lazy
-from cnctwin.virtual.clock import ClockStats, MachineClock
+from cnctwin.virtual.clock import SWITCH_S, ClockStats, MachineClock, SteppedOffLoop
 from cnctwin.virtual.config import (
     AxisDriveConfig,
     ChatterFault,
@@ -82,7 +82,9 @@ __all__ = [
     "ReplayMachine",
     "ReplayMap",
     "Role",
+    "SWITCH_S",
     "SecurityMode",
+    "SteppedOffLoop",
     "TRANSPORTS",
     "ToolBreakageFault",
     "UserTable",

@@ -7,6 +7,9 @@ more than half a tick after its deadline counts as late; a loop that falls behin
 missed ticks back to back, and one more than ``max_lag_s`` behind drops them (counted) and
 starts a new time base. After each tick the listeners are called with the machine's snapshot
 (a server publishes it); a listener may be a coroutine function, which is awaited.
+
+:class:`SteppedOffLoop` steps the machine in a worker thread instead, as a machine's controller
+runs beside its server: the loop answers the server's clients while a step runs.
 """
 
 from __future__ import annotations
@@ -15,13 +18,26 @@ import asyncio
 import inspect
 import logging
 import math
+import threading
 from collections.abc import Awaitable, Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 from cnctwin.errors import ConfigError
 
-__all__ = ["ClockStats", "Listener", "MachineClock", "Steppable"]
+if TYPE_CHECKING:
+    from cnctwin.thread import SampleBlock
+
+__all__ = [
+    "LATCHED",
+    "SWITCH_S",
+    "ClockStats",
+    "Listener",
+    "MachineClock",
+    "Steppable",
+    "SteppedOffLoop",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -38,6 +54,119 @@ class Steppable(Protocol):
 
     def snapshot(self) -> dict[str, float]:
         """Every signal's current value."""
+
+
+class _Machine(Protocol):
+    """What :class:`SteppedOffLoop` steps: a :class:`~cnctwin.virtual.machine.VirtualMachine`
+    or a :class:`~cnctwin.virtual.replay.ReplayMachine`."""
+
+    @property
+    def tick_s(self) -> float:
+        """The machine's simulation step, s."""
+
+    def step(self, dt_s: float) -> None:
+        """Advance by ``dt_s`` seconds of machine time."""
+
+    def snapshot(self) -> dict[str, float]:
+        """Every signal's current value."""
+
+    def command(self, name: str, value: float) -> None:
+        """Apply a command."""
+
+
+#: GIL switch interval, s, for a process that serves a :class:`SteppedOffLoop` (CPython's
+#: default: 5 ms). The server's loop gives the GIL up at every send, recv and epoll; while a
+#: step runs it waits up to this long to get it back, several times a request (docs/latency.md,
+#: "OPC UA: where the time goes"). Set it with ``sys.setswitchinterval`` in that process only.
+SWITCH_S = 0.0001
+#: Commands that set a register the machine reads once, at the start of each step (the
+#: interpolator takes the override at its next cycle, as a controller's NCK takes the PLC's
+#: override byte): written at once, without waiting for a step in progress to end.
+LATCHED = frozenset({"feed_override_pct", "spindle_override_pct"})
+
+_T = TypeVar("_T")
+
+
+class SteppedOffLoop:
+    """A machine stepped in its own worker thread, as a machine's controller runs beside its
+    server: the event loop answers requests while a step runs (it waits for the GIL at most,
+    never for the step; the vibration's time-domain kernels release the GIL). Give it to a
+    :class:`MachineClock` and to the server in place of the machine; use as ``with`` (or call
+    :meth:`close`) to end the thread.
+
+    :meth:`snapshot` returns the signals as the last whole step left them (the server shows
+    the controller's last cycle; the clock publishes one such snapshot per tick), with the
+    latched registers (:data:`LATCHED`) as last written. A command of :data:`LATCHED` sets its
+    register at once, also during a step: the step in progress has read the register already
+    and keeps the old value, the next step moves at the new one, and the read-back is the
+    register (what the machine will use from its next step on). Any other command, and any
+    :meth:`between_steps` call (a restart, a read of the machine's state), waits for the step
+    in progress to end (a lock): the machine never changes in the middle of a step, and the
+    steps run one after the other in the clock's order, as on the loop.
+
+    A machine's ``block`` (the vibration samples, :meth:`VirtualMachine.block
+    <cnctwin.virtual.machine.VirtualMachine.block>`) is served as is: its ring buffer has its
+    own lock, so a read during a step gets the samples stored so far.
+    """
+
+    block: Callable[[str, int], SampleBlock]
+
+    def __init__(self, vm: _Machine) -> None:
+        self.vm = vm
+        self._pool = ThreadPoolExecutor(1, thread_name_prefix="cnctwin-vm-step")
+        self._lock = threading.Lock()  # held for a whole step
+        self._held_lock = threading.Lock()  # held for a dict copy
+        self._held = vm.snapshot()
+        block = getattr(vm, "block", None)
+        if callable(block):  # served as the machine's (the OPC UA server looks for it)
+            self.block = block
+
+    @property
+    def tick_s(self) -> float:
+        """The machine's simulation step, s."""
+        return self.vm.tick_s
+
+    def step(self, dt_s: float) -> asyncio.Future[None]:
+        """Advance by ``dt_s`` s of machine time in the worker thread (await the result)."""
+        return asyncio.get_running_loop().run_in_executor(self._pool, self._step, dt_s)
+
+    def _step(self, dt_s: float) -> None:
+        with self._lock:
+            self.vm.step(dt_s)
+            with self._held_lock:  # a register written meanwhile is in this copy
+                self._held = self.vm.snapshot()
+
+    def snapshot(self) -> dict[str, float]:
+        """The machine's signals after the last whole step, the latched registers as written."""
+        return dict(self._held)
+
+    def command(self, name: str, value: float) -> None:
+        """Apply a command: a latched register at once, any other between two steps."""
+        if name in LATCHED:
+            with self._held_lock:
+                self.vm.command(name, value)
+                self._held = {**self._held, name: self.vm.snapshot()[name]}
+            return
+        self.between_steps(lambda: self.vm.command(name, value))
+
+    def between_steps(self, action: Callable[[], _T]) -> _T:
+        """Run ``action`` (on :attr:`vm`) once the step in progress has ended, before the next
+        one; :meth:`snapshot` then shows its effect. Returns what ``action`` returns."""
+        with self._lock:
+            result = action()
+            with self._held_lock:
+                self._held = self.vm.snapshot()
+        return result
+
+    def close(self) -> None:
+        """End the worker thread (after the step in progress)."""
+        self._pool.shutdown(wait=True)
+
+    def __enter__(self) -> SteppedOffLoop:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 @dataclass(frozen=True, slots=True)

@@ -14,9 +14,7 @@ import asyncio
 import logging
 import multiprocessing
 import sys
-import threading
 from collections.abc import AsyncIterator
-from concurrent.futures import ThreadPoolExecutor
 from contextlib import asynccontextmanager
 from multiprocessing.connection import Connection
 from typing import TYPE_CHECKING
@@ -36,14 +34,6 @@ _START_TIMEOUT_S = 300.0
 #: Machine time a throwaway machine runs before the server starts, s: past the demo program's
 #: first cut (4.1 s), so every kernel the measurement meets is compiled.
 _WARM_UP_S = 6.0
-#: GIL switch interval of the server's process, s (CPython's default: 5 ms). The server's loop
-#: gives the GIL up at every send, recv and epoll; while a step runs, it waits up to this long to
-#: get it back, several times a request (docs/latency.md, "OPC UA: where the time goes").
-_SWITCH_S = 0.0001
-#: Commands that set a register the machine reads once, at the start of each step (the
-#: interpolator takes the override at its next cycle, as a controller's NCK takes the PLC's
-#: override byte): written at once, without waiting for a step in progress to end.
-LATCHED = frozenset({"feed_override_pct", "spindle_override_pct"})
 
 
 def _serve_child(transport: str, pipe: Connection) -> None:
@@ -56,10 +46,12 @@ def _serve_child(transport: str, pipe: Connection) -> None:
 
 async def _serve(transport: str, pipe: Connection) -> None:
     from cnctwin.virtual import (
+        SWITCH_S,
         AdsMachineServer,
         MachineClock,
         ModbusMachineServer,
         MTConnectAgent,
+        SteppedOffLoop,
         VirtualMachine,
     )
     from cnctwin.virtual.config import VirtualMachineConfig
@@ -72,9 +64,8 @@ async def _serve(transport: str, pipe: Connection) -> None:
     vm.step(vm.tick_s)
     # a thread that waits for the GIL gets it after 0.1 ms, not CPython's 5 ms: a request
     # arriving during a step of the machine's thread is not held up for the step
-    sys.setswitchinterval(_SWITCH_S)
-    with ThreadPoolExecutor(1, thread_name_prefix="cnctwin-vm-step") as pool:
-        machine = _SteppedOffLoop(vm, pool)
+    sys.setswitchinterval(SWITCH_S)
+    with SteppedOffLoop(vm) as machine:
         server: OpcUaMachineServer | ModbusMachineServer | MTConnectAgent | AdsMachineServer
         if transport == "opcua":  # on loopback; the bench writes the feed override anonymously
             server = OpcUaMachineServer(machine, users=UserTable(anonymous="operator"))
@@ -90,54 +81,6 @@ async def _serve(transport: str, pipe: Connection) -> None:
             async with clock:
                 pipe.send(("ready", server.endpoint))
                 await asyncio.get_running_loop().run_in_executor(None, _wait_for_parent, pipe)
-
-
-class _SteppedOffLoop:
-    """The machine stepped in a worker thread, as a machine's controller runs beside its
-    server: the server's event loop answers requests while a step runs (it waits for the GIL
-    at most, never for the step).
-
-    :meth:`snapshot` returns the signals as the last whole step left them (the server shows
-    the controller's last cycle), with the latched registers (:data:`LATCHED`) as last
-    written. A command of :data:`LATCHED` sets its register at once, also during a step: the
-    step in progress has read the register already and keeps the old value, the next step
-    moves at the new one, and the read-back is the register (what the machine will use from
-    its next step on). Any other command waits for the step in progress to end (a lock): the
-    machine never changes in the middle of a step.
-    """
-
-    def __init__(self, vm: VirtualMachine, pool: ThreadPoolExecutor) -> None:
-        self._vm = vm
-        self._pool = pool
-        self._lock = threading.Lock()  # held for a whole step
-        self._held_lock = threading.Lock()  # held for a dict copy
-        self._held = vm.snapshot()
-
-    def step(self, dt_s: float) -> asyncio.Future[None]:
-        """Advance by ``dt_s`` s of machine time in the worker thread."""
-        return asyncio.get_running_loop().run_in_executor(self._pool, self._step, dt_s)
-
-    def _step(self, dt_s: float) -> None:
-        with self._lock:
-            self._vm.step(dt_s)
-            with self._held_lock:  # a register written meanwhile is in this copy
-                self._held = self._vm.snapshot()
-
-    def snapshot(self) -> dict[str, float]:
-        """The machine's signals after the last whole step, the latched registers as written."""
-        return dict(self._held)
-
-    def command(self, name: str, value: float) -> None:
-        """Apply a command: a latched register at once, any other between two steps."""
-        if name in LATCHED:
-            with self._held_lock:
-                self._vm.command(name, value)
-                self._held = {**self._held, name: self._vm.snapshot()[name]}
-            return
-        with self._lock:
-            self._vm.command(name, value)
-            with self._held_lock:
-                self._held = self._vm.snapshot()
 
 
 def _warm_up(vm: VirtualMachine) -> None:
