@@ -25,7 +25,7 @@ from cnctwin.errors import ConfigError, DataError
 from cnctwin.mechanics import immersion_angles, milling_material
 from cnctwin.thread import ConnectionLost, SampleBlock
 from cnctwin.twin import CycleState, LocalConnection, RunConfig, build_twin, load_run_config
-from cnctwin.twin.chatter_live import ChatterConfig, ChatterStage
+from cnctwin.twin.chatter_live import ChatterConfig, ChatterRequest, ChatterStage
 from cnctwin.virtual import VirtualMachine
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "chatter_live" / "chatter_live.toml"
@@ -70,12 +70,15 @@ def _run(config: RunConfig) -> dict[str, Any]:
             twin = build_twin(config, conn, program=config.virtual.program, realtime=False)
             twin.runtime.on_cycle = keep
             summary = await twin.runtime.run(duration_s=30.0)
+            order.extend(stage.name for stage in twin.runtime.stages)
             return twin.runtime.timings["chatter"].summary(), summary.stage_results["chatter"]
         finally:
             await conn.close()
 
+    order: list[str] = []
     timing, results = asyncio.run(main())
     return {
+        "order": order,
         "results": results,
         "rows": rows,
         "events": events,
@@ -231,6 +234,48 @@ def test_no_reading_and_no_command_while_the_machine_is_lost() -> None:
     state.measured = {"spindle_rpm": 8000.0, "t_s": 1.0}
     asyncio.run(stage.process(state))
     assert not state.commands and "chatter_ratio" not in state.predicted
+
+
+class _Answering:
+    """A machine that takes the block read at once and answers it when told (``answer``),
+    through ``asyncio.wait_for`` as :meth:`MachineConnection.read_block` does."""
+
+    def __init__(self) -> None:
+        self.sent = 0
+        self.answer = asyncio.Event()
+
+    async def _served(self, name: str, since: int) -> SampleBlock:
+        self.sent += 1
+        await self.answer.wait()
+        return SampleBlock(name, since, 10_000.0, np.zeros((100, 2)))
+
+    async def read_block(self, name: str, since: int) -> SampleBlock:
+        return await asyncio.wait_for(self._served(name, since), 1.0)
+
+
+def test_the_read_goes_out_before_the_physics_and_the_stage_takes_its_answer() -> None:
+    machine = _Answering()
+    stage = ChatterStage(
+        ChatterConfig(enabled=True, avoid=False), machine, {1: 4}, None, (50, 120), (0, 150)
+    )  # type: ignore[arg-type]
+    request = ChatterRequest(stage)
+
+    async def cycle() -> CycleState:
+        state = CycleState(0, 0.0, 1.0, connected=True, tool=1, line=14)
+        state.measured = {"spindle_rpm": 8000.0, "t_s": 1.0}
+        await request.process(state)
+        assert machine.sent == 1  # the machine has the request before the physics stages run
+        machine.answer.set()  # ... and answers while they run
+        return await stage.process(state)
+
+    state = asyncio.run(cycle())
+    assert machine.sent == 1 and state.predicted["chatter_vibration_um"] == 0.0
+
+
+def test_the_request_stage_follows_the_read(runs: dict[str, Any]) -> None:
+    order = runs["unstable"]["order"]
+    assert order[:3] == ["read", "chatter_request", "kinematics"]
+    assert order.index("chatter") > order.index("features")
 
 
 def test_bad_configuration_is_refused_in_one_line(tmp_path: Path) -> None:

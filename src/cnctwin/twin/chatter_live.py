@@ -29,9 +29,11 @@ finds no stable speed, it commands nothing and records an event. The decisions a
 of the rule ``chatter_avoidance``: they pass the safety filter (enable switch, bounds, rate
 limits) and obey the lost-machine policy (docs/control.md). One avoidance per line.
 
-The read runs alongside the cycle: a machine that has not answered within 1 ms is asked no
-more until it has, and its samples are taken in a later cycle (they carry their own sample
-index, so nothing is lost or counted twice; a cycle without new samples shows the last
+The read runs alongside the cycle: :class:`ChatterRequest`, placed right after the read
+stage, sends it, so the machine answers while the physics stages run, and the chatter stage
+takes the answer. A machine that has not answered within 1 ms of the chatter stage's turn is
+asked no more until it has, and its samples are taken in a later cycle (they carry their own
+sample index, so nothing is lost or counted twice; a cycle without new samples shows the last
 outputs).
 
 **Lost machine.** While the connection is down the stage commands nothing and reads
@@ -79,7 +81,14 @@ if TYPE_CHECKING:
     from cnctwin.control import ControlConfig
     from cnctwin.dynamics import StabilityRoadmap
 
-__all__ = ["CHATTER_PREDICTIONS", "RULE", "ChatterConfig", "ChatterStage", "chatter_stage"]
+__all__ = [
+    "CHATTER_PREDICTIONS",
+    "RULE",
+    "ChatterConfig",
+    "ChatterRequest",
+    "ChatterStage",
+    "chatter_stage",
+]
 
 #: The rule name of the stage's decisions.
 RULE = "chatter_avoidance"
@@ -87,6 +96,10 @@ RULE = "chatter_avoidance"
 #: Longest wait for the machine's samples in a cycle, s; a slower answer is taken in the next
 #: cycle (the read goes on meanwhile), so a busy machine does not hold up the cycle.
 _WAIT_S = 0.001
+
+#: Turns of the event loop :meth:`ChatterStage.request` gives the read to reach the socket
+#: (the read's task, then the timeout's inner task that sends the request).
+_SEND_TURNS = 3
 
 #: The names the stage adds (units in the names).
 CHATTER_PREDICTIONS = (
@@ -230,6 +243,17 @@ class ChatterStage:
         self._detections: list[dict[str, float]] = []
         self._avoidances: list[dict[str, float]] = []
 
+    async def request(self, state: CycleState) -> None:
+        """Send the read of the samples since the last block (unless one is on its way), so
+        that the machine answers while the cycle's other stages run."""
+        if not state.connected or self._pending is not None:
+            return
+        self._pending = asyncio.ensure_future(
+            self.connection.read_block(self.config.block, self._next)
+        )
+        for _ in range(_SEND_TURNS):
+            await asyncio.sleep(0)
+
     async def process(self, state: CycleState) -> CycleState:
         """Read the new samples, detect, and on chatter ask for the roadmap's speed."""
         if not state.connected:
@@ -241,7 +265,7 @@ class ChatterStage:
         if self._blind:  # after a gap: the windows start again
             self._blind = False
             self._restart()
-        if self._pending is None:
+        if self._pending is None:  # without a ChatterRequest stage: sent now
             self._pending = asyncio.ensure_future(
                 self.connection.read_block(self.config.block, self._next)
             )
@@ -478,6 +502,22 @@ class ChatterStage:
                 values,
             )
         )
+
+
+class ChatterRequest:
+    """The cycle step that sends a :class:`ChatterStage`'s block read early (module notes):
+    placed right after the read stage, it lets the machine answer while the physics stages
+    run instead of while the cycle waits."""
+
+    name = "chatter_request"
+
+    def __init__(self, stage: ChatterStage) -> None:
+        self.stage = stage
+
+    async def process(self, state: CycleState) -> CycleState:
+        """Send the chatter stage's read; the state passes unchanged."""
+        await self.stage.request(state)
+        return state
 
 
 def chatter_stage(

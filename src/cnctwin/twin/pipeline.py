@@ -13,7 +13,7 @@ from cnctwin.control import Expression, RuleEngine, SafetyFilter
 from cnctwin.thread import SIGNALS, MachineConnection
 from cnctwin.twin.actions import ActionStage, RuleStage
 from cnctwin.twin.adaptive_feed import AdaptiveFeedStage, program_engagement_map
-from cnctwin.twin.chatter_live import chatter_stage
+from cnctwin.twin.chatter_live import ChatterRequest, chatter_stage
 from cnctwin.twin.config import RunConfig
 from cnctwin.twin.mirs import MirsStage
 from cnctwin.twin.model_stage import LoadedModel, ModelStage, load_models
@@ -180,6 +180,9 @@ def build_twin(
     stages: list[Stage] = [ReadStage.from_config(connection, config)]
     if mqtt_source is not None:
         stages.append(MqttSignalStage(mqtt_source, config.mqtt.signals))
+    chatter = chatter_stage(config, connection, program) if twin_cfg.chatter.enabled else None
+    if chatter is not None:  # its read goes out now; the machine answers meanwhile
+        stages.append(ChatterRequest(chatter))
     stages += [
         KinematicsStage(
             ProgramMap(config, program, text=program_text), twin_cfg.position_deadband_mm
@@ -199,8 +202,8 @@ def build_twin(
     stages += [ModelStage(model) for model in models]
     if twin_cfg.roughness.enabled:  # after the models: one may give the vibration
         stages.append(RoughnessStage(twin_cfg.roughness, config.tools, valid_names))
-    if twin_cfg.chatter.enabled:  # before the rules: they may read its predictions
-        stages.append(chatter_stage(config, connection, program))
+    if chatter is not None:  # before the rules: they may read its predictions
+        stages.append(chatter)
     stages.append(RuleStage(engine))
     adaptive = twin_cfg.adaptive_feed
     if adaptive.enabled:  # after the rules: a rule's lower override goes first
