@@ -154,7 +154,7 @@ def watched(protocol: UASocketProtocol) -> Iterator[Traffic]:
     def framing(message: bytes, *args: Any, **kwargs: Any) -> bytes:
         request_id = kwargs.get("request_id", args[1] if len(args) > 1 else 0)
         typeid = nodeid_from_binary(Buffer(message))
-        request = struct_from_binary(ua.extension_objects_by_typeid[typeid], Buffer(message))
+        request: Any = struct_from_binary(ua.extension_objects_by_typeid[typeid], Buffer(message))
         traffic.sent.append((request_id, request))
         kind = kinds[request_id] = type(request).__name__.removesuffix("Request")
         if kind in ("Write", "Read"):

@@ -468,11 +468,10 @@ class OpcUaConnection(MachineConnection):
         uaclient = client.uaclient
         protocol = uaclient.protocol
         transport = None if protocol is None else protocol.transport
-        if transport is None or uaclient.state is not UaClientState.CONNECTED:
+        if protocol is None or transport is None or uaclient.state is not UaClientState.CONNECTED:
             raise ConnectionLost(
                 f"{requests[0][2]} at {self.endpoint}: session is {uaclient.state.value}"
             )
-        assert protocol is not None  # transport is protocol's
         loop = asyncio.get_running_loop()
         token = protocol.authentication_token
         timeout_ms = int(self.timeout_s * 1000)
@@ -485,11 +484,7 @@ class OpcUaConnection(MachineConnection):
                 body = request.encode(token, timeout_ms, protocol._request_handle, value)
                 protocol.revolve_security_token()
                 request_id = protocol._request_id + 1
-                messages.append(
-                    protocol._connection.message_to_binary(
-                        body, message_type=ua.MessageType.SecureMessage, request_id=request_id
-                    )
-                )
+                messages.append(protocol._connection.message_to_binary(body, request_id=request_id))
                 protocol._request_id = request_id
                 future: asyncio.Future[Any] = loop.create_future()
                 protocol._callbackmap[request_id] = future
@@ -921,7 +916,7 @@ def _lean_write_result(data: Buffer) -> ua.StatusCode | None:
     body, at = start
     if not _lean_end(body, at + 4):
         return None
-    return ua.StatusCode(_UINT32.unpack_from(body, at)[0])
+    return ua.StatusCode(ua.UInt32(_UINT32.unpack_from(body, at)[0]))
 
 
 def _lean_read_result(data: Buffer) -> ua.DataValue | None:
@@ -957,7 +952,9 @@ def _lean_read_result(data: Buffer) -> ua.DataValue | None:
     at += 8 * ((mask >> 2) & 1) + 8 * ((mask >> 3) & 1)  # source and server time stamps
     if not _lean_end(body, at):
         return None
-    return ua.DataValue(Value=ua.Variant(raw, variant_type_), StatusCode=ua.StatusCode(status))
+    return ua.DataValue(
+        Value=ua.Variant(raw, variant_type_), StatusCode=ua.StatusCode(ua.UInt32(status))
+    )
 
 
 def _read_request(node_ids: Iterable[ua.NodeId]) -> _Request:
