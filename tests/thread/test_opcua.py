@@ -364,6 +364,10 @@ def test_secure_session_with_certificates_and_password(certificates: Path, mode:
                     await conn.write("spindle_override_pct", override)
                     assert await conn.read_signal("spindle_override_pct") == override
                     assert machine.values["spindle_override_pct"] == override
+                    # the Write and its read-back framed (signed, encrypted) one after the
+                    # other and sent in one socket write
+                    back = await conn.write_read_back("spindle_override_pct", override - 1.0)
+                    assert back.value == override - 1.0
             for refused in (client(server, "wrong"), client(server, None, username=None)):
                 with pytest.raises(ConnectionLost):
                     await OpcUaConnection(refused, base_dir=certificates).connect()
