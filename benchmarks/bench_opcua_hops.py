@@ -8,8 +8,9 @@ server in a child process (:func:`cnctwin.virtual.virtual_machine_server`), the 
 (:func:`cnctwin.thread.measure_latency`). Both processes stamp each hop with
 ``time.perf_counter_ns`` (CLOCK_MONOTONIC on Linux: one clock for both processes):
 
-- client: each request's encoding and ``transport.write`` (``UASocketProtocol._send_request``),
-  the arrival of each answer (``data_received``) and the end of the round trip;
+- client: each request's framing for the secure channel (``SecureConnection.message_to_binary``,
+  after its encoding), the end of each ``transport.write`` (one for a Write and the Read sent
+  behind it), the arrival of each answer (``data_received``) and the end of the round trip;
 - server: the arrival of each request (``OPCUAProtocol.data_received``), the start of its
   processing (``UaProcessor.process``, after asyncua's per-connection queue) and the sending of
   the answer (``UaProcessor.send_response``, before encoding and after ``transport.write``).
@@ -105,16 +106,16 @@ class _ClientHops:
     """The client's stamps: asyncua's send and receive, and the round trip's own."""
 
     def __init__(self) -> None:
+        from asyncio.selector_events import _SelectorSocketTransport
+
         from asyncua.client.ua_client import UASocketProtocol
+        from asyncua.common.connection import SecureConnection
 
         self.events: list[tuple[str, int, int]] = []
         mark = self.mark
-        _wrap(
-            UASocketProtocol,
-            "_send_request",
-            lambda *_: mark("c_encode"),
-            lambda *_: mark("c_sent"),
-        )
+        # every request is framed here, by asyncua's _send_request or cnctwin's own _send
+        _wrap(SecureConnection, "message_to_binary", lambda *_: mark("c_encode"), None)
+        _wrap(_SelectorSocketTransport, "write", None, lambda *_: mark("c_sent"))
         _wrap(UASocketProtocol, "data_received", lambda *_: mark("c_recv"), None)
 
     def mark(self, hop: str) -> None:
@@ -158,8 +159,8 @@ async def _run(n: int, interval_s: float, hops_file: Path) -> dict[str, Any]:
 
 #: What happens between a stamp and the next, for the table.
 _MEANING = {
-    "c_encode": "client: asyncua encodes a request",
-    "c_sent": "client: request written to the socket",
+    "c_encode": "client: a request's encoding framed for the secure channel",
+    "c_sent": "client: request(s) written to the socket",
     "s_recv": "server: request bytes arrive (data_received)",
     "s_proc": "server: its processing starts (after asyncua's queue)",
     "s_encode": "server: answer made, being encoded",

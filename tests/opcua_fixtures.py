@@ -8,9 +8,16 @@ published before it runs.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import threading
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
 
+from asyncua import ua
+from asyncua.client.ua_client import UASocketProtocol
+from asyncua.common.utils import Buffer
+from asyncua.ua.ua_binary import nodeid_from_binary, struct_from_binary
 from timeouts import BODY_S, SERVER_START_S
 
 from cnctwin.errors import ConfigError
@@ -107,3 +114,70 @@ class Shared:
         self.loop.call_soon_threadsafe(self._stop.set)
         self.thread.join(TIMEOUT_S)
         self.loop.close()
+
+
+@dataclass
+class Traffic:
+    """What a client's secure channel sent and got while :func:`watched` watched it.
+
+    Attributes
+    ----------
+    sent
+        Every request, decoded from the bytes that went out, with its request id, in order.
+    events
+        ``"Write"`` / ``"Read"`` at each such request's sending and ``"Write answered"`` /
+        ``"Read answered"`` at its answer's arrival, in order (the subscription's Publish and
+        other services left out).
+    writes
+        Socket writes, each as the number of messages it carried.
+    """
+
+    sent: list[tuple[int, Any]] = field(default_factory=list)
+    events: list[str] = field(default_factory=list)
+    writes: list[int] = field(default_factory=list)
+
+
+@contextlib.contextmanager
+def watched(protocol: UASocketProtocol) -> Iterator[Traffic]:
+    """Watch ``protocol``'s requests where every one passes, asyncua's or
+    :class:`~cnctwin.thread.OpcUaConnection`'s: framing (``message_to_binary``), the socket
+    write and the answer's hand-over (``_call_callback``)."""
+    traffic = Traffic()
+    connection = protocol._connection
+    frame, answer = connection.message_to_binary, protocol._call_callback
+    transport = protocol.transport
+    assert transport is not None
+    write = transport.write
+    kinds: dict[int, str] = {}
+    framed: list[int] = []  # requests framed since the last socket write
+
+    def framing(message: bytes, *args: Any, **kwargs: Any) -> bytes:
+        request_id = kwargs.get("request_id", args[1] if len(args) > 1 else 0)
+        typeid = nodeid_from_binary(Buffer(message))
+        request: Any = struct_from_binary(ua.extension_objects_by_typeid[typeid], Buffer(message))
+        traffic.sent.append((request_id, request))
+        kind = kinds[request_id] = type(request).__name__.removesuffix("Request")
+        if kind in ("Write", "Read"):
+            traffic.events.append(kind)
+        framed.append(request_id)
+        return frame(message, *args, **kwargs)
+
+    def writing(data: Any) -> None:
+        traffic.writes.append(len(framed))
+        framed.clear()
+        write(data)
+
+    def answered(request_id: int, body: Any) -> None:
+        if kinds.get(request_id) in ("Write", "Read"):
+            traffic.events.append(f"{kinds[request_id]} answered")
+        answer(request_id, body)
+
+    connection.message_to_binary = framing  # type: ignore[method-assign]
+    transport.write = writing  # type: ignore[method-assign]
+    protocol._call_callback = answered  # type: ignore[method-assign]
+    try:
+        yield traffic
+    finally:
+        connection.message_to_binary = frame  # type: ignore[method-assign]
+        transport.write = write  # type: ignore[method-assign]
+        protocol._call_callback = answer  # type: ignore[method-assign]

@@ -11,10 +11,10 @@ import asyncio
 import math
 import random
 import time
-from typing import Any
 
 import pytest
 from asyncua import ua
+from opcua_fixtures import watched
 from timeouts import BODY_S
 
 from cnctwin.errors import ConfigError, DataError
@@ -105,21 +105,13 @@ def test_a_round_trip_is_one_write_and_one_read_request() -> None:
                 assert conn._client is not None
                 protocol = conn._client.uaclient.protocol
                 assert protocol is not None
-                sent: list[tuple[str, list[str]]] = []
-                send = protocol._send_request  # every request of the channel passes here
-
-                def counted(request: Any, *args: Any, **kwargs: Any) -> Any:
-                    params = getattr(request, "Parameters", None)
-                    items = getattr(params, "NodesToRead", None) or getattr(
-                        params, "NodesToWrite", None
-                    )
-                    nodes = [item.NodeId.Identifier for item in items or ()]
-                    sent.append((type(request).__name__, nodes))
-                    return send(request, *args, **kwargs)
-
-                protocol._send_request = counted  # type: ignore[method-assign]
-                await measure_latency(conn, n=5, interval_s=0.0)
-                protocol._send_request = send  # type: ignore[method-assign]  # not the close
+                with watched(protocol) as traffic:  # every request of the channel
+                    await measure_latency(conn, n=5, interval_s=0.0)
+        sent: list[tuple[str, list[str]]] = []
+        for _, request in traffic.sent:
+            params = getattr(request, "Parameters", None)
+            items = getattr(params, "NodesToRead", None) or getattr(params, "NodesToWrite", None)
+            sent.append((type(request).__name__, [item.NodeId.Identifier for item in items or ()]))
         override = NODE_MAP["feed_override_pct"]
         on_override = [kind for kind, nodes in sent if nodes == [override]]
         assert on_override == [

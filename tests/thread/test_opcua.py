@@ -15,7 +15,7 @@ from typing import Any
 
 import pytest
 from asyncua import ua
-from opcua_fixtures import TIMEOUT_S, FakeMachine, Shared
+from opcua_fixtures import TIMEOUT_S, FakeMachine, Shared, Traffic, watched
 from pki import certificate
 
 from cnctwin.errors import ConfigError, DataError
@@ -138,50 +138,37 @@ def test_write_read_back_sends_the_read_before_the_write_is_answered(
             assert conn._client is not None
             protocol = conn._client.uaclient.protocol
             assert protocol is not None
-            events: list[str] = []  # the Writes and Reads sent and answered, in order
-            kinds: dict[int, str] = {}
-            send, answer = protocol._send_request, protocol._call_callback
+            with watched(protocol) as traffic:
+                await check(conn, machine, traffic)
 
-            def sent(request: Any, *args: Any, **kwargs: Any) -> Any:
-                future = send(request, *args, **kwargs)
-                kind = kinds[protocol._request_id] = type(request).__name__[: -len("Request")]
-                if kind in ("Write", "Read"):  # not the subscription's Publish
-                    events.append(kind)
-                return future
-
-            def answered(request_id: int, body: Any) -> None:
-                if kinds.get(request_id) in ("Write", "Read"):
-                    events.append(f"{kinds[request_id]} answered")
-                answer(request_id, body)
-
-            protocol._send_request = sent  # type: ignore[method-assign]
-            protocol._call_callback = answered  # type: ignore[method-assign]
-            back = await conn.write_read_back("feed_override_pct", 37.0)
-            assert events == ["Write", "Read", "Write answered", "Read answered"]
-            assert back.value == 37.0 and machine.commands == [("feed_override_pct", 37.0)]
-            assert back.write_s > 0 and back.read_s >= 0
-            assert await conn.read_signal("feed_override_pct") == 37.0
-            with pytest.raises(CommandRejected, match="BadOutOfRange"):
-                await conn.write_read_back("feed_override_pct", 151.0)
-            assert conn.state is ConnectionState.CONNECTED
-            spindle = machine.values["spindle_override_pct"]
-            assert await conn.read_signal("spindle_override_pct") == spindle
-            events.clear()
-            assert (await conn.write_read_back("feed_override_pct", 38.0)).value == 38.0
-            assert events == ["Write", "Read", "Write answered", "Read answered"]
-            events.clear()  # as measure_latency with jitter asks (one proxy delay each)
-            back = await conn.write_read_back("feed_override_pct", 39.0, pipelined=False)
-            assert back.value == 39.0
-            assert events == ["Write", "Write answered", "Read", "Read answered"]
-            # a read-back that does not show the value written (here: a machine that rounds
-            # the override) makes the connection wait for the write's answer from then on
-            monkeypatch.setattr(machine, "quantised", True)
-            assert (await conn.write_read_back("feed_override_pct", 40.4)).value == 40.0
-            events.clear()
-            assert (await conn.write_read_back("feed_override_pct", 41.0)).value == 41.0
-            assert events == ["Write", "Write answered", "Read", "Read answered"]
-            protocol._send_request = send  # type: ignore[method-assign]
-            protocol._call_callback = answer  # type: ignore[method-assign]
+    async def check(conn: OpcUaConnection, machine: FakeMachine, traffic: Traffic) -> None:
+        events = traffic.events
+        back = await conn.write_read_back("feed_override_pct", 37.0)
+        assert events == ["Write", "Read", "Write answered", "Read answered"]
+        assert traffic.writes[-1] == 2  # both in one socket write
+        assert back.value == 37.0 and machine.commands == [("feed_override_pct", 37.0)]
+        assert back.write_s > 0 and back.read_s >= 0
+        assert await conn.read_signal("feed_override_pct") == 37.0
+        with pytest.raises(CommandRejected, match="BadOutOfRange"):
+            await conn.write_read_back("feed_override_pct", 151.0)
+        assert conn.state is ConnectionState.CONNECTED
+        spindle = machine.values["spindle_override_pct"]
+        assert await conn.read_signal("spindle_override_pct") == spindle
+        events.clear()
+        assert (await conn.write_read_back("feed_override_pct", 38.0)).value == 38.0
+        assert events == ["Write", "Read", "Write answered", "Read answered"]
+        events.clear()  # as measure_latency with jitter asks (one proxy delay each)
+        back = await conn.write_read_back("feed_override_pct", 39.0, pipelined=False)
+        assert back.value == 39.0
+        assert events == ["Write", "Write answered", "Read", "Read answered"]
+        assert traffic.writes[-2:] == [1, 1]
+        # a read-back that does not show the value written (here: a machine that rounds
+        # the override) makes the connection wait for the write's answer from then on
+        monkeypatch.setattr(machine, "quantised", True)
+        assert (await conn.write_read_back("feed_override_pct", 40.4)).value == 40.0
+        events.clear()
+        assert (await conn.write_read_back("feed_override_pct", 41.0)).value == 41.0
+        assert events == ["Write", "Write answered", "Read", "Read answered"]
 
     shared.run(body)
 
@@ -377,6 +364,10 @@ def test_secure_session_with_certificates_and_password(certificates: Path, mode:
                     await conn.write("spindle_override_pct", override)
                     assert await conn.read_signal("spindle_override_pct") == override
                     assert machine.values["spindle_override_pct"] == override
+                    # the Write and its read-back framed (signed, encrypted) one after the
+                    # other and sent in one socket write
+                    back = await conn.write_read_back("spindle_override_pct", override - 1.0)
+                    assert back.value == override - 1.0
             for refused in (client(server, "wrong"), client(server, None, username=None)):
                 with pytest.raises(ConnectionLost):
                     await OpcUaConnection(refused, base_dir=certificates).connect()
