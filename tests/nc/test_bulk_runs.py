@@ -1,6 +1,7 @@
-"""Runs of straight moves read in bulk give what the line-by-line path gives, to the bit.
+"""Runs of moves read in bulk give what the line-by-line path gives, to the bit.
 
-:meth:`Interpreter.run_text_bulk` hands long runs of plain ``G0``/``G1`` lines to
+:meth:`Interpreter.run_text_bulk` hands long runs of plain ``G0``/``G1`` and ``G2``/``G3``
+lines (alone or mixed) to
 :mod:`cnctwin.nc.runs` (numbers parsed and positions computed with numpy) and
 :func:`~cnctwin.nc.summary.summarize` sums them in bulk. The reference is the
 interpreter's line-by-line path (:meth:`Interpreter.run_text`) and the per-segment summary:
@@ -13,8 +14,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -22,7 +21,7 @@ from hypothesis import strategies as st
 
 from cnctwin.errors import NCError
 from cnctwin.nc.interpreter import Interpreter
-from cnctwin.nc.runs import MIN_RUN_LINES, ArcRun, StraightRun
+from cnctwin.nc.runs import MIN_RUN_LINES, MoveRun
 from cnctwin.nc.segments import Segment
 from cnctwin.nc.setup import NCSetup, ToolEntry
 from cnctwin.nc.summary import summarize
@@ -180,7 +179,7 @@ def both_ways(text: str, setup: NCSetup | None = None) -> tuple[object, object, 
     in_runs = 0
     for bulk in (False, True):
         interpreter = Interpreter(setup)
-        items: list[Segment | StraightRun | ArcRun] = []
+        items: list[Segment | MoveRun] = []
         try:
             stream = (
                 interpreter.run_text_bulk(text, "p.ngc")
@@ -192,15 +191,11 @@ def both_ways(text: str, setup: NCSetup | None = None) -> tuple[object, object, 
         except NCError as err:
             results.append(str(err))
         else:
-            segments = [
-                s
-                for i in items
-                for s in (i.segments() if isinstance(i, StraightRun | ArcRun) else [i])
-            ]
+            segments = [s for i in items for s in (i.segments() if isinstance(i, MoveRun) else [i])]
             summary = summarize(items, rapid_mm_min=5000.0).to_dict()
             results.append(_repr([segments, interpreter.warnings, interpreter.lines_read, summary]))
         if bulk:
-            in_runs = sum(len(i) for i in items if isinstance(i, StraightRun | ArcRun))
+            in_runs = sum(len(i) for i in items if isinstance(i, MoveRun))
     return results[0], results[1], in_runs
 
 
@@ -278,35 +273,65 @@ def test_long_arc_runs_are_taken_and_match(offset: str) -> None:
     assert bulk == one_by_one
 
 
-def test_alternating_lines_make_no_run_and_do_not_import_numpy() -> None:
-    """CAM output alternating G1 and G2/G3 lines has no run of 32 lines of one kind: read in
-    bulk it equals the line-by-line path, and no look for a run imports numpy (G1 X Y lines
-    use only arc letters, but have no I or J). The program starts with each kind of line,
-    so that runs are looked for after both."""
+@st.composite
+def cam_mix(draw: st.DrawFn) -> str:
+    """CAM-style output: straight moves and arcs in any order (two G1 lines then a half
+    circle out and back, as the benchmark's ``mixed``, or drawn one by one), with N words,
+    lower case, modal G words, F changes, rapids, helices and now and then a line that must
+    end a run (a wrong radius, an arc under G18 or G90.1 or without centre, a straight move
+    in arc mode or with I, F0)."""
+    lines = [draw(st.sampled_from(["G17 G91.1"] * 7 + ["G17 G91.1 F0", "G18", "G17 G90.1"]))]
+    x = y = 0.0
+    motion = ""
+    for _ in range(draw(st.integers(MIN_RUN_LINES, 3 * MIN_RUN_LINES))):
+        kind = draw(st.sampled_from(["G1"] * 6 + ["G0", "x", "G2", "G3", "G2", "G3"]))
+        if kind == "x" and motion not in ("G0", "G1"):
+            kind = "G1"
+        if kind in ("G0", "G1", "x"):
+            x = round(x + draw(st.floats(-2, 2)), 3)
+            y = round(y + draw(st.floats(-2, 2)), 3)
+            g = "" if kind == "x" else draw(st.sampled_from([kind, kind.lower(), "G0" + kind[1]]))
+            feed = draw(st.sampled_from(["", "", "", " F250", " f1000.5"]))
+            lines.append(f"{g} X{x:.3f} y{y:.3f}{feed}".strip())
+            motion = kind if kind != "x" else motion
+        else:
+            r = draw(st.sampled_from([0.5, 1.25, 3.0]))
+            wrong = draw(st.sampled_from([1.0] * 199 + [1.3]))
+            lift = draw(st.sampled_from(["", "", "", " Z-0.5", " z0.25"]))
+            n = draw(st.sampled_from(["", "", "N7 "]))
+            g = "" if motion == kind and draw(st.booleans()) else kind
+            lines.append(f"{n}{g} X{x + 2 * r * wrong:.3f} Y{y:.3f}{lift} I{r} J0".strip())
+            lines.append(f"{n}{'G2' if kind == 'G3' else 'g3'} X{x:.3f} Y{y:.3f} i{-r * wrong} j0")
+            motion = "G3" if kind == "G2" else "G2"
+    if draw(st.integers(0, 3)) == 0:
+        breaker = ["X1.5", "G1 X1 I2", "G3 X1 Y1 K1", "G2 X1 Y0", "G17 G90.1", "G1 F0", "G18"]
+        lines.insert(draw(st.integers(1, len(lines))), draw(st.sampled_from(breaker)))
+    eol = draw(st.sampled_from(["\n", "\r\n"]))
+    return HEADER.replace("\n", eol) + eol.join(lines) + eol + "M2" + eol
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cam_mix())
+def test_mixed_runs_equal_the_line_by_line_path(text: str) -> None:
+    one_by_one, bulk, _ = both_ways(text)
+    assert bulk == one_by_one
+
+
+@pytest.mark.parametrize("shift", [0, 1, 2, 3])
+def test_alternating_lines_are_read_in_bulk(shift: int) -> None:
+    """CAM output alternating G1 and G2/G3 lines (the benchmark's ``mixed``, starting with
+    each kind of line, and with work and tool offsets) is read in runs that take both kinds
+    of line, and equals the line-by-line path."""
     lines = []
     for n in range(400):
         r = 1.0 + (n * 7919 % 1000) / 500.0
         x = (n * 37 % 100) / 10.0
         lines += [f"G1 X{x:.3f} Y1", f"G1 X{x:.3f} Y0"]
         lines += [f"G3 X{x + 2 * r:.4f} Y0 I{r:.4f} J0", f"G2 X{x:.3f} Y0 I{-r:.4f} J0"]
-    texts = [HEADER + "\n".join(body) + "\nM2\n" for body in (lines, lines[2:] + lines[:2])]
-    for text in texts:
-        one_by_one, bulk, in_runs = both_ways(text, NCSetup())
-        assert in_runs == 0
-        assert bulk == one_by_one
-    script = (
-        "import json, sys\n"
-        "from cnctwin.nc.interpreter import Interpreter\n"
-        "from cnctwin.nc.summary import summarize\n"
-        "for text in json.load(sys.stdin):\n"
-        "    summarize(Interpreter().run_text_bulk(text), rapid_mm_min=3000.0)\n"
-        "print('numpy' in sys.modules)\n"
-    )
-    done = subprocess.run(
-        [sys.executable, "-c", script],
-        input=json.dumps(texts),
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    assert done.stdout.strip() == "False"
+    body = "\n".join(lines[shift:] + lines[:shift])
+    tools = NCSetup(tools={1: ToolEntry(1, length_mm=42.125, diameter_mm=6.0)})
+    offsets = "G10 L2 P1 X2 Y-3 Z1\nG43 H1\n" if shift % 2 else ""
+    text = HEADER + offsets + "G0 X0 Y0\nG1 Z-1\n" + body + "\nM2\n"
+    one_by_one, bulk, in_runs = both_ways(text, tools)
+    assert in_runs > 1500
+    assert bulk == one_by_one

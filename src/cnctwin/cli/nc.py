@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from rich.table import Table
 
     from cnctwin.config import MachiningConfig
-    from cnctwin.nc import ArcRun, StraightRun
+    from cnctwin.nc import MoveRun
 
 __all__ = ["app", "inspect", "inspect_report", "report_table", "trace"]
 
@@ -145,7 +145,7 @@ def inspect_report(
     from cnctwin.nc import Interpreter  # the interpreter is heavy to import
 
     interpreter = Interpreter(setup if setup is not None else _setup(config))
-    segments: Iterable[Segment | StraightRun | ArcRun]
+    segments: Iterable[Segment | MoveRun]
     if on_segment is not None:
         segments = _tap(interpreter.run_file(program), on_segment)
     else:

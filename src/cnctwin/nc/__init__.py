@@ -21,7 +21,7 @@ if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run
     from cnctwin.nc.interpreter import Interpreter, interpret_file, interpret_text
     from cnctwin.nc.limits import MAX_PROGRAM_BYTES, MAX_REPEATED_LINES, MAX_SEGMENTS
     from cnctwin.nc.plot import ToolpathPlot, draw_top_view
-    from cnctwin.nc.runs import ArcRun, StraightRun
+    from cnctwin.nc.runs import MoveRun
     from cnctwin.nc.sampler import (
         AxisLimits,
         FeedOverride,
@@ -52,7 +52,6 @@ _HOMES = {
     "MAX_PROGRAM_BYTES": "limits",
     "MAX_REPEATED_LINES": "limits",
     "MAX_SEGMENTS": "limits",
-    "ArcRun": "runs",
     "AxisLimits": "sampler",
     "CanonicalMove": "trace",
     "CutterComp": "segments",
@@ -61,12 +60,12 @@ _HOMES = {
     "Interpreter": "interpreter",
     "MachineState": "segments",
     "MotionKind": "segments",
+    "MoveRun": "runs",
     "NCSetup": "setup",
     "PLANE_AXES": "segments",
     "Plane": "segments",
     "SampleChunk": "sampler",
     "Segment": "segments",
-    "StraightRun": "runs",
     "ToolEntry": "setup",
     "ToolpathPlot": "plot",
     "TrajectorySampler": "sampler",
@@ -91,7 +90,6 @@ __all__ = [
     "MAX_REPEATED_LINES",
     "MAX_SEGMENTS",
     "PLANE_AXES",
-    "ArcRun",
     "AxisLimits",
     "CanonicalMove",
     "CutterComp",
@@ -100,11 +98,11 @@ __all__ = [
     "Interpreter",
     "MachineState",
     "MotionKind",
+    "MoveRun",
     "NCSetup",
     "Plane",
     "SampleChunk",
     "Segment",
-    "StraightRun",
     "ToolEntry",
     "ToolpathPlot",
     "TrajectorySampler",

@@ -21,7 +21,7 @@ tool state (:mod:`~cnctwin.nc.tool_state`), drilling cycles
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 from cnctwin.errors import NCError
@@ -31,7 +31,7 @@ from cnctwin.nc.expressions import Parameters
 from cnctwin.nc.lexer import lex_block
 from cnctwin.nc.limits import MAX_NUMBER_CHARS, WORD_LIMITS
 from cnctwin.nc.owords import OWordControl
-from cnctwin.nc.runs import ArcRun, StraightRun, arc_run, straight_run
+from cnctwin.nc.runs import MoveRun, move_run
 from cnctwin.nc.segments import Plane, Segment
 from cnctwin.nc.setup import NCSetup
 from cnctwin.nc.source import LineSource, RepeatBudget
@@ -59,7 +59,7 @@ _LENGTH_WORD_LIMIT = WORD_LIMITS["x"][0]
 _FEED_WORD_LIMIT = WORD_LIMITS["f"][0]
 #: What :meth:`Interpreter._block` asks of the line loop: go on, or read the new source.
 _NEXT, _SWITCH = 0, 1
-#: Lines without a look for a run of straight moves after a look that found none, at most.
+#: Lines without a look for a run of moves after a look that found none, at most.
 _MAX_BACKOFF = 4096
 
 
@@ -143,28 +143,23 @@ class Interpreter:
         """Interpret program text held in memory; see :meth:`run_file`."""
         return self._run(LineSource.from_text(text, name, self._budget))  # type: ignore[return-value]
 
-    def run_file_bulk(self, path: str | Path) -> Iterator[Segment | StraightRun | ArcRun]:
-        """As :meth:`run_file`, but long runs of plain ``G0``/``G1`` lines (plain ``G2``/``G3``
-        lines) come as one :class:`~cnctwin.nc.runs.StraightRun`
-        (:class:`~cnctwin.nc.runs.ArcRun`) each, for consumers that take runs such as
+    def run_file_bulk(self, path: str | Path) -> Iterator[Segment | MoveRun]:
+        """As :meth:`run_file`, but long runs of plain ``G0``/``G1`` and ``G2``/``G3`` lines
+        come as one :class:`~cnctwin.nc.runs.MoveRun` each, for consumers that take runs such as
         :func:`~cnctwin.nc.summary.summarize`; their segments equal those of
         :meth:`run_file`."""
         setup = self.setup
         source = LineSource.from_path(path, setup.max_program_bytes, self._budget)
         return self._run(source, bulk=True)
 
-    def run_text_bulk(
-        self, text: str, name: str = "<string>"
-    ) -> Iterator[Segment | StraightRun | ArcRun]:
+    def run_text_bulk(self, text: str, name: str = "<string>") -> Iterator[Segment | MoveRun]:
         """As :meth:`run_text`, with runs; see :meth:`run_file_bulk`."""
         return self._run(LineSource.from_text(text, name, self._budget), bulk=True)
 
     # ------------------------------------------------------------------ main loop
-    def _run(
-        self, source: LineSource, bulk: bool = False
-    ) -> Iterator[Segment | StraightRun | ArcRun]:
+    def _run(self, source: LineSource, bulk: bool = False) -> Iterator[Segment | MoveRun]:
         """Read the program and the subroutine files it calls, yielding segments (and, if
-        ``bulk``, runs of straight moves).
+        ``bulk``, runs of moves).
 
         One loop for every line, with the raw-line fast paths inline: this is the hot path.
         """
@@ -229,7 +224,7 @@ class Interpreter:
                                         raise self._too_many_segments()
                                     yield out.pop()
                                     if bulk and lineno >= self._next_look:
-                                        run = self._run_after(src, main, arcs=False)
+                                        run = self._run_after(src, main)
                                         if run is not None:
                                             yield run
                                     continue
@@ -250,7 +245,7 @@ class Interpreter:
                                     raise self._too_many_segments()
                                 yield out.pop()
                                 if bulk and lineno >= self._next_look:
-                                    run = self._run_after(src, main, arcs=True)
+                                    run = self._run_after(src, main)
                                     if run is not None:
                                         yield run
                                 continue
@@ -280,26 +275,20 @@ class Interpreter:
                 src.close()
             source.close()
 
-    def _run_after(self, src: LineSource, main: bool, arcs: bool) -> StraightRun | ArcRun | None:
-        """The run of plain straight moves (or, if ``arcs``, of plain arcs) that follows in
-        ``src``, taken: the source, the position, the modes and the cursor move past it.
-        ``None`` if there is none (or the modes do not allow one); then none is looked for
-        again for a while, longer after each look that finds none."""
+    def _run_after(self, src: LineSource, main: bool) -> MoveRun | None:
+        """The run of plain straight moves and arcs that follows in ``src``, taken: the
+        source, the position, the modes and the cursor move past it. ``None`` if there is
+        none (or the modes do not allow one); then none is looked for again for a while,
+        longer after each look that finds none."""
         motion = self._executor.motion
         modal = self._executor.modal
         state = modal.state
-        run: StraightRun | ArcRun | None
+        run: MoveRun | None
         data = src.ahead()
         if not data or not motion.plain_absolute:
             run, lines = None, 1
-        elif arcs and (
-            state.plane != Plane.XY or modal.arc_absolute or not state.programmed_feed > 0.0
-        ):
-            run, lines = None, 1
         else:
-            build: Callable[..., tuple[StraightRun | ArcRun | None, int, int]]
-            build = arc_run if arcs else straight_run
-            run, lines, size = build(
+            run, lines, size = move_run(
                 data,
                 file=src.name,
                 first_line=src.lineno + 1,
@@ -308,9 +297,11 @@ class Interpreter:
                 factor=modal.factor,
                 motion=modal.motion,
                 state=state,
+                arcs=state.plane == Plane.XY and not modal.arc_absolute,
                 spindle_rpm=state.programmed_speed if state.spindle_direction else 0.0,
                 abc_deg=motion.abc,
-                word_limit=_LENGTH_WORD_LIMIT if arcs else _FEED_WORD_LIMIT,
+                feed_limit=_FEED_WORD_LIMIT,
+                length_limit=_LENGTH_WORD_LIMIT,
                 max_moves=self._segments_left,
             )
         if run is None:
@@ -321,11 +312,8 @@ class Interpreter:
         src.skip(size, lines)
         self._segments_left -= lines
         motion.pos = run.end_mm[-1].tolist()
-        if isinstance(run, StraightRun):
-            modal.motion = 0 if run.rapid[-1] else 10
-            modal.state = run.end_state
-        else:
-            modal.motion = 30 if run.turns[-1] > 0 else 20
+        modal.motion = int(run.motion[-1])
+        modal.state = run.end_state
         self._cursor.line = src.lineno
         if main:
             self.lines_read = src.lineno

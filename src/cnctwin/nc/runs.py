@@ -1,12 +1,12 @@
-"""Runs of plain moves read in bulk: many consecutive ``G0``/``G1`` (or ``G2``/``G3``) lines
+"""Runs of plain moves read in bulk: many consecutive ``G0``/``G1`` and ``G2``/``G3`` lines
 at once.
 
-CAM output is mostly long runs of lines such as ``G1 X12.5 Y-3.25``. The interpreter hands
-the bytes that follow such a line to :func:`straight_run` (or, after a plain arc line, to
-:func:`arc_run`), which takes the longest run of complete lines of only an optional N word,
+CAM output is mostly long runs of lines such as ``G1 X12.5 Y-3.25``, often with arcs such as
+``G3 X4 Y2 I1 J0`` between them. The interpreter hands the bytes that follow such a line to
+:func:`move_run`, which takes the longest run of complete lines of only an optional N word,
 an optional G0/G1, X, Y, Z and F words (at least one of X, Y, Z), in that order, or of an
-optional N word, an optional G2/G3, X, Y, Z, I, J words (I or J at least; XY plane): lines
-the interpreter's per-line fast paths take (``_XYZ_LINE`` and ``_ARC_LINE`` in
+optional N word, an optional G2/G3, X, Y, Z, I, J words (I or J at least; XY plane), in any
+mix: lines the interpreter's per-line fast paths take (``_XYZ_LINE`` and ``_ARC_LINE`` in
 :mod:`cnctwin.nc.interpreter`). It checks them with numpy over the bytes, converts their
 words with ``float()`` and computes the machine positions, feeds and arc centres of the whole
 run. :func:`cnctwin.nc.summary.summarize` sums a run without making a segment per line;
@@ -23,8 +23,7 @@ would pass the segment limit: that line goes the general way and meets its error
 Lengths are in mm, feeds in mm/min, angles in rad.
 
 numpy is imported only when a run may follow (32 lines of the right characters, each with a
-letter such a line needs), so reading a short program, or one whose kinds of lines alternate,
-does not import it.
+letter such a line needs: X, Y, Z, I or J), so reading a short program does not import it.
 """
 
 from __future__ import annotations
@@ -54,12 +53,10 @@ if TYPE_CHECKING:
 
 __all__ = [
     "MIN_RUN_LINES",
-    "ArcRun",
-    "StraightRun",
-    "arc_run",
+    "MoveRun",
     "arc_sweeps",
     "map_floats",
-    "straight_run",
+    "move_run",
 ]
 
 #: Fewer lines than this are not worth a run (numpy's fixed cost per call).
@@ -112,12 +109,14 @@ class _Grammar:
         return self.classes
 
 
-#: Straight moves: (N) (G0/G1) X Y Z (F), one of X Y Z at least.
-_STRAIGHT = _Grammar(
-    b"GNXYZF", rb"[nN]?[gG]?(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])[fF]?", (b"0", b"1"), b"XYZ"
+#: Straight moves, (N) (G0/G1) X Y Z (F) with one of X Y Z at least, and arcs in the XY
+#: plane, (N) (G2/G3) X Y Z I J with one of I J at least.
+_MOVES = _Grammar(
+    b"GNXYZFIJ",
+    rb"[nN]?[gG]?(?:(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])[fF]?|[xX]?[yY]?[zZ]?(?:[iI][jJ]?|[jJ]))",
+    (b"0", b"1", b"2", b"3"),
+    b"XYZIJ",
 )
-#: Arcs in the XY plane: (N) (G2/G3) X Y Z I J, one of I J at least.
-_ARC = _Grammar(b"GNXYZIJ", rb"[nN]?[gG]?[xX]?[yY]?[zZ]?(?:[iI][jJ]?|[jJ])", (b"2", b"3"), b"IJ")
 
 
 def _wrong_pair(before: int, after: int, apart: bool) -> bool:
@@ -148,31 +147,9 @@ def _numpy() -> Any:
 
 
 @dataclass(frozen=True, slots=True, eq=False)
-class _Run:
-    """What every run holds: lines, positions and the state around its moves (the
-    attributes of :class:`StraightRun` and :class:`ArcRun`)."""
-
-    file: str
-    first_line: int
-    start_mm: Vec3
-    end_mm: NDArray[np.float64]
-    state: MachineState
-    spindle_rpm: float
-    abc_deg: Vec3
-
-    def __len__(self) -> int:
-        return len(self.end_mm)
-
-    @property
-    def last_line(self) -> int:
-        """1-based line of the last move."""
-        return self.first_line + len(self.end_mm) - 1
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class StraightRun(_Run):
-    """Consecutive straight moves (``G0``/``G1``) of consecutive lines, in one state but
-    the feed.
+class MoveRun:
+    """Consecutive plain moves of consecutive lines: straight moves (``G0``/``G1``) and arcs
+    (``G2``/``G3`` with I, J centres, XY plane) in any order, in one state but the feed.
 
     Attributes
     ----------
@@ -184,8 +161,11 @@ class StraightRun(_Run):
         Machine position (x, y, z) of the controlled point before the run, mm.
     end_mm
         (n, 3) machine positions after each move, mm.
-    rapid
-        (n,) True for G0 moves.
+    motion
+        (n,) motion code of each move (G-code key: 0, 10, 20 or 30 for G0 to G3).
+    center_mm
+        (n, 3) arc centres, mm (a centre's Z is its arc's start Z); a straight move's row
+        is its start point and is not used.
     feed_mm_min
         (n,) path feed of each move, mm/min (0 for rapids).
     programmed_feed
@@ -199,9 +179,25 @@ class StraightRun(_Run):
         Rotary axes A, B, C during the run, degrees.
     """
 
-    rapid: NDArray[np.bool_]
+    file: str
+    first_line: int
+    start_mm: Vec3
+    end_mm: NDArray[np.float64]
+    motion: NDArray[np.int64]
+    center_mm: NDArray[np.float64]
     feed_mm_min: NDArray[np.float64]
     programmed_feed: NDArray[np.float64]
+    state: MachineState
+    spindle_rpm: float
+    abc_deg: Vec3
+
+    def __len__(self) -> int:
+        return len(self.end_mm)
+
+    @property
+    def last_line(self) -> int:
+        """1-based line of the last move."""
+        return self.first_line + len(self.end_mm) - 1
 
     @property
     def end_state(self) -> MachineState:
@@ -218,91 +214,26 @@ class StraightRun(_Run):
         start = self.start_mm
         line = self.first_line
         abc, rpm, file = self.abc_deg, self.spindle_rpm, self.file
-        rapid, linear = MotionKind.RAPID, MotionKind.LINEAR
-        for end, fast, feed, programmed in zip(
+        kinds = {0: MotionKind.RAPID, 10: MotionKind.LINEAR, 20: MotionKind.ARC, 30: MotionKind.ARC}
+        for end, center, code, feed, programmed in zip(
             map(tuple, self.end_mm.tolist()),
-            self.rapid.tolist(),
+            map(tuple, self.center_mm.tolist()),
+            self.motion.tolist(),
             self.feed_mm_min.tolist(),
             self.programmed_feed.tolist(),
             strict=True,
         ):
             state = self._state(programmed, state)
             yield Segment(
-                rapid if fast else linear,
+                kinds[code],
                 line,
                 start,
                 end,
                 feed,
                 rpm,
                 state,
-                None,
-                0,
-                0.0,
-                abc,
-                abc,
-                file,
-            )
-            start = end
-            line += 1
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class ArcRun(_Run):
-    """Consecutive arcs (``G2``/``G3`` with I, J centres, XY plane) of consecutive lines,
-    in one state.
-
-    Attributes
-    ----------
-    file
-        Source file name.
-    first_line
-        1-based line of the first arc; arc ``i`` is on line ``first_line + i``.
-    start_mm
-        Machine position (x, y, z) of the controlled point before the run, mm.
-    end_mm, center_mm
-        (n, 3) machine positions after each arc and centres, mm (a centre's Z is its
-        arc's start Z).
-    turns
-        (n,) 1 for G3, -1 for G2.
-    feed_mm_min
-        Path feed, mm/min.
-    state
-        The modal state of the run.
-    spindle_rpm, abc_deg
-        Spindle speed (rpm) and rotary axes A, B, C (degrees) during the run.
-    """
-
-    center_mm: NDArray[np.float64]
-    turns: NDArray[np.int64]
-    feed_mm_min: float
-
-    def segments(self) -> Iterator[Segment]:
-        """The segments of the run, equal to those the line-by-line path makes."""
-        start = self.start_mm
-        line = self.first_line
-        abc, rpm, file, feed, state = (
-            self.abc_deg,
-            self.spindle_rpm,
-            self.file,
-            self.feed_mm_min,
-            self.state,
-        )
-        for end, center, turns in zip(
-            map(tuple, self.end_mm.tolist()),
-            map(tuple, self.center_mm.tolist()),
-            self.turns.tolist(),
-            strict=True,
-        ):
-            yield Segment(
-                MotionKind.ARC,
-                line,
-                start,
-                end,
-                feed,
-                rpm,
-                state,
-                center,
-                turns,
+                center if code >= 20 else None,
+                (1 if code == 30 else -1) if code >= 20 else 0,
                 0.0,
                 abc,
                 abc,
@@ -379,7 +310,7 @@ def _valid_prefix(grammar: _Grammar, data: bytes) -> int:
     return int(ends[good - 1]) + 1 if good else 0
 
 
-def straight_run(
+def move_run(
     data: bytes,
     *,
     file: str,
@@ -389,12 +320,14 @@ def straight_run(
     factor: float,
     motion: int | None,
     state: MachineState,
+    arcs: bool,
     spindle_rpm: float,
     abc_deg: Vec3,
-    word_limit: float,
+    feed_limit: float,
+    length_limit: float,
     max_moves: int,
-) -> tuple[StraightRun | None, int, int]:
-    """The run of plain straight moves at the start of ``data``.
+) -> tuple[MoveRun | None, int, int]:
+    """The run of plain straight moves and arcs at the start of ``data``.
 
     Parameters
     ----------
@@ -409,14 +342,19 @@ def straight_run(
     factor
         mm per program unit.
     motion
-        The modal motion code (0 for G0, 10 for G1) before the run.
+        The modal motion code (0, 10, 20 or 30 for G0 to G3) before the run.
     state
         The modal state before the run: absolute distances, feed per minute, no cutter
         compensation, rotation, diameter mode or constant surface speed (the caller checks).
+    arcs
+        Whether arcs may be in the run: XY plane, incremental arc centres (else the run
+        ends before the first arc).
     spindle_rpm, abc_deg
         Spindle speed (rpm) and rotary axes (degrees) during the run.
-    word_limit
+    feed_limit
         Largest F word accepted, program units per minute.
+    length_limit
+        Largest word of an arc line accepted (X, Y, Z, I, J), program units.
     max_moves
         Most moves the run may hold (the segments left before the segment limit).
 
@@ -426,129 +364,94 @@ def straight_run(
         The run (``None`` when fewer than :data:`MIN_RUN_LINES` lines qualify) and the
         lines and bytes it takes; ``lines`` also counts, when there is no run, the lines
         looked at that would not have made one.
+
+    Each line is a straight move if it has no I or J word, else an arc: its motion code
+    (its G word's or the one carried from the line before) must be G0/G1, or G2/G3. Arc
+    centres and the end-radius test are those of :meth:`~cnctwin.nc.motion.Motion.arc`.
     """
-    words = _words(_STRAIGHT, data)
+    words = _words(_MOVES, data)
     if isinstance(words, int):
         return None, words, 0
     np = _numpy()
     head, n, values, which, line_of, limit = words
     index = np.arange(1, n + 1)
-    codes = _codes(np, motion, (0, 10), values, which, line_of, index)
+    codes = _codes(np, motion, values, which, line_of, index)
     if codes[0] < 0:  # no motion mode before the first G word: the general way
         limit = 0
+    on_arc = np.zeros(n, dtype=bool)
+    on_arc[line_of[(which == ord("i")) | (which == ord("j"))]] = True
+    wrong = np.flatnonzero((on_arc != (codes >= 20.0)) | (on_arc & (not arcs)))
+    if len(wrong):
+        limit = min(limit, int(wrong[0]))
+    wrong = line_of[on_arc[line_of] & ~(np.abs(values) <= length_limit)]
+    if len(wrong):
+        limit = min(limit, int(wrong[0]))
     # Feeds: F > 0 and within its bound; a feed move needs a feed rate.
     f = which == ord("f")
     f_lines = line_of[f]
     feeds_given = values[f]
-    wrong_feed = f_lines[(feeds_given <= 0.0) | (feeds_given > word_limit)]
+    wrong_feed = f_lines[(feeds_given <= 0.0) | (feeds_given > feed_limit)]
     if len(wrong_feed):
         limit = min(limit, int(wrong_feed[0]))
     programmed = np.empty(n + 1)
     programmed[0] = state.programmed_feed
     programmed[f_lines + 1] = feeds_given
     programmed = _carry(np, programmed, f_lines, index)
-    unfed = np.flatnonzero((codes == 10.0) & ~(programmed > 0.0))
+    unfed = np.flatnonzero((codes > 0.0) & ~(programmed > 0.0))
     if len(unfed):
         limit = min(limit, int(unfed[0]))
-    ends = _positions(np, values, which, line_of, index, start_mm, offsets_mm, factor)
-    outside = np.flatnonzero(~(np.abs(ends) <= MAX_POSITION_MM).all(axis=1))
-    if len(outside):
-        limit = min(limit, int(outside[0]))
-    limit = min(limit, max_moves)
-    if limit < MIN_RUN_LINES:
-        return None, max(limit, 1), 0
-    rapid = codes[:limit] == 0.0
-    programmed = programmed[:limit]
-    run = StraightRun(
-        file=file,
-        first_line=first_line,
-        start_mm=start_mm,
-        end_mm=ends[:limit],
-        rapid=rapid,
-        feed_mm_min=np.where(rapid, 0.0, programmed * factor),
-        programmed_feed=programmed,
-        state=state,
-        spindle_rpm=spindle_rpm,
-        abc_deg=abc_deg,
-    )
-    return run, limit, _line_end(np, head, limit)
-
-
-def arc_run(
-    data: bytes,
-    *,
-    file: str,
-    first_line: int,
-    start_mm: Vec3,
-    offsets_mm: list[float],
-    factor: float,
-    motion: int | None,
-    state: MachineState,
-    spindle_rpm: float,
-    abc_deg: Vec3,
-    word_limit: float,
-    max_moves: int,
-) -> tuple[ArcRun | None, int, int]:
-    """The run of plain arcs at the start of ``data``; see :func:`straight_run`.
-
-    ``motion`` is the modal motion code (20 for G2, 30 for G3) before the run; ``state``
-    must be in the XY plane, absolute distances and arc centres, feed per minute with a
-    feed rate > 0 (the caller checks); ``word_limit`` bounds the words' values (program
-    units). Centres and the end-radius test are those of
-    :meth:`~cnctwin.nc.motion.Motion.arc`.
-    """
-    words = _words(_ARC, data)
-    if isinstance(words, int):
-        return None, words, 0
-    np = _numpy()
-    head, n, values, which, line_of, limit = words
-    wrong = line_of[~(np.abs(values) <= word_limit)]
-    if len(wrong):
-        limit = min(limit, int(wrong[0]))
-    index = np.arange(1, n + 1)
-    codes = _codes(np, motion, (20, 30), values, which, line_of, index)
-    if codes[0] < 0:
-        limit = 0
     ends = _positions(np, values, which, line_of, index, start_mm, offsets_mm, factor)
     starts = np.empty_like(ends)
     starts[0] = start_mm
     starts[1:] = ends[:-1]
     centers = starts.copy()
-    for axis, letter in enumerate(b"ij"):
-        mask = which == letter
-        offset = np.zeros(n)
-        offset[line_of[mask]] = values[mask] * factor
-        centers[:, axis] = starts[:, axis] + offset
-    r0 = map_floats(
-        math.hypot, (starts[:, 0] - centers[:, 0]).tolist(), (starts[:, 1] - centers[:, 1]).tolist()
-    )
-    r1 = map_floats(
-        math.hypot, (ends[:, 0] - centers[:, 0]).tolist(), (ends[:, 1] - centers[:, 1]).tolist()
-    )
-    tolerance = (
-        ARC_END_TOLERANCE_INCH * MM_PER_INCH if state.units == "inch" else ARC_END_TOLERANCE_MM
-    )
-    error = np.abs(r1 - r0)
-    refused = (error > ARC_RADIUS_LIMIT_FACTOR * tolerance) | (
-        (error > tolerance) & (error > ARC_RADIUS_TOLERANCE_REL * np.maximum(r0, r1))
-    )
-    inside = (np.abs(ends) <= MAX_POSITION_MM).all(axis=1) & (
-        np.abs(centers) <= MAX_POSITION_MM
-    ).all(axis=1)
-    wrong = np.flatnonzero(refused | ~(r0 > 0.0) | ~inside)
-    if len(wrong):
-        limit = min(limit, int(wrong[0]))
+    inside = (np.abs(ends) <= MAX_POSITION_MM).all(axis=1)
+    arc_lines = np.flatnonzero(on_arc)
+    if len(arc_lines):
+        for axis, letter in enumerate(b"ij"):
+            mask = which == letter
+            offset = np.zeros(n)
+            offset[line_of[mask]] = values[mask] * factor
+            centers[:, axis] = starts[:, axis] + offset
+        arc_starts, arc_ends, arc_centers = starts[arc_lines], ends[arc_lines], centers[arc_lines]
+        r0 = map_floats(
+            math.hypot,
+            (arc_starts[:, 0] - arc_centers[:, 0]).tolist(),
+            (arc_starts[:, 1] - arc_centers[:, 1]).tolist(),
+        )
+        r1 = map_floats(
+            math.hypot,
+            (arc_ends[:, 0] - arc_centers[:, 0]).tolist(),
+            (arc_ends[:, 1] - arc_centers[:, 1]).tolist(),
+        )
+        tolerance = (
+            ARC_END_TOLERANCE_INCH * MM_PER_INCH if state.units == "inch" else ARC_END_TOLERANCE_MM
+        )
+        error = np.abs(r1 - r0)
+        refused = (error > ARC_RADIUS_LIMIT_FACTOR * tolerance) | (
+            (error > tolerance) & (error > ARC_RADIUS_TOLERANCE_REL * np.maximum(r0, r1))
+        )
+        inside[arc_lines] &= (np.abs(arc_centers) <= MAX_POSITION_MM).all(axis=1)
+        wrong = arc_lines[refused | ~(r0 > 0.0)]
+        if len(wrong):
+            limit = min(limit, int(wrong[0]))
+    outside = np.flatnonzero(~inside)
+    if len(outside):
+        limit = min(limit, int(outside[0]))
     limit = min(limit, max_moves)
     if limit < MIN_RUN_LINES:
         return None, max(limit, 1), 0
-    run = ArcRun(
+    codes = codes[:limit]
+    programmed = programmed[:limit]
+    run = MoveRun(
         file=file,
         first_line=first_line,
         start_mm=start_mm,
         end_mm=ends[:limit],
+        motion=codes.astype(np.int64),
         center_mm=centers[:limit],
-        turns=np.where(codes[:limit] == 30.0, 1, -1),
-        feed_mm_min=state.programmed_feed * factor,
+        feed_mm_min=np.where(codes == 0.0, 0.0, programmed * factor),
+        programmed_feed=programmed,
         state=state,
         spindle_rpm=spindle_rpm,
         abc_deg=abc_deg,
@@ -630,17 +533,16 @@ def _pick(tokens: list[bytes], at: Any) -> tuple[bytes, ...] | list[bytes]:
 def _codes(
     np: Any,
     motion: int | None,
-    taken: tuple[int, int],
     values: Any,
     which: Any,
     line_of: Any,
     index: Any,
 ) -> Any:
     """The motion code (G-code key, 10 * G number) of each line, carried forward from the
-    modal ``motion``; -1 before the first G word if ``motion`` is not one of ``taken``."""
+    modal ``motion``; -1 before the first G word if ``motion`` is not G0 to G3."""
     g = which == ord("g")
     codes = np.empty(len(index) + 1)
-    codes[0] = motion if motion in taken else -1.0
+    codes[0] = motion if motion in (0, 10, 20, 30) else -1.0
     g_lines = line_of[g]
     codes[g_lines + 1] = values[g] * 10.0
     return _carry(np, codes, g_lines, index)

@@ -13,7 +13,7 @@ from itertools import repeat
 from typing import Any
 
 from cnctwin.errors import ConfigError, NCError
-from cnctwin.nc.runs import ArcRun, StraightRun, arc_sweeps, map_floats
+from cnctwin.nc.runs import MoveRun, arc_sweeps, map_floats
 from cnctwin.nc.segments import PLANE_AXES, FeedMode, MotionKind, Segment, Vec3, arc_sweep_rad
 
 __all__ = ["ProgramSummary", "arc_extreme_points", "summarize"]
@@ -89,7 +89,7 @@ class ProgramSummary:
 
 
 def summarize(
-    segments: Iterable[Segment | StraightRun | ArcRun],
+    segments: Iterable[Segment | MoveRun],
     *,
     rapid_mm_min: float,
     travel_mm: tuple[Vec3, Vec3] | None = None,
@@ -99,7 +99,7 @@ def summarize(
     Parameters
     ----------
     segments
-        Segments from the interpreter, consumed once; runs of straight moves
+        Segments from the interpreter, consumed once; runs of moves
         (:meth:`~cnctwin.nc.interpreter.Interpreter.run_file_bulk`) are summed in bulk,
         to the same numbers as their segments.
     rapid_mm_min
@@ -133,7 +133,7 @@ def summarize(
     if travel_mm is not None:
         segments = _one_by_one(segments)
     for seg in segments:
-        if isinstance(seg, StraightRun):
+        if isinstance(seg, MoveRun):
             motion += len(seg)
             if seg.state.tool:
                 tools.add(seg.state.tool)
@@ -144,16 +144,6 @@ def summarize(
                 machining_time,
                 (low_x, low_y, low_z),
                 (high_x, high_y, high_z),
-            )
-            low_x, low_y, low_z = run_low
-            high_x, high_y, high_z = run_high
-            continue
-        if isinstance(seg, ArcRun):
-            motion += len(seg)
-            if seg.state.tool:
-                tools.add(seg.state.tool)
-            feed_length, machining_time, run_low, run_high = _add_arc_run(
-                seg, feed_length, machining_time, (low_x, low_y, low_z), (high_x, high_y, high_z)
             )
             low_x, low_y, low_z = run_low
             high_x, high_y, high_z = run_high
@@ -236,17 +226,17 @@ def summarize(
     )
 
 
-def _one_by_one(items: Iterable[Segment | StraightRun | ArcRun]) -> Iterator[Segment]:
+def _one_by_one(items: Iterable[Segment | MoveRun]) -> Iterator[Segment]:
     """The segments of ``items``, runs taken apart."""
     for item in items:
-        if isinstance(item, StraightRun | ArcRun):
+        if isinstance(item, MoveRun):
             yield from item.segments()
         else:
             yield item
 
 
 def _add_run(
-    run: StraightRun,
+    run: MoveRun,
     rapid_length: float,
     feed_length: float,
     machining_time: float,
@@ -256,19 +246,29 @@ def _add_run(
     """The totals of :func:`summarize` after the moves of ``run``: rapid and feed length
     (mm), machining time (s) and the tool tip's box (mm), each the number the loop over the
     run's segments gives (same operations, same order: sums are sequential, squares are
-    Python's float power)."""
+    Python's float power, arc sweeps ``math.atan2``, ``math.hypot`` and ``%``)."""
     import numpy as np
 
     ends = run.end_mm
     starts = np.empty_like(ends)
     starts[0] = run.start_mm
     starts[1:] = ends[:-1]
-    x2, y2, z2 = (
-        map_floats(pow, steps.tolist(), repeat(2)) if steps.any() else steps
-        for steps in (ends - starts).T
-    )
-    lengths = np.sqrt(x2 + y2 + z2)
-    rapid = run.rapid
+    on_arc = run.motion >= 20
+    arcs = np.flatnonzero(on_arc)
+    straight = np.flatnonzero(~on_arc)
+    lengths = np.empty(len(ends))
+    if len(straight):
+        x2, y2, z2 = (
+            map_floats(pow, steps.tolist(), repeat(2)) if steps.any() else steps
+            for steps in (ends[straight] - starts[straight]).T
+        )
+        lengths[straight] = np.sqrt(x2 + y2 + z2)
+    turns = np.where(run.motion[arcs] == 30, 1, -1)
+    if len(arcs):
+        radius, a0, sweep = arc_sweeps(starts[arcs], ends[arcs], run.center_mm[arcs], turns)
+        rise = (ends[arcs, 2] - starts[arcs, 2]).tolist()
+        lengths[arcs] = map_floats(math.hypot, (radius * sweep).tolist(), rise)
+    rapid = run.motion == 0
     if rapid.any():
         rapid_length = float(np.add.accumulate(np.append(rapid_length, lengths[rapid]))[-1])
     fed = ~rapid
@@ -277,11 +277,35 @@ def _add_run(
         feed_length = float(np.add.accumulate(np.append(feed_length, feed))[-1])
         times = 60.0 * feed / run.feed_mm_min[fed]
         machining_time = float(np.add.accumulate(np.append(machining_time, times))[-1])
-    points = np.empty((len(ends) + 1, 3))
-    points[0] = starts[0]
-    points[1:] = ends
-    points -= np.array(run.state.tool_offset_mm)
-    low, high = _box(points, None, low, high)
+    offset = np.array(run.state.tool_offset_mm)
+    # Each move's points in the loop's order: start, end, an arc's up to four extremes.
+    n = len(ends)
+    points = np.empty((n, 6, 3))
+    points[:, 0] = starts - offset
+    points[:, 1] = ends - offset
+    valid = np.zeros((n, 6), dtype=bool)
+    valid[:, :2] = True
+    if len(arcs):
+        tcp_start, tcp_end = points[arcs, 0], points[arcs, 1]
+        center = run.center_mm[arcs] - offset
+        if run.state.tool_offset_mm != _ZERO3:
+            radius, a0, sweep = arc_sweeps(tcp_start, tcp_end, center, turns)
+        lo = np.minimum(a0, a0 + sweep)
+        hi = np.maximum(a0, a0 + sweep)
+        k_first = np.ceil(lo / _QUARTER)
+        k_last = np.minimum(np.floor(hi / _QUARTER), k_first + 3)
+        quadrant_cos, quadrant_sin = np.array(_COS), np.array(_SIN)
+        for slot in range(4):
+            k = k_first + slot
+            quadrant = np.mod(k, 4).astype(np.intp)
+            fraction = (k * _QUARTER - a0) / sweep
+            extreme = np.empty((len(arcs), 3))
+            extreme[:, 0] = center[:, 0] + radius * quadrant_cos[quadrant]
+            extreme[:, 1] = center[:, 1] + radius * quadrant_sin[quadrant]
+            extreme[:, 2] = tcp_start[:, 2] + fraction * (tcp_end[:, 2] - tcp_start[:, 2])
+            points[arcs, 2 + slot] = extreme
+            valid[arcs, 2 + slot] = k <= k_last
+    low, high = _box(points.reshape(-1, 3), valid.reshape(-1), low, high)
     return rapid_length, feed_length, machining_time, low, high
 
 
@@ -298,53 +322,6 @@ def _box(points: Any, valid: Any, low: Vec3, high: Vec3) -> tuple[Vec3, Vec3]:
     new_low = [v if v < old else old for v, old in zip(lows, low, strict=True)]
     new_high = [v if v > old else old for v, old in zip(highs, high, strict=True)]
     return (new_low[0], new_low[1], new_low[2]), (new_high[0], new_high[1], new_high[2])
-
-
-def _add_arc_run(
-    run: ArcRun, feed_length: float, machining_time: float, low: Vec3, high: Vec3
-) -> tuple[float, float, Vec3, Vec3]:
-    """The totals of :func:`summarize` after the arcs of ``run``: feed length (mm),
-    machining time (s) and the tool tip's box (mm), each the number the loop over the
-    run's segments gives (same operations in the same order; see :func:`_add_run`)."""
-    import numpy as np
-
-    ends = run.end_mm
-    starts = np.empty_like(ends)
-    starts[0] = run.start_mm
-    starts[1:] = ends[:-1]
-    radius, a0, sweep = arc_sweeps(starts, ends, run.center_mm, run.turns)
-    rise = (ends[:, 2] - starts[:, 2]).tolist()
-    lengths = map_floats(math.hypot, (radius * sweep).tolist(), rise)
-    feed_length = float(np.add.accumulate(np.append(feed_length, lengths))[-1])
-    if run.feed_mm_min > 0:
-        times = 60.0 * lengths / run.feed_mm_min
-        machining_time = float(np.add.accumulate(np.append(machining_time, times))[-1])
-    offset = np.array(run.state.tool_offset_mm)
-    tcp_start, tcp_end, center = starts - offset, ends - offset, run.center_mm - offset
-    if run.state.tool_offset_mm != _ZERO3:
-        radius, a0, sweep = arc_sweeps(tcp_start, tcp_end, center, run.turns)
-    # Each arc's points in the loop's order: start, end, up to four extremes.
-    n = len(ends)
-    points = np.empty((n, 6, 3))
-    points[:, 0] = tcp_start
-    points[:, 1] = tcp_end
-    lo = np.minimum(a0, a0 + sweep)
-    hi = np.maximum(a0, a0 + sweep)
-    k_first = np.ceil(lo / _QUARTER)
-    k_last = np.minimum(np.floor(hi / _QUARTER), k_first + 3)
-    quadrant_cos, quadrant_sin = np.array(_COS), np.array(_SIN)
-    valid = np.ones((n, 6), dtype=bool)
-    for slot in range(4):
-        k = k_first + slot
-        quadrant = np.mod(k, 4).astype(np.intp)
-        fraction = (k * _QUARTER - a0) / sweep
-        extreme = points[:, 2 + slot]
-        extreme[:, 0] = center[:, 0] + radius * quadrant_cos[quadrant]
-        extreme[:, 1] = center[:, 1] + radius * quadrant_sin[quadrant]
-        extreme[:, 2] = tcp_start[:, 2] + fraction * (tcp_end[:, 2] - tcp_start[:, 2])
-        valid[:, 2 + slot] = k <= k_last
-    low, high = _box(points.reshape(-1, 3), valid.reshape(-1), low, high)
-    return feed_length, machining_time, low, high
 
 
 def _rotary_distance_deg(seg: Segment) -> float:
