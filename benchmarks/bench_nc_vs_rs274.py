@@ -77,8 +77,8 @@ def write_arcs(path: Path, lines: int, seed: int = 2) -> None:
 
 def write_mixed(path: Path, lines: int, seed: int = 3) -> None:
     """CAM output alternating straight moves and arcs: two ``G1 X.. Y..`` lines, then a half
-    circle out along X (``G3 ... I J``) and back (``G2 ... I J``), so that no run of one kind
-    of line is long enough to be read in bulk."""
+    circle out along X (``G3 ... I J``) and back (``G2 ... I J``): no run of one kind of line
+    is longer than two lines (bulk runs take both kinds together)."""
     rng = random.Random(seed)
     x = y = r = 0.0
     with path.open("w") as out:
