@@ -57,6 +57,7 @@ __all__ = [
     "arc_sweeps",
     "map_floats",
     "move_run",
+    "rows",
 ]
 
 #: Fewer lines than this are not worth a run (numpy's fixed cost per call).
@@ -113,7 +114,9 @@ class _Grammar:
 #: plane, (N) (G2/G3) X Y Z I J with one of I J at least.
 _MOVES = _Grammar(
     b"GNXYZFIJ",
-    rb"[nN]?[gG]?(?:(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])[fF]?|[xX]?[yY]?[zZ]?(?:[iI][jJ]?|[jJ]))",
+    # (Written so that the regular expression need not backtrack: X Y Z words, then F or
+    # I J words or neither; or I J words alone.)
+    rb"[nN]?[gG]?(?:(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])(?:[iI][jJ]?|[jJ]|[fF])?|[iI][jJ]?|[jJ])",
     (b"0", b"1", b"2", b"3"),
     b"XYZIJ",
 )
@@ -408,12 +411,13 @@ def move_run(
     inside = (np.abs(ends) <= MAX_POSITION_MM).all(axis=1)
     arc_lines = np.flatnonzero(on_arc)
     if len(arc_lines):
+        arc_rows = rows(arc_lines, n)
         for axis, letter in enumerate(b"ij"):
             mask = which == letter
             offset = np.zeros(n)
             offset[line_of[mask]] = values[mask] * factor
             centers[:, axis] = starts[:, axis] + offset
-        arc_starts, arc_ends, arc_centers = starts[arc_lines], ends[arc_lines], centers[arc_lines]
+        arc_starts, arc_ends, arc_centers = starts[arc_rows], ends[arc_rows], centers[arc_rows]
         r0 = map_floats(
             math.hypot,
             (arc_starts[:, 0] - arc_centers[:, 0]).tolist(),
@@ -431,7 +435,7 @@ def move_run(
         refused = (error > ARC_RADIUS_LIMIT_FACTOR * tolerance) | (
             (error > tolerance) & (error > ARC_RADIUS_TOLERANCE_REL * np.maximum(r0, r1))
         )
-        inside[arc_lines] &= (np.abs(arc_centers) <= MAX_POSITION_MM).all(axis=1)
+        inside[arc_rows] &= (np.abs(arc_centers) <= MAX_POSITION_MM).all(axis=1)
         wrong = arc_lines[refused | ~(r0 > 0.0)]
         if len(wrong):
             limit = min(limit, int(wrong[0]))
@@ -519,6 +523,12 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
     except ValueError:
         return n
     return head, n, values, which, line_of, limit
+
+
+def rows(at: Any, n: int) -> Any:
+    """Index of the rows ``at`` (sorted, distinct numpy indices) of ``n`` rows: a slice of
+    all of them when ``at`` holds them all (indexing with it copies nothing), else ``at``."""
+    return slice(None) if len(at) == n else at
 
 
 def _pick(tokens: list[bytes], at: Any) -> tuple[bytes, ...] | list[bytes]:

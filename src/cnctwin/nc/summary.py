@@ -13,7 +13,7 @@ from itertools import repeat
 from typing import Any
 
 from cnctwin.errors import ConfigError, NCError
-from cnctwin.nc.runs import MoveRun, arc_sweeps, map_floats
+from cnctwin.nc.runs import MoveRun, arc_sweeps, map_floats, rows
 from cnctwin.nc.segments import PLANE_AXES, FeedMode, MotionKind, Segment, Vec3, arc_sweep_rad
 
 __all__ = ["ProgramSummary", "arc_extreme_points", "summarize"]
@@ -253,18 +253,21 @@ def _add_run(
     starts = np.empty_like(ends)
     starts[0] = run.start_mm
     starts[1:] = ends[:-1]
+    n = len(ends)
     on_arc = run.motion >= 20
-    arcs = np.flatnonzero(on_arc)
+    any_arc = bool(on_arc.any())
+    arcs = rows(np.flatnonzero(on_arc), n)
     straight = np.flatnonzero(~on_arc)
-    lengths = np.empty(len(ends))
+    lengths = np.empty(n)
     if len(straight):
+        straight = rows(straight, n)
         x2, y2, z2 = (
             map_floats(pow, steps.tolist(), repeat(2)) if steps.any() else steps
             for steps in (ends[straight] - starts[straight]).T
         )
         lengths[straight] = np.sqrt(x2 + y2 + z2)
     turns = np.where(run.motion[arcs] == 30, 1, -1)
-    if len(arcs):
+    if any_arc:
         radius, a0, sweep = arc_sweeps(starts[arcs], ends[arcs], run.center_mm[arcs], turns)
         rise = (ends[arcs, 2] - starts[arcs, 2]).tolist()
         lengths[arcs] = map_floats(math.hypot, (radius * sweep).tolist(), rise)
@@ -279,13 +282,13 @@ def _add_run(
         machining_time = float(np.add.accumulate(np.append(machining_time, times))[-1])
     offset = np.array(run.state.tool_offset_mm)
     # Each move's points in the loop's order: start, end, an arc's up to four extremes.
-    n = len(ends)
-    points = np.empty((n, 6, 3))
+    points = np.empty((n, 6 if any_arc else 2, 3))
     points[:, 0] = starts - offset
     points[:, 1] = ends - offset
-    valid = np.zeros((n, 6), dtype=bool)
-    valid[:, :2] = True
-    if len(arcs):
+    valid = None
+    if any_arc:
+        valid = np.zeros((n, 6), dtype=bool)
+        valid[:, :2] = True
         tcp_start, tcp_end = points[arcs, 0], points[arcs, 1]
         center = run.center_mm[arcs] - offset
         if run.state.tool_offset_mm != _ZERO3:
@@ -299,13 +302,14 @@ def _add_run(
             k = k_first + slot
             quadrant = np.mod(k, 4).astype(np.intp)
             fraction = (k * _QUARTER - a0) / sweep
-            extreme = np.empty((len(arcs), 3))
+            extreme = np.empty((len(center), 3))
             extreme[:, 0] = center[:, 0] + radius * quadrant_cos[quadrant]
             extreme[:, 1] = center[:, 1] + radius * quadrant_sin[quadrant]
             extreme[:, 2] = tcp_start[:, 2] + fraction * (tcp_end[:, 2] - tcp_start[:, 2])
             points[arcs, 2 + slot] = extreme
             valid[arcs, 2 + slot] = k <= k_last
-    low, high = _box(points.reshape(-1, 3), valid.reshape(-1), low, high)
+        valid = valid.reshape(-1)
+    low, high = _box(points.reshape(-1, 3), valid, low, high)
     return rapid_length, feed_length, machining_time, low, high
 
 
