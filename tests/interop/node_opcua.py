@@ -23,6 +23,11 @@ from timeouts import SERVER_START_S
 
 HERE = Path(__file__).resolve().parent
 
+#: How long :meth:`NodeProcess.writes_since` waits after the expected writes for one more, s:
+#: the server prints a write before it answers it, so its line is at most the reader thread's
+#: turn behind.
+SETTLE_S = 0.3
+
 #: The user of the node-opcua server who may write the overrides (role Operator).
 USER, PASSWORD = "twin", "op-s3cret"
 
@@ -105,8 +110,22 @@ class NodeProcess:
             time.sleep(0.01)
 
     def writes(self) -> list[dict[str, Any]]:
-        """The writes the server applied, in order."""
+        """The writes the server applied, in order, as far as their lines have come in."""
         return [item for item in self.lines if "write" in item]
+
+    def writes_since(self, before: int, expected: int) -> list[dict[str, Any]]:
+        """The writes after the first ``before``, once ``expected`` of them have come in (a
+        write the server has answered may not have been read from its stdout yet), and
+        :data:`SETTLE_S` later, so that one more than expected would show too; an
+        AssertionError when they have not come within 30 s."""
+        deadline = time.monotonic() + 30.0
+        with self._new:
+            while len(self.writes()) < before + expected:
+                left = deadline - time.monotonic()
+                assert left > 0, f"{len(self.writes()) - before} of {expected} writes came"
+                self._new.wait(min(left, 0.2))
+        time.sleep(SETTLE_S)
+        return self.writes()[before:]
 
     def kill(self) -> None:
         """SIGKILL: the server vanishes without closing its sessions."""
