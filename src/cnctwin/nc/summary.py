@@ -308,8 +308,8 @@ def _add_run(
             extreme[:, 2] = tcp_start[:, 2] + fraction * (tcp_end[:, 2] - tcp_start[:, 2])
             points[arcs, 2 + slot] = extreme
             valid[arcs, 2 + slot] = k <= k_last
-        valid = valid.reshape(-1)
-    low, high = _box(points.reshape(-1, 3), valid, low, high)
+    flat_valid = None if valid is None else valid.reshape(-1)
+    low, high = _box(points.reshape(-1, 3), flat_valid, low, high)
     return rapid_length, feed_length, machining_time, low, high
 
 
