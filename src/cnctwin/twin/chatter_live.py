@@ -248,9 +248,7 @@ class ChatterStage:
         that the machine answers while the cycle's other stages run."""
         if not state.connected or self._pending is not None:
             return
-        self._pending = asyncio.ensure_future(
-            self.connection.read_block(self.config.block, self._next)
-        )
+        self._pending = self._read_from_next()
         for _ in range(_SEND_TURNS):
             await asyncio.sleep(0)
 
@@ -266,9 +264,7 @@ class ChatterStage:
             self._blind = False
             self._restart()
         if self._pending is None:  # without a ChatterRequest stage: sent now
-            self._pending = asyncio.ensure_future(
-                self.connection.read_block(self.config.block, self._next)
-            )
+            self._pending = self._read_from_next()
         done, _ = await asyncio.wait({self._pending}, timeout=_WAIT_S)
         if not done:  # the machine has not answered yet: the samples come next cycle
             self._carry(state)
@@ -335,6 +331,10 @@ class ChatterStage:
     def _carry(self, state: CycleState) -> None:
         """A cycle without new samples shows the last cycle's outputs."""
         state.predicted.update(self._outputs)
+
+    def _read_from_next(self) -> asyncio.Future[SampleBlock]:
+        """The read of the samples from the next one wanted on, started."""
+        return asyncio.ensure_future(self.connection.read_block(self.config.block, self._next))
 
     def _restart(self) -> None:
         self._cut_since_s = math.nan
