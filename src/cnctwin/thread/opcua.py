@@ -56,6 +56,7 @@ from cnctwin.thread.connection import (
     SampleBlock,
     now_s,
 )
+from cnctwin.thread.opcua_channel import accept, plain_message
 from cnctwin.thread.signals import COMMANDS, SIGNALS
 from cnctwin.thread.trust import TrustList
 
@@ -504,6 +505,9 @@ class OpcUaConnection(MachineConnection):
         ConnectionLost
             The link went down.
         """
+        protocol = sent.protocol
+        if type(protocol) is UASocketProtocol:  # a new link (a reconnect makes a new one)
+            protocol.__class__ = _PlainAnswers
         try:
             data: Buffer = await sent.future
         except (UaError, ConnectionError) as err:
@@ -801,6 +805,32 @@ class _Cache:
 
     def status_change_notification(self, status: ua.StatusChangeNotification) -> None:
         logger.warning("OPC UA subscription status changed: %s", status.Status)
+
+
+class _PlainAnswers(UASocketProtocol):
+    """asyncua's client protocol, which takes the common answer itself: a whole single-chunk
+    message of policy None to a request it waits for (:func:`~cnctwin.thread.opcua_channel.
+    plain_message`, checked as asyncua checks it) goes to the request's future
+    (asyncua's ``_call_callback``) without
+    asyncua's header parsing and chunk objects (issue 17: they were about a third of the
+    client's CPU per round trip). Everything else, and everything after it in the same
+    segment, is asyncua's (signed or encrypted channels, chunked messages, the secure
+    channel's opening and renewal, errors). :meth:`OpcUaConnection._body` gives a link's
+    protocol this class."""
+
+    def data_received(self, data: bytes) -> None:
+        at = 0
+        if not self.receive_buffer:
+            connection, waiting = self._connection, self._callbackmap
+            while at < len(data):
+                message = plain_message(connection, data, at)
+                if message is None or message.request_id not in waiting:
+                    break
+                accept(connection, message)
+                self._call_callback(message.request_id, Buffer(data[message.start : message.end]))
+                at = message.end
+        if at < len(data):
+            super().data_received(data[at:] if at else data)
 
 
 class _Request:

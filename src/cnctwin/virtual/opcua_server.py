@@ -54,6 +54,7 @@ from cnctwin.thread import (
 )
 from cnctwin.virtual.exposure import check_exposure
 from cnctwin.virtual.machine_tool import add_machine_tool, mirror_value
+from cnctwin.virtual.opcua_lean import LeanServer, LeanService, MachineNode
 from cnctwin.virtual.users import UserTable
 from cnctwin.virtual.vibration import BLOCK_NAME
 
@@ -189,22 +190,38 @@ class _MachineAttributeService(AttributeService):
     ) -> list[ua.StatusCode]:
         if user is not None and user is self._internal:
             return await super().write(params, user)
-        operator = isinstance(user, _Session) and user.operator
         results: list[ua.StatusCode] = []
         for item in params.NodesToWrite:
             name = self._machine.name_of(item.NodeId)
-            if not operator or name is None:
-                logger.warning(
-                    "OPC UA write of %s by %s refused: not an operator's command node",
-                    item.NodeId.to_string(),
-                    getattr(user, "name", None) or "an anonymous session",
-                )
-                results.append(_status(ua.StatusCodes.BadUserAccessDenied))
-            elif item.AttributeId != ua.AttributeIds.Value or name not in COMMANDS:
-                results.append(_status(ua.StatusCodes.BadNotWritable))
+            refused = write_refusal(user, name, item.NodeId, item.AttributeId)
+            if refused is not None:
+                results.append(refused)
             else:
-                results.append(await self._machine.apply_command(name, item.Value))
+                assert name is not None
+                value = item.Value.Value.Value if item.Value.Value is not None else None
+                results.append(self._machine.command_status(name, value))
         return results
+
+
+def write_refusal(
+    user: User | None, name: str | None, node_id: ua.NodeId, attribute_id: int
+) -> ua.StatusCode | None:
+    """Why a client session's write of ``attribute_id`` of ``node_id`` (the machine's signal
+    ``name``, ``None``: not one) is refused, or ``None`` if it goes to the machine: only an
+    operator writes, and only the Value of a command node (``BadUserAccessDenied``,
+    ``BadNotWritable``). The one place both write paths ask (asyncua's service and
+    :mod:`cnctwin.virtual.opcua_lean`)."""
+    operator = isinstance(user, _Session) and user.operator
+    if not operator or name is None:
+        logger.warning(
+            "OPC UA write of %s by %s refused: not an operator's command node",
+            node_id.to_string(),
+            getattr(user, "name", None) or "an anonymous session",
+        )
+        return _status(ua.StatusCodes.BadUserAccessDenied)
+    if attribute_id != ua.AttributeIds.Value or name not in COMMANDS:
+        return _status(ua.StatusCodes.BadNotWritable)
+    return None
 
 
 class OpcUaMachineServer:
@@ -287,7 +304,7 @@ class OpcUaMachineServer:
         tokens: list[type] = [ua.UserNameIdentityToken] if self.users.accounts else []
         if self.users.anonymous is not None:
             tokens.append(ua.AnonymousIdentityToken)
-        server = Server(user_manager=_TableUsers(self.users))
+        server = LeanServer(user_manager=_TableUsers(self.users))
         server.allow_remote_admin(False)
         await server.init()
         server.set_endpoint(self.endpoint)
@@ -311,6 +328,12 @@ class OpcUaMachineServer:
             self, iserver.attribute_service, iserver.isession.user
         )
         _answer_republish_by_the_spec(iserver.subscription_service)
+        # the common Read and Write of the machine's variables skip asyncua's generic
+        # decoding, dispatch and encoding (cnctwin.virtual.opcua_lean; issue 17)
+        nodes = [
+            MachineNode(name, node_id, self._slots[name]) for node_id, name in self._names.items()
+        ]
+        server.service = LeanService(nodes, write_refusal, self.command_status)
         await server.start()
         self._server = server
         self.publish()
@@ -380,8 +403,9 @@ class OpcUaMachineServer:
         """Canonical name of a mapped node of this machine, else ``None``."""
         return self._names.get(node_id)
 
-    async def apply_command(self, name: str, data: ua.DataValue) -> ua.StatusCode:
-        """Validate a client's write of command ``name``, apply it, publish the read-back.
+    def command_status(self, name: str, raw: object) -> ua.StatusCode:
+        """Validate a client's write of ``raw`` to command ``name``, apply it, publish the
+        read-back.
 
         Returns
         -------
@@ -389,7 +413,6 @@ class OpcUaMachineServer:
             Good, or BadTypeMismatch / BadOutOfRange / BadInternalError; never raises.
         """
         spec = COMMANDS[name]
-        raw = data.Value.Value if data.Value is not None else None
         boolean = spec.kind == "bool"
         if not isinstance(raw, bool | int | float) or (isinstance(raw, bool) and not boolean):
             logger.warning("OPC UA write of %s rejected: %r is not a %s", name, raw, spec.kind)

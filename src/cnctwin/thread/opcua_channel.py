@@ -1,0 +1,84 @@
+"""The plain secure-channel message of OPC UA, read without asyncua's chunk objects.
+
+A service request or answer on a secure channel with security policy None travels, in the
+common case, as one final chunk (OPC 10000-6 6.7.2): the MessageHeader (``MSG``, chunk type
+``F``, MessageSize), the SecureChannelId, the SymmetricAlgorithmHeader (TokenId), the
+SequenceHeader (SequenceNumber, RequestId) and the body, with no signature or padding.
+:func:`plain_message` finds such a message and checks it as asyncua's
+``SecureConnection.receive_from_header_and_body`` does (channel, token, size limits,
+sequence number); everything else (another policy, a message type other than ``MSG``, an
+intermediate or aborting chunk, a token or sequence number asyncua must judge: renewal,
+wrap-around, an error) is left to asyncua, so signing, encryption and their checks stay
+asyncua's. Used by the twin's client (:mod:`cnctwin.thread.opcua`) and the virtual machine's
+server (:mod:`cnctwin.virtual.opcua_lean`) for their common answers and requests.
+
+This reads asyncua's private channel state (``_peer_sequence_number``,
+``_incoming_parts``, ``_limits``): pyproject.toml pins asyncua to the versions it was
+written for, and tests/thread/test_opcua_channel.py fails if that state changes shape.
+"""
+
+from __future__ import annotations
+
+import struct
+import time
+from typing import NamedTuple
+
+from asyncua.common.connection import SecureConnection
+from asyncua.crypto.security_policies import SecurityPolicyNone
+from asyncua.ua.uatypes import EPOCH_AS_FILETIME
+
+__all__ = ["PlainMessage", "accept", "filetime_now", "plain_message"]
+
+#: MessageHeader (type, chunk type, size), SecureChannelId, TokenId, SequenceNumber, RequestId.
+_HEAD = struct.Struct("<3scIIIII")
+HEAD_SIZE = _HEAD.size
+
+
+class PlainMessage(NamedTuple):
+    """A complete single-chunk ``MSG`` of policy None: the body is ``data[start:end]``."""
+
+    start: int
+    end: int
+    sequence_number: int
+    request_id: int
+
+
+def plain_message(connection: SecureConnection, data: bytes, at: int) -> PlainMessage | None:
+    """The message that starts at ``data[at]`` if it is a whole single-chunk ``MSG`` on
+    ``connection``'s channel with policy None that asyncua would accept as is; ``None``
+    otherwise (incomplete, another type or policy, anything asyncua must judge or refuse).
+
+    Nothing is changed: :func:`accept` takes the message's sequence number once the caller
+    has decided to handle it, so a message left to asyncua meets the channel as it was.
+    """
+    if type(connection.security_policy) is not SecurityPolicyNone:
+        return None
+    if len(data) - at < HEAD_SIZE:
+        return None
+    kind, chunk, size, channel, token, sequence, request = _HEAD.unpack_from(data, at)
+    end = at + size
+    if kind != b"MSG" or chunk != b"F" or size < HEAD_SIZE or end > len(data):
+        return None
+    limits = connection._limits
+    if size > limits.max_recv_buffer or not limits.is_msg_size_within_limit(size - HEAD_SIZE):
+        return None
+    if connection._incoming_parts:  # a message in chunks is being put together
+        return None
+    current = connection.security_token
+    if channel != current.ChannelId or token != current.TokenId:
+        return None
+    peer = connection._peer_sequence_number
+    if peer is not None and sequence != peer + 1:  # wrap-around or an error: asyncua's
+        return None
+    return PlainMessage(at + HEAD_SIZE, end, sequence, request)
+
+
+def accept(connection: SecureConnection, message: PlainMessage) -> None:
+    """Take ``message`` (of :func:`plain_message`) as received on ``connection``: its
+    sequence number becomes the channel's last, as asyncua's receive makes it."""
+    connection._peer_sequence_number = message.sequence_number
+
+
+def filetime_now() -> int:
+    """Now as an OPC UA DateTime: 100 ns ticks since 1601-01-01 UTC (OPC 10000-6 5.2.2.5)."""
+    return time.time_ns() // 100 + EPOCH_AS_FILETIME
