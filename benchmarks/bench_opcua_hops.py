@@ -11,9 +11,11 @@ server in a child process (:func:`cnctwin.virtual.virtual_machine_server`), the 
 - client: each request's framing for the secure channel (``SecureConnection.message_to_binary``,
   after its encoding), the end of each ``transport.write`` (one for a Write and the Read sent
   behind it), the arrival of each answer (``data_received``) and the end of the round trip;
-- server: the arrival of each request (``OPCUAProtocol.data_received``), the start of its
-  processing (``UaProcessor.process``, after asyncua's per-connection queue) and the sending of
-  the answer (``UaProcessor.send_response``, before encoding and after ``transport.write``).
+- server: the arrival of each request (``data_received`` of cnctwin's lean connection,
+  :mod:`cnctwin.virtual.opcua_lean`, which answers the common Read and Write there and whose
+  return is stamped as an answer written), the start of asyncua's processing of any other
+  (``UaProcessor.process``, after asyncua's per-connection queue) and the sending of its
+  answer (``UaProcessor.send_response``, before encoding and after ``transport.write``).
 
 The server's hooks are installed in the spawned child: ``multiprocessing``'s spawn start method
 imports this script there as ``__mp_main__`` before it runs the child's target, and the module
@@ -83,7 +85,11 @@ def _install_server_hooks(path: str) -> None:
     def mark(hop: str) -> Callable[..., None]:
         return lambda *_: events.append((hop, _clock(), time.thread_time_ns()))
 
-    _wrap(OPCUAProtocol, "data_received", mark("s_recv"), None)
+    from cnctwin.virtual.opcua_lean import _LeanProtocol
+
+    # the virtual machine's connections answer the common requests in data_received itself
+    # (cnctwin.virtual.opcua_lean): their answers are written when it returns
+    _wrap(_LeanProtocol, "data_received", mark("s_recv"), mark("s_sent"))
     process = UaProcessor.process
 
     async def processed(self: Any, header: Any, body: Any) -> Any:
@@ -116,7 +122,11 @@ class _ClientHops:
         # every request is framed here, by asyncua's _send_request or cnctwin's own _send
         _wrap(SecureConnection, "message_to_binary", lambda *_: mark("c_encode"), None)
         _wrap(_SelectorSocketTransport, "write", None, lambda *_: mark("c_sent"))
-        _wrap(UASocketProtocol, "data_received", lambda *_: mark("c_recv"), None)
+        from cnctwin.thread.opcua import _PlainAnswers
+
+        # cnctwin's connection gives its links _PlainAnswers, which takes the common answers
+        for cls in (UASocketProtocol, _PlainAnswers):
+            _wrap(cls, "data_received", lambda *_: mark("c_recv"), None)
 
     def mark(self, hop: str) -> None:
         self.events.append((hop, _clock(), time.thread_time_ns()))

@@ -48,7 +48,7 @@ from asyncua.ua.ua_binary import nodeid_to_binary, struct_to_binary
 
 from cnctwin.thread.opcua_channel import PlainMessage, accept, filetime_now, plain_message
 
-__all__ = ["LeanServer", "LeanService", "MachineNode"]
+__all__ = ["LeanServer", "LeanService", "MachineNode", "encode_data_value"]
 
 
 @dataclass(frozen=True)
@@ -107,6 +107,55 @@ def _template(response: ua.ReadResponse | ua.WriteResponse) -> tuple[bytes, byte
 
 _READ_ANSWER = _template(ua.ReadResponse())
 _WRITE_ANSWER = _template(ua.WriteResponse())
+
+
+#: Variant types :func:`encode_data_value` packs itself: type -> (encoding byte, packer).
+_ENCODED_SCALARS = {
+    ua.VariantType.Boolean: (ua.VariantType.Boolean.value, struct.Struct("<B?")),
+    ua.VariantType.Int32: (ua.VariantType.Int32.value, struct.Struct("<Bi")),
+    ua.VariantType.Double: (ua.VariantType.Double.value, struct.Struct("<Bd")),
+}
+_TICKS = struct.Struct("<q")
+
+
+def encode_data_value(value: ua.DataValue) -> bytes:
+    """The binary encoding of ``value`` (OPC 10000-6 5.2.2.17), byte for byte asyncua's.
+
+    Packed here for what the machine's variables hold: a scalar Boolean, Int32 or Double (or
+    a null value), a StatusCode and the two time stamps (each optional), no picoseconds;
+    anything else is asyncua's ``struct_to_binary`` (test_opcua_lean.py compares both).
+    """
+    variant = value.Value
+    status = value.StatusCode
+    source, server = value.SourceTimestamp, value.ServerTimestamp
+    if value.SourcePicoseconds is not None or value.ServerPicoseconds is not None:
+        return bytes(struct_to_binary(value))
+    parts: list[bytes] = []
+    mask = 0
+    if variant is not None:
+        if variant.is_array or variant.Dimensions is not None:
+            return bytes(struct_to_binary(value))
+        if variant.VariantType is ua.VariantType.Null:
+            if variant.Value is not None:
+                return bytes(struct_to_binary(value))
+            parts.append(b"\0")
+        else:
+            scalar = _ENCODED_SCALARS.get(variant.VariantType)
+            if scalar is None or type(variant.Value) not in (bool, int, float):
+                return bytes(struct_to_binary(value))
+            kind, packer = scalar
+            parts.append(packer.pack(kind, variant.Value))
+        mask |= 0x01
+    if status is not None:
+        parts.append(_UINT32.pack(status.value))
+        mask |= 0x02
+    if source is not None:
+        parts.append(_TICKS.pack(ua.datetime_to_win_epoch(source)))
+        mask |= 0x04
+    if server is not None:
+        parts.append(_TICKS.pack(ua.datetime_to_win_epoch(server)))
+        mask |= 0x08
+    return bytes((mask,)) + b"".join(parts)
 
 
 def _node_end(data: bytes, at: int, end: int) -> int:
@@ -239,7 +288,7 @@ class LeanService:
             return None
         held = self._encoded.get(node.name)
         if held is None or held[0] is not value:
-            held = (value, bytes(struct_to_binary(value)))
+            held = (value, encode_data_value(value))
             self._encoded[node.name] = held
         return held[1]
 
