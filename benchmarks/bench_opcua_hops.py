@@ -76,6 +76,11 @@ def _wrap(
 
 
 # Server side (the child) -----------------------------------------------------------------------
+def _own(name: str, base: type) -> list[type]:
+    """The subclasses of ``base`` that define method ``name`` themselves."""
+    return [cls for cls in base.__subclasses__() if name in vars(cls)]
+
+
 def _install_server_hooks(path: str) -> None:
     from asyncua.server.binary_server_asyncio import OPCUAProtocol
     from asyncua.server.uaprocessor import UaProcessor
@@ -85,11 +90,12 @@ def _install_server_hooks(path: str) -> None:
     def mark(hop: str) -> Callable[..., None]:
         return lambda *_: events.append((hop, _clock(), time.thread_time_ns()))
 
-    from cnctwin.virtual.opcua_lean import _LeanProtocol
+    from cnctwin.virtual import OpcUaMachineServer  # noqa: F401  (its lean connections)
 
-    # the virtual machine's connections answer the common requests in data_received itself
-    # (cnctwin.virtual.opcua_lean): their answers are written when it returns
-    _wrap(_LeanProtocol, "data_received", mark("s_recv"), mark("s_sent"))
+    # the virtual machine's connections (cnctwin.virtual.opcua_lean, a subclass) answer the
+    # common requests in data_received itself: their answers are written when it returns
+    for cls in _own("data_received", OPCUAProtocol):
+        _wrap(cls, "data_received", mark("s_recv"), mark("s_sent"))
     process = UaProcessor.process
 
     async def processed(self: Any, header: Any, body: Any) -> Any:
@@ -122,10 +128,10 @@ class _ClientHops:
         # every request is framed here, by asyncua's _send_request or cnctwin's own _send
         _wrap(SecureConnection, "message_to_binary", lambda *_: mark("c_encode"), None)
         _wrap(_SelectorSocketTransport, "write", None, lambda *_: mark("c_sent"))
-        from cnctwin.thread.opcua import _PlainAnswers
+        from cnctwin.thread import OpcUaConnection  # noqa: F401  (its protocol subclass)
 
-        # cnctwin's connection gives its links _PlainAnswers, which takes the common answers
-        for cls in (UASocketProtocol, _PlainAnswers):
+        # cnctwin's connection gives its links a subclass that takes the common answers
+        for cls in (UASocketProtocol, *_own("data_received", UASocketProtocol)):
             _wrap(cls, "data_received", lambda *_: mark("c_recv"), None)
 
     def mark(self, hop: str) -> None:

@@ -14,7 +14,7 @@ from asyncua.common.utils import Buffer
 from asyncua.crypto.security_policies import SecurityPolicyNone
 from asyncua.ua.ua_binary import header_from_binary
 
-from cnctwin.thread.opcua_channel import accept, plain_message
+from cnctwin.thread.opcua_channel import plain_message, take_plain_message
 
 BODY = bytes(range(40)) * 3
 
@@ -35,7 +35,7 @@ def test_a_plain_message_is_what_asyncua_receives() -> None:
         assert message is not None
         assert message.request_id == request_id
         assert data[message.start : message.end] == BODY
-        accept(ours, message)
+        take_plain_message(ours, message)
         buffer = Buffer(data[at:])
         header = header_from_binary(buffer)
         got = theirs.receive_from_header_and_body(header, buffer)

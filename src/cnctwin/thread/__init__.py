@@ -79,6 +79,12 @@ if TYPE_CHECKING:
         OpcUaConnection,
         variant_type,
     )
+    from cnctwin.thread.opcua_channel import (
+        PlainMessage,
+        filetime_now,
+        plain_message,
+        take_plain_message,
+    )
     from cnctwin.thread.trust import TrustList
 
 # pydantic, asyncio, asyncua, pymodbus and cryptography load with these: imported on first use.
@@ -136,6 +142,10 @@ _LAZY = {
     "NODE_MAP": "opcua",
     "OpcUaConnection": "opcua",
     "variant_type": "opcua",
+    "PlainMessage": "opcua_channel",
+    "filetime_now": "opcua_channel",
+    "plain_message": "opcua_channel",
+    "take_plain_message": "opcua_channel",
     "TrustList": "trust",
 }
 
@@ -189,6 +199,10 @@ __all__ = [
     "BLOCK_NODE",
     "NODE_MAP",
     "variant_type",
+    "PlainMessage",
+    "filetime_now",
+    "plain_message",
+    "take_plain_message",
     "TrustList",
     "JitterProxy",
     "measure_latency",

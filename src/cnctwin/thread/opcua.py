@@ -56,7 +56,7 @@ from cnctwin.thread.connection import (
     SampleBlock,
     now_s,
 )
-from cnctwin.thread.opcua_channel import accept, plain_message
+from cnctwin.thread.opcua_channel import plain_message, take_plain_message
 from cnctwin.thread.signals import COMMANDS, SIGNALS
 from cnctwin.thread.trust import TrustList
 
@@ -826,7 +826,7 @@ class _PlainAnswers(UASocketProtocol):
                 message = plain_message(connection, data, at)
                 if message is None or message.request_id not in waiting:
                     break
-                accept(connection, message)
+                take_plain_message(connection, message)
                 self._call_callback(message.request_id, Buffer(data[message.start : message.end]))
                 at = message.end
         if at < len(data):

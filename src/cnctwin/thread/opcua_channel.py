@@ -27,11 +27,11 @@ from asyncua.common.connection import SecureConnection
 from asyncua.crypto.security_policies import SecurityPolicyNone
 from asyncua.ua.uatypes import EPOCH_AS_FILETIME
 
-__all__ = ["PlainMessage", "accept", "filetime_now", "plain_message"]
+__all__ = ["PlainMessage", "filetime_now", "plain_message", "take_plain_message"]
 
 #: MessageHeader (type, chunk type, size), SecureChannelId, TokenId, SequenceNumber, RequestId.
 _HEAD = struct.Struct("<3scIIIII")
-HEAD_SIZE = _HEAD.size
+_HEAD_SIZE = _HEAD.size
 
 
 class PlainMessage(NamedTuple):
@@ -48,19 +48,20 @@ def plain_message(connection: SecureConnection, data: bytes, at: int) -> PlainMe
     ``connection``'s channel with policy None that asyncua would accept as is; ``None``
     otherwise (incomplete, another type or policy, anything asyncua must judge or refuse).
 
-    Nothing is changed: :func:`accept` takes the message's sequence number once the caller
-    has decided to handle it, so a message left to asyncua meets the channel as it was.
+    Nothing is changed: :func:`take_plain_message` takes the message's sequence number once
+    the caller has decided to handle it, so a message left to asyncua meets the channel as it
+    was.
     """
     if type(connection.security_policy) is not SecurityPolicyNone:
         return None
-    if len(data) - at < HEAD_SIZE:
+    if len(data) - at < _HEAD_SIZE:
         return None
     kind, chunk, size, channel, token, sequence, request = _HEAD.unpack_from(data, at)
     end = at + size
-    if kind != b"MSG" or chunk != b"F" or size < HEAD_SIZE or end > len(data):
+    if kind != b"MSG" or chunk != b"F" or size < _HEAD_SIZE or end > len(data):
         return None
     limits = connection._limits
-    if size > limits.max_recv_buffer or not limits.is_msg_size_within_limit(size - HEAD_SIZE):
+    if size > limits.max_recv_buffer or not limits.is_msg_size_within_limit(size - _HEAD_SIZE):
         return None
     if connection._incoming_parts:  # a message in chunks is being put together
         return None
@@ -70,10 +71,10 @@ def plain_message(connection: SecureConnection, data: bytes, at: int) -> PlainMe
     peer = connection._peer_sequence_number
     if peer is not None and sequence != peer + 1:  # wrap-around or an error: asyncua's
         return None
-    return PlainMessage(at + HEAD_SIZE, end, sequence, request)
+    return PlainMessage(at + _HEAD_SIZE, end, sequence, request)
 
 
-def accept(connection: SecureConnection, message: PlainMessage) -> None:
+def take_plain_message(connection: SecureConnection, message: PlainMessage) -> None:
     """Take ``message`` (of :func:`plain_message`) as received on ``connection``: its
     sequence number becomes the channel's last, as asyncua's receive makes it."""
     connection._peer_sequence_number = message.sequence_number

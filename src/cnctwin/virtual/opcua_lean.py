@@ -46,7 +46,7 @@ from asyncua.server.binary_server_asyncio import BinaryServer, OPCUAProtocol
 from asyncua.server.uaprocessor import UaProcessor
 from asyncua.ua.ua_binary import nodeid_to_binary, struct_to_binary
 
-from cnctwin.thread.opcua_channel import PlainMessage, accept, filetime_now, plain_message
+from cnctwin.thread import PlainMessage, filetime_now, plain_message, take_plain_message
 
 __all__ = ["LeanServer", "LeanService", "MachineNode", "encode_data_value"]
 
@@ -338,7 +338,7 @@ class _LeanProtocol(OPCUAProtocol):
                 body = self.service.answer(processor, data, message)
                 if body is None:
                     break
-                accept(connection, message)
+                take_plain_message(connection, message)
                 answers.append(connection.message_to_binary(body, request_id=message.request_id))
                 at = message.end
             if answers and self.transport is not None:
