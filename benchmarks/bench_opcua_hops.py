@@ -198,10 +198,13 @@ def _analyse(
     timelines: list[list[tuple[str, int, int]]] = []
     rtts: list[float] = []
     server_cpu: list[float] = []
-    for trip in data["trips"]:
+    trips = data["trips"]
+    for k, trip in enumerate(trips):
         start, end = trip[0][1], trip[-1][1]
         rtts.append((end - start) / 1e6)
-        lo, hi = np.searchsorted(times, [start, end])
+        # the server's stamps up to the next round trip: its last may come after the client's
+        after = trips[k + 1][0][1] if k + 1 < len(trips) else end + 10**7
+        lo, hi = np.searchsorted(times, [start, after])
         theirs = server[lo:hi]
         line = sorted(trip + [(hop, t, cpu) for t, hop, cpu in theirs], key=lambda e: e[1])
         timelines.append(line)
