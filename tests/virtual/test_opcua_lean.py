@@ -381,3 +381,24 @@ def test_asyncua_internals_the_lean_path_relies_on_are_there() -> None:
         assert hasattr(channel, name), name
     assert issubclass(_LeanProtocol, OPCUAProtocol)
     assert struct.calcsize("<3scIIIII") == 24
+
+
+def test_a_fault_of_the_lean_path_leaves_the_request_to_asyncua() -> None:
+    async def body(server: OpcUaMachineServer, machine: FakeMachine, service: LeanService) -> None:
+        client, ns = await connect(server)
+        feed = ua.NodeId(NODE_MAP["feed_override_pct"], ns)
+
+        def broken(name: str, value: object) -> ua.StatusCode:
+            raise RuntimeError("a bug")
+
+        service._command = broken
+        try:
+            before = service.answered
+            answer = await send(client, write(feed, ua.Variant(47.0, ua.VariantType.Double)))
+            (code,) = results(answer, ua.WriteResponse)
+            assert code.is_good() and machine.commands == [("feed_override_pct", 47.0)]
+            assert service.answered == before
+        finally:
+            await client.disconnect()
+
+    serve(body)

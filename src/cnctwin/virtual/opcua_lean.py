@@ -32,6 +32,7 @@ pyproject.toml pins asyncua, and tests/virtual/test_opcua_lean.py fails if they 
 
 from __future__ import annotations
 
+import logging
 import struct
 import time
 from collections.abc import Callable
@@ -49,6 +50,8 @@ from asyncua.ua.ua_binary import nodeid_to_binary, struct_to_binary
 from cnctwin.thread import PlainMessage, filetime_now, plain_message, take_plain_message
 
 __all__ = ["LeanServer", "LeanService", "MachineNode", "encode_data_value"]
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -335,7 +338,11 @@ class _LeanProtocol(OPCUAProtocol):
                 message = plain_message(connection, data, at)
                 if message is None:
                     break
-                body = self.service.answer(processor, data, message)
+                try:
+                    body = self.service.answer(processor, data, message)
+                except Exception:  # a fault of this path must not end the connection
+                    logger.exception("OPC UA request left to asyncua after an error")
+                    body = None
                 if body is None:
                     break
                 take_plain_message(connection, message)
