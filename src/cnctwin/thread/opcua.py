@@ -810,13 +810,12 @@ class _Cache:
 class _PlainAnswers(UASocketProtocol):
     """asyncua's client protocol, which takes the common answer itself: a whole single-chunk
     message of policy None to a request it waits for (:func:`~cnctwin.thread.opcua_channel.
-    plain_message`, checked as asyncua checks it) goes to the request's future
-    (asyncua's ``_call_callback``) without
-    asyncua's header parsing and chunk objects (issue 17: they were about a third of the
-    client's CPU per round trip). Everything else, and everything after it in the same
-    segment, is asyncua's (signed or encrypted channels, chunked messages, the secure
-    channel's opening and renewal, errors). :meth:`OpcUaConnection._body` gives a link's
-    protocol this class."""
+    plain_message`, checked as asyncua checks it) goes to the request's future (asyncua's
+    ``_call_callback``) without asyncua's header parsing and chunk objects (issue 17: they
+    were about a third of the client's CPU per round trip). Everything else, and everything
+    after it in the same segment, is asyncua's (signed or encrypted channels, chunked
+    messages, the secure channel's opening and renewal, errors). :meth:`OpcUaConnection._body`
+    gives a link's protocol this class."""
 
     def data_received(self, data: bytes) -> None:
         at = 0
