@@ -201,3 +201,36 @@ def test_plain_nc_commands_import_neither_typer_nor_pydantic(
     heavy = {"typer", "click", "pydantic", "pydantic_core", "numpy", "scipy", "cnctwin.config"}
     loaded = {name for name in modules if name in heavy or name.rpartition(".")[0] in heavy}
     assert not loaded, sorted(loaded)
+
+
+@pytest.mark.parametrize("typer_reads_it", [False, True])
+def test_a_closed_output_pipe_ends_with_1_and_no_message(
+    typer_reads_it: bool, tmp_path: Path
+) -> None:
+    # `cnctwin nc trace PROGRAM | head -1`: typer's way (exit 1, nothing on stderr) both ways.
+    program = tmp_path / "long.ngc"
+    program.write_text("".join(f"G1 X{i % 7} Y{i % 5} F100\n" for i in range(20_000)))
+    config = [f"-c{CONFIG}"] if typer_reads_it else []  # "-cFILE": left to typer
+    assert (plain_nc_command(["nc", "trace", *config, str(program)]) is None) is typer_reads_it
+    done = subprocess.Popen(
+        [sys.executable, "-m", "cnctwin", "nc", "trace", *config, str(program)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert done.stdout is not None and done.stderr is not None
+    assert done.stdout.readline()
+    done.stdout.close()
+    assert (done.wait(timeout=120), done.stderr.read()) == (1, b"")
+
+
+def test_importing_the_typer_root_module_keeps_the_root_exported() -> None:
+    # Python binds a submodule on its package: cnctwin.cli.app must stay the typer root.
+    probe = (
+        "import typer, cnctwin.cli.app, cnctwin.cli.run, cnctwin.cli as cli\n"
+        "print(isinstance(cli.app, typer.Typer), callable(cli.run) and cli.run is cli.main"
+        " .__globals__['run'])"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=120
+    )
+    assert done.stdout.split() == ["True", "True"], done.stderr
