@@ -14,6 +14,7 @@ and a G2 in turn, as CAM output alternates them), ``expressions`` (``#``
 parameters, functions, an O-word ``if`` and a ``repeat`` loop in every block of 10 lines)
 and, when the shared data folder is present, ``3D_Chips.ngc``.
 
+cnctwin's bytecode is compiled first, as an installation does.
 When ``rs274`` is not installed, cnctwin is measured alone and the report says so.
 Like the test suite, ``rs274`` runs hold an exclusive lock so that two never run at once
 (two at once corrupt each other's tool table in shared memory).
@@ -26,6 +27,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import compileall
 import fcntl
 import os
 import platform
@@ -36,6 +38,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from _common import cnctwin_command, run_measured
+
+import cnctwin as cnctwin_package
 
 REPO = Path(__file__).resolve().parents[1]
 LOCK = Path(tempfile.gettempdir()) / "cnctwin-rs274.lock"
@@ -156,6 +160,9 @@ def main() -> None:
     lines = args.lines or (20_000 if args.quick else 300_000)
     repeat = args.repeat or (1 if args.quick else 3)
     rs274 = shutil.which("rs274")
+    # As installed (pip writes the bytecode): under PYTHONDONTWRITEBYTECODE a package without
+    # it would be compiled from source at every start (0.05-0.08 s CPU for `nc inspect`).
+    compileall.compile_dir(Path(cnctwin_package.__file__).parent, quiet=1)
     cnctwin = cnctwin_command()
     load = os.getloadavg()
     print(

@@ -105,7 +105,7 @@ def test_internal_error_hints_at_debug(capsys, monkeypatch: pytest.MonkeyPatch) 
     def broken(*args: object, **kwargs: object) -> None:
         raise RuntimeError("boom")
 
-    monkeypatch.setattr("cnctwin.cli.nc.summarize", broken)
+    monkeypatch.setattr("cnctwin.cli.nc_work.summarize", broken)
     code, _, err = cli(capsys, "nc", "inspect", PROGRAM)
     assert code == 1
     assert err == "internal error: RuntimeError: boom (re-run with --debug for the traceback)\n"
@@ -199,7 +199,7 @@ def test_ctrl_c_python_cannot_raise_is_not_printed_as_a_traceback(
     # still ends with 130, so the console script's hook keeps the traceback off stderr
     import sys
 
-    from cnctwin.cli.app import _unraisable
+    from cnctwin.cli._entry import _unraisable
 
     class Raises:
         def __del__(self) -> None:

@@ -72,8 +72,7 @@ def test_loading_the_run_command_keeps_the_run_function() -> None:
 
 
 def test_nc_inspect_without_config_imports_neither_configuration_nor_rich(tmp_path) -> None:
-    # pydantic itself is imported by typer (it coerces option values with it); the
-    # configuration models and rich are the project's own start-up cost and stay out.
+    # Nor does it import typer or pydantic (tests/cli/test_nc_plain_cli.py).
     program = tmp_path / "plain.ngc"
     program.write_text("G1 X1 Y2 F100\nM2\n")
     done = subprocess.run(

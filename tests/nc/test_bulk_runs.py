@@ -335,3 +335,41 @@ def test_alternating_lines_are_read_in_bulk(shift: int) -> None:
     one_by_one, bulk, in_runs = both_ways(text, tools)
     assert in_runs > 1500
     assert bulk == one_by_one
+
+
+@pytest.mark.parametrize(
+    "odd",
+    [
+        "G1 X1 X2",  # a word twice: an error line by line
+        "G1 Y1 X2",  # words out of the run's order
+        "X1 G1 Y2",
+        "F100 G1 X1",
+        "G1 X1 F100 Y2",
+        "I1 X2 J0",
+        "G2 X1 Y0 J0 I0.5",
+        "N5 N6 G1 X1",
+        "G1 G0 X1",
+        "G1 X1 Y1 Z1 Z2",
+    ],
+)
+@pytest.mark.parametrize("at", [40, 999])
+def test_a_line_with_words_out_of_order_or_twice_ends_a_run(odd: str, at: int) -> None:
+    # The bytes of each window pass the character checks; only the word order of each
+    # line (its letters) keeps such a line out of the run.
+    lines = [f"G1 X{i * 0.01:.2f} Y{(i % 11) * 0.1:.1f}" for i in range(1000)]
+    lines[at] = odd
+    one_by_one, bulk, in_runs = both_ways(HEADER + "\n".join(lines) + "\nM2\n")
+    assert in_runs >= at - 1  # the lines before it (but the first) in runs
+    assert bulk == one_by_one
+
+
+@pytest.mark.parametrize(
+    "odd", ["G1 Y1 X2", "N5 N6 G1 X1", "X1 G1", "G1 X1 X2", "F9 X1", "I1 J1 X1"]
+)
+def test_the_word_order_check_stops_at_the_first_line_out_of_order(odd: str) -> None:
+    from cnctwin.nc import runs
+
+    good = "".join(f"N{i} G1 X{i}.5 Y-2 F100\nG2 X1 Y0 I0.5 J0\n" for i in range(20))
+    for data in (good + odd + "\n" + good, good + odd.lower() + "\nX1\n"):
+        assert runs._valid_prefix(runs._MOVES, data.encode()) == len(good)
+    assert runs._valid_prefix(runs._MOVES, good.encode()) == len(good)

@@ -1,32 +1,23 @@
-"""The ``cnctwin`` command: the root of the command groups, global options and error reporting.
+"""The ``cnctwin`` command under typer: the root of the command groups and global options.
 
-Errors reach the user as one line on stderr and an exit code: 2 for bad input (any
-:class:`~cnctwin.errors.CnctwinError`, a file that cannot be read), 1 for a bug
-("internal error", with the traceback under ``--debug``), 130 on Ctrl-C.
+:func:`invoke` runs a command line through it and reports usage errors; the console script
+(:mod:`cnctwin.cli._entry`, re-exported here as ``run`` and ``main``) reports the others.
 """
 
 from __future__ import annotations
 
 import importlib
-import logging
-import sys
-import traceback
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
-from types import ModuleType
 from typing import Annotated, Any
 
 import typer
 from typer.core import TyperCommand, TyperGroup
 
 from cnctwin import __version__
-from cnctwin.errors import CnctwinError
+from cnctwin.cli._entry import EXIT_BAD_INPUT, EXIT_INTERRUPTED, fail, main, run, set_debug
 
-__all__ = ["COMMANDS", "app", "load_command", "main", "run"]
-
-EXIT_BAD_INPUT = 2
-EXIT_INTERNAL = 1
-EXIT_INTERRUPTED = 130
+__all__ = ["COMMANDS", "app", "invoke", "load_command", "main", "run"]
 
 
 @dataclass(frozen=True)
@@ -139,29 +130,17 @@ COMMANDS: dict[str, _Lazy] = {
 }
 
 
-def _import(module: str) -> ModuleType:
-    """Import ``cnctwin.cli.<module>``, keeping the names the package itself exports.
-
-    Importing a submodule binds it on its package: the command module ``cnctwin.cli.run``
-    would hide the function ``cnctwin.cli.run`` that callers import.
-    """
-    package = sys.modules[__name__.rpartition(".")[0]]
-    kept = {name: getattr(package, name) for name in package.__all__ if hasattr(package, name)}
-    loaded = importlib.import_module(f"cnctwin.cli.{module}")
-    for exported, value in kept.items():
-        setattr(package, exported, value)
-    return loaded
-
-
 def load_command(name: str) -> Any:
     """Import the command ``name`` of :data:`COMMANDS` and build its click command."""
     entry = COMMANDS[name]
-    target = getattr(_import(entry.module), entry.attribute)
+    target = getattr(importlib.import_module(f"cnctwin.cli.{entry.module}"), entry.attribute)
     if isinstance(target, typer.Typer):
         registered = {info.name for info in target.registered_commands}
         for command, module, function in entry.extra:
             if command not in registered:
-                target.command(command)(getattr(_import(module), function))
+                target.command(command)(
+                    getattr(importlib.import_module(f"cnctwin.cli.{module}"), function)
+                )
     # Built under a root like the real one, so help renders alike (plain text, no
     # completion options).
     holder = typer.Typer(add_completion=False, rich_markup_mode=None)
@@ -226,16 +205,6 @@ app = typer.Typer(
 )
 
 
-@dataclass
-class _Options:
-    """Global options of the current invocation."""
-
-    debug: bool = False
-
-
-_options = _Options()
-
-
 def _version(value: bool) -> None:
     if value:
         typer.echo(f"cnctwin {__version__}")
@@ -252,81 +221,26 @@ def _root(
         typer.Option("--version", callback=_version, is_eager=True, help="Print the version."),
     ] = False,
 ) -> None:
-    _options.debug = debug
-    logging.getLogger("cnctwin").setLevel(logging.DEBUG if debug else logging.WARNING)
+    set_debug(debug)
 
 
-def run(argv: Sequence[str] | None = None) -> int:
-    """Run the command line and return its exit code instead of exiting.
+def invoke(args: list[str]) -> int:
+    """Run the command line ``args`` through typer and return its exit code.
 
-    Parameters
-    ----------
-    argv
-        Arguments after the program name; ``None`` takes ``sys.argv[1:]``.
-
-    Returns
-    -------
-    int
-        0 on success, 2 for bad input, 1 for an internal error, 130 when interrupted.
+    Usage errors (unknown option, bad value, missing argument) are reported here in one
+    line; other errors go on to the caller (:func:`cnctwin.cli.run`), which reports them.
     """
-    _options.debug = False
-    logging.basicConfig(format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     command = typer.main.get_command(app)
     try:
-        result = command.main(
-            args=list(sys.argv[1:] if argv is None else argv),
-            prog_name="cnctwin",
-            standalone_mode=False,
-        )
-    except SystemExit as done:
-        return done.code if isinstance(done.code, int) else int(done.code is not None)
+        result = command.main(args=args, prog_name="cnctwin", standalone_mode=False)
     except typer.Exit as done:
         return done.exit_code
     except typer.Abort:
-        return _fail("interrupted", EXIT_INTERRUPTED)
+        return fail("interrupted", EXIT_INTERRUPTED)
     except typer.TyperException as err:
-        # Usage errors (unknown option, bad value, missing argument) in one line; a group
-        # called without a command has already printed its help.
+        # A group called without a command has already printed its help.
         message = err.format_message()
         if not message:
             return EXIT_BAD_INPUT
-        return _fail(f"{message} (see --help)", EXIT_BAD_INPUT)
-    except CnctwinError as err:
-        return _fail(str(err), EXIT_BAD_INPUT)
-    except OSError as err:
-        where = f"{err.filename}: " if err.filename else ""
-        return _fail(f"{where}{err.strerror or err}", EXIT_BAD_INPUT)
-    except KeyboardInterrupt:
-        return _fail("interrupted", EXIT_INTERRUPTED)
-    except Exception as err:  # the last resort: report in one line, never a bare traceback
-        return _fail(
-            f"internal error: {type(err).__name__}: {err} (re-run with --debug for the traceback)",
-            EXIT_INTERNAL,
-        )
+        return fail(f"{message} (see --help)", EXIT_BAD_INPUT)
     return result if isinstance(result, int) else 0
-
-
-def main() -> None:
-    """Entry point of the ``cnctwin`` console script."""
-    sys.unraisablehook = _unraisable
-    sys.exit(run())
-
-
-def _unraisable(unraisable: Any) -> None:
-    """Python's report of an exception it cannot raise, but for Ctrl-C.
-
-    Ctrl-C that lands in a C callback (numba compiling a kernel) is such an exception; Python
-    would print it as a traceback ("Exception ignored ..."). The interrupt itself is not lost:
-    the command ends with exit code 130 as for any Ctrl-C.
-    """
-    if isinstance(unraisable.exc_value, KeyboardInterrupt):
-        return
-    sys.__unraisablehook__(unraisable)
-
-
-def _fail(message: str, code: int) -> int:
-    if _options.debug:
-        traceback.print_exc(file=sys.stderr)
-    sys.stderr.write(" ".join(message.splitlines()) + "\n")
-    sys.stderr.flush()
-    return code

@@ -1,32 +1,24 @@
-"""``cnctwin nc``: read NC programs: summarize (``inspect``) and trace (``trace``) them."""
+"""``cnctwin nc``: read NC programs: summarize (``inspect``) and trace (``trace``) them.
+
+The options are declared here, under typer; the work is :mod:`cnctwin.cli.nc_work`'s.
+"""
 
 from __future__ import annotations
 
-import sys
-from collections.abc import Callable, Iterable, Iterator
-from dataclasses import replace
 from enum import Enum
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import Annotated, Any
 
 import typer
 
-from cnctwin import finite_json
-from cnctwin.nc import (
-    DEFAULT_RAPID_MM_MIN,
-    MAX_PROGRAM_BYTES,
-    MAX_REPEATED_LINES,
-    MAX_SEGMENTS,
-    NCSetup,
-    Segment,
-    summarize,
+from cnctwin.cli.nc_work import (
+    GUARD_LIMITS,
+    inspect_program,
+    inspect_report,
+    report_table,
+    trace_program,
 )
-
-if TYPE_CHECKING:
-    from rich.table import Table
-
-    from cnctwin.config import MachiningConfig
-    from cnctwin.nc import MoveRun
+from cnctwin.nc import MAX_PROGRAM_BYTES, MAX_REPEATED_LINES, MAX_SEGMENTS
 
 __all__ = ["app", "inspect", "inspect_report", "report_table", "trace"]
 
@@ -41,146 +33,26 @@ ConfigOpt = Annotated[
 ]
 
 
-#: The work guards (--max-*) may be raised up to this factor above their defaults, no further:
-#: a guard is only a guard while it is bounded.
-GUARD_FACTOR = 10
+def _guard(name: str, help_text: str) -> Any:
+    """The typer option of the work guard ``name`` (its range: ``GUARD_LIMITS``)."""
+    _, least, greatest = GUARD_LIMITS[name]
+    return typer.Option(name, min=least, max=greatest, help=help_text)
+
 
 MaxSegmentsOpt = Annotated[
     int,
-    typer.Option(
-        "--max-segments",
-        min=1,
-        max=GUARD_FACTOR * MAX_SEGMENTS,
-        help="Stop with an error after this many motion segments (work guard).",
-    ),
+    _guard("--max-segments", "Stop with an error after this many motion segments (work guard)."),
 ]
 MaxBytesOpt = Annotated[
-    int,
-    typer.Option(
-        "--max-bytes",
-        min=1,
-        max=GUARD_FACTOR * MAX_PROGRAM_BYTES,
-        help="Refuse program files larger than this (bytes).",
-    ),
+    int, _guard("--max-bytes", "Refuse program files larger than this (bytes).")
 ]
 MaxRepeatedOpt = Annotated[
     int,
-    typer.Option(
+    _guard(
         "--max-repeated-lines",
-        min=0,
-        max=GUARD_FACTOR * MAX_REPEATED_LINES,
-        help="Stop with an error after O-word loops and calls execute this many lines again.",
+        "Stop with an error after O-word loops and calls execute this many lines again.",
     ),
 ]
-
-
-def _load(config: Path | None) -> MachiningConfig | None:
-    """The configuration in ``config``; ``None`` (the defaults) when no file is given.
-
-    pydantic and the configuration models are imported only for a file: without one, the
-    interpreter's set-up is :class:`~cnctwin.nc.NCSetup`'s defaults, which equal those of
-    a default :class:`~cnctwin.config.MachiningConfig` (a test keeps them equal).
-    """
-    if config is None:
-        return None
-    from cnctwin.config import load_config
-
-    return load_config(config)
-
-
-def _setup(settings: MachiningConfig | None) -> NCSetup:
-    """The interpreter's set-up of ``settings``, or the defaults."""
-    return settings.nc_setup() if settings is not None else NCSetup()
-
-
-def _bounded(setup: NCSetup, max_segments: int, max_bytes: int, max_repeated: int) -> NCSetup:
-    """``setup`` with the work limits given on the command line."""
-    return replace(
-        setup,
-        max_segments=max_segments,
-        max_program_bytes=max_bytes,
-        max_repeated_lines=max_repeated,
-    )
-
-
-def inspect_report(
-    program: Path,
-    config: MachiningConfig | None,
-    *,
-    on_segment: Callable[[Segment], None] | None = None,
-    check_travel: bool = True,
-    setup: NCSetup | None = None,
-) -> dict[str, Any]:
-    """Interpret a program and summarize it, streaming.
-
-    Parameters
-    ----------
-    program
-        The NC file.
-    config
-        Machine and tools; ``None`` for the defaults (rapid rate
-        :data:`~cnctwin.nc.setup.DEFAULT_RAPID_MM_MIN`, no travel check).
-    on_segment
-        Called with each segment as it streams by (e.g. to plot it).
-    check_travel
-        Warn about moves beyond the configured axis travel (off when the configuration
-        is only the defaults, whose travel is a placeholder; always off without ``config``).
-    setup
-        The interpreter's set-up; that of ``config`` (or the defaults) if omitted.
-
-    Returns
-    -------
-    dict
-        The keys of ``cnctwin nc inspect --json``: lines, motion_blocks, feed_length_mm,
-        rapid_length_mm, machining_time_s, rapid_time_s, dwell_time_s, total_time_s,
-        bounds_mm, tools, units, warnings, file. Lengths in mm, times in s.
-
-    Raises
-    ------
-    cnctwin.errors.CnctwinError
-        NCError for a bad program, DataError for a bad tool table.
-    OSError
-        If the file cannot be read.
-    """
-    from cnctwin.nc import Interpreter  # the interpreter is heavy to import
-
-    interpreter = Interpreter(setup if setup is not None else _setup(config))
-    segments: Iterable[Segment | MoveRun]
-    if on_segment is not None:
-        segments = _tap(interpreter.run_file(program), on_segment)
-    else:
-        segments = interpreter.run_file_bulk(program)  # runs of moves summed in bulk
-    travel = None
-    rapid_mm_min = DEFAULT_RAPID_MM_MIN
-    if config is not None:
-        axes = config.machine.axes
-        rapid_mm_min = config.machine.rapid_mm_min
-        if check_travel:
-            travel = (
-                (axes.x.min_mm, axes.y.min_mm, axes.z.min_mm),
-                (axes.x.max_mm, axes.y.max_mm, axes.z.max_mm),
-            )
-    summary = summarize(segments, rapid_mm_min=rapid_mm_min, travel_mm=travel).to_dict()
-    return {
-        "lines": interpreter.lines_read,
-        **{key: summary[key] for key in _SUMMARY_KEYS},
-        "units": interpreter.units or "mm",
-        "warnings": [*interpreter.warnings, *summary["warnings"]],
-        "file": str(program),
-    }
-
-
-_SUMMARY_KEYS = (
-    "motion_blocks",
-    "feed_length_mm",
-    "rapid_length_mm",
-    "machining_time_s",
-    "rapid_time_s",
-    "dwell_time_s",
-    "total_time_s",
-    "bounds_mm",
-    "tools",
-)
 
 
 @app.command()
@@ -199,33 +71,7 @@ def inspect(
 
     With --json, numbers that are not finite are written as null (see docs/cli.md).
     """
-    settings = _load(config)
-    picture = None
-    if plot is not None:
-        from cnctwin.nc import ToolpathPlot  # matplotlib only when asked for
-
-        picture = ToolpathPlot()
-    report = inspect_report(
-        program,
-        settings,
-        on_segment=picture.add if picture else None,
-        check_travel=config is not None,
-        setup=_bounded(_setup(settings), max_segments, max_bytes, max_repeated_lines),
-    )
-    if picture is not None and plot is not None:
-        stock = (settings.stock.min_mm, settings.stock.max_mm) if settings is not None else None
-        picture.save(plot, title=program.name, stock_mm=stock)
-    if as_json:
-        sys.stdout.write(finite_json.dumps(report) + "\n")
-        return
-    from rich.console import Console
-
-    Console().print(report_table(report))
-    if plot is not None:
-        Console().print(f"tool path drawn to {plot}")
-    warn = Console(stderr=True)
-    for warning in report["warnings"]:
-        warn.print(f"warning: {warning}", style="yellow", markup=False, highlight=False)
+    inspect_program(program, config, as_json, plot, max_segments, max_bytes, max_repeated_lines)
 
 
 class Frame(str, Enum):  # noqa: UP042 (str() of a StrEnum differs; kept as typer sees it)
@@ -252,47 +98,4 @@ def trace(
     max_repeated_lines: MaxRepeatedOpt = MAX_REPEATED_LINES,
 ) -> None:
     """Print the canonical motion trace of a program, one call a line: source line, call."""
-    from cnctwin.nc import Interpreter, format_trace
-
-    setup = _bounded(_setup(_load(config)), max_segments, max_bytes, max_repeated_lines)
-    interpreter = Interpreter(setup)
-    out = sys.stdout
-    for line in format_trace(interpreter.run_file(program), frame.value):
-        out.write(f"{line}\n")
-
-
-def _tap(segments: Iterable[Segment], sink: Callable[[Segment], None]) -> Iterator[Segment]:
-    for seg in segments:
-        sink(seg)
-        yield seg
-
-
-def _duration(seconds: float) -> str:
-    minutes, secs = divmod(seconds, 60.0)
-    hours, minutes = divmod(int(minutes), 60)
-    return f"{seconds:.1f} s ({hours}:{minutes:02d}:{secs:04.1f})"
-
-
-def report_table(report: dict[str, Any]) -> Table:
-    """A rich table of an :func:`inspect_report`."""
-    from rich.table import Table
-
-    table = Table(title=report["file"], show_header=False, title_justify="left")
-    table.add_column("quantity", style="bold")
-    table.add_column("value", justify="right")
-    table.add_row("lines", str(report["lines"]))
-    table.add_row("units", report["units"])
-    table.add_row("motion blocks", str(report["motion_blocks"]))
-    table.add_row("feed length", f"{report['feed_length_mm']:.3f} mm")
-    table.add_row("rapid length", f"{report['rapid_length_mm']:.3f} mm")
-    table.add_row("machining time", _duration(report["machining_time_s"]))
-    table.add_row("rapid time", _duration(report["rapid_time_s"]))
-    table.add_row("dwell time", _duration(report["dwell_time_s"]))
-    table.add_row("total time", _duration(report["total_time_s"]))
-    low, high = report["bounds_mm"]["min"], report["bounds_mm"]["max"]
-    for axis, name in enumerate("XYZ"):
-        span = f"{low[axis]:.3f} .. {high[axis]:.3f} mm" if low else "-"
-        table.add_row(f"tool tip {name}", span)
-    table.add_row("tools", ", ".join(f"T{t}" for t in report["tools"]) or "-")
-    table.add_row("warnings", str(len(report["warnings"])))
-    return table
+    trace_program(program, config, frame.value, max_segments, max_bytes, max_repeated_lines)

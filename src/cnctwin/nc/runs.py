@@ -84,7 +84,7 @@ class _Grammar:
         #: Finds one of the letters every such line has.
         self.needed = re.compile(b"[" + needed + needed.lower() + b"]")
         #: The letters of a line, in order, as the per-line fast path accepts them.
-        self.order = re.compile(rb"(?:" + order + rb"\n)*")
+        self.order = re.compile(order)
         #: bytes.translate tables: keep only letters and line ends; letters to blanks.
         self.not_letters = bytes(b for b in _ALL_BYTES if b not in self.letters + b"\n")
         self.to_blanks = bytes.maketrans(self.letters, b" " * len(self.letters))
@@ -307,9 +307,14 @@ def _valid_prefix(grammar: _Grammar, data: bytes) -> int:
     if lines == 0:
         return 0
     head = data[: int(ends[lines - 1]) + 1]
-    order = head.translate(None, grammar.not_letters)
-    matched = grammar.order.match(order)
-    good = order.count(b"\n", 0, matched.end()) if matched is not None else 0
+    # Each line's letters; a run has few distinct ones, each checked once.
+    shapes = head.translate(None, grammar.not_letters)[:-1].split(b"\n")
+    wrong_shapes = {shape for shape in set(shapes) if not grammar.order.fullmatch(shape)}
+    good = (
+        lines
+        if not wrong_shapes
+        else next(i for i, shape in enumerate(shapes) if shape in wrong_shapes)
+    )
     return int(ends[good - 1]) + 1 if good else 0
 
 
