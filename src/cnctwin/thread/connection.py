@@ -311,7 +311,9 @@ class MachineConnection(ABC):
         oldest kept, when the machine no longer holds them); :class:`ConnectionLost` (and a
         reconnect) on failure, :class:`~cnctwin.errors.DataError` when the transport or the
         machine has no such block."""
-        return await self._sent_now(f"read of block {name}", self._start_read_block, name, since)
+        return await self._send_and_wait(
+            f"read of block {name}", self._start_read_block, name, since
+        )
 
     def start_read_block(self, name: str, since: int) -> asyncio.Future[SampleBlock]:
         """Send the read of :meth:`read_block` now and return the future of its answer
@@ -325,7 +327,7 @@ class MachineConnection(ABC):
     async def write(self, name: str, value: float) -> None:
         """Write one command; :class:`ConnectionLost` (and a reconnect) on failure,
         :class:`CommandRejected` when the machine refuses it."""
-        await self._sent_now(f"write of {name}={value!r}", self._start_write, name, value)
+        await self._send_and_wait(f"write of {name}={value!r}", self._start_write, name, value)
 
     def start_write(self, name: str, value: float) -> asyncio.Future[None]:
         """Send one command now and return the future of the machine's answer (module
@@ -341,19 +343,20 @@ class MachineConnection(ABC):
 
     def _sent_now(
         self, what: str, send: Callable[[str, _A], Awaitable[_T]], name: str, arg: _A
-    ) -> Coroutine[Any, Any, _T]:
-        """Send ``send(name, arg)`` (a ``_start_`` hook) now; return the wait for its answer
-        within ``timeout_s``. A failure of the link, at the send or after, is
-        :class:`ConnectionLost` (and a reconnect); ``what`` names the request in it."""
+    ) -> Awaitable[_T]:
+        """Send ``send(name, arg)`` (a ``_start_`` hook) now; return the awaitable of its
+        answer. A failure of the link at the send is :class:`ConnectionLost` (and a
+        reconnect); ``what`` names the request in it."""
         self._require_connected()
         try:
-            answer = send(name, arg)
+            return send(name, arg)
         except (OSError, ConnectionLost) as err:
             self._lost(err)
             raise ConnectionLost(f"{what} failed: {err or type(err).__name__}") from err
-        return self._answered(what, answer)
 
     async def _answered(self, what: str, answer: Awaitable[_T]) -> _T:
+        """The answer of a request sent, within ``timeout_s``; a failure of the link is
+        :class:`ConnectionLost` (and a reconnect)."""
         try:
             async with asyncio.timeout(self.timeout_s):
                 return await answer
@@ -361,18 +364,27 @@ class MachineConnection(ABC):
             self._lost(err)
             raise ConnectionLost(f"{what} failed: {err or type(err).__name__}") from err
 
+    async def _send_and_wait(
+        self, what: str, send: Callable[[str, _A], Awaitable[_T]], name: str, arg: _A
+    ) -> _T:
+        return await self._answered(what, self._sent_now(what, send, name, arg))
+
     def _started(
         self, what: str, send: Callable[[str, _A], Awaitable[_T]], name: str, arg: _A
     ) -> asyncio.Future[_T]:
         """:meth:`_sent_now` now, its answer in a future (a failure at the send too)."""
         loop = asyncio.get_running_loop()
         try:
-            waiting = self._sent_now(what, send, name, arg)
+            answer = self._sent_now(what, send, name, arg)
         except (ConnectionLost, CommandRejected, DataError) as err:
             failed: asyncio.Future[_T] = loop.create_future()
             failed.set_exception(err)
             return failed
-        return loop.create_task(waiting)
+        task = loop.create_task(self._answered(what, answer))
+        if isinstance(answer, Coroutine):
+            # a fallback's request whose wait is dropped before it was sent: never sent
+            task.add_done_callback(lambda _: answer.close())
+        return task
 
     async def write_read_back(self, name: str, value: float, *, pipelined: bool = True) -> ReadBack:
         """Write one command and read its feedback, in one timeout: Heide 2025's
@@ -444,7 +456,8 @@ class MachineConnection(ABC):
 def drop_answer(answer: asyncio.Future[Any]) -> None:
     """Stop waiting for the answer of a started request (:meth:`MachineConnection.start_write`):
     cancel the wait, or take the failure that already came (so that none is left unretrieved).
-    The request itself is not called back."""
+    A request on its way is not called back; one a transport without a send of its own had
+    not sent yet (module notes) is not sent."""
     if not answer.cancel() and not answer.cancelled():
         answer.exception()
 
