@@ -382,7 +382,7 @@ class MachineConnection(ABC):
             return failed
         task = loop.create_task(self._answered(what, answer))
         if isinstance(answer, Coroutine):
-            # a fallback's request whose wait is dropped before it was sent: never sent
+            # a fallback's request cancelled before it was sent (the event loop closing)
             task.add_done_callback(lambda _: answer.close())
         return task
 
@@ -455,10 +455,17 @@ class MachineConnection(ABC):
 
 def drop_answer(answer: asyncio.Future[Any]) -> None:
     """Stop waiting for the answer of a started request (:meth:`MachineConnection.start_write`):
-    cancel the wait, or take the failure that already came (so that none is left unretrieved).
-    A request on its way is not called back; one a transport without a send of its own had
-    not sent yet (module notes) is not sent."""
-    if not answer.cancel() and not answer.cancelled():
+    its outcome, when it comes, is taken and dropped (so that no failure is left unretrieved).
+    Nothing is cancelled: the request is on its way, and its answer still counts for the
+    connection (no answer within ``timeout_s`` is a lost connection)."""
+    if answer.done():
+        _take(answer)
+    else:
+        answer.add_done_callback(_take)
+
+
+def _take(answer: asyncio.Future[Any]) -> None:
+    if not answer.cancelled():
         answer.exception()
 
 
