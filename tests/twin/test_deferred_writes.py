@@ -229,6 +229,11 @@ def test_writes_in_flight_when_the_machine_is_lost_are_not_confirmed_nor_sent_ag
         await machine.answer(0)
         assert actions.process(cycle(2, 1.1, {"feed_override_pct": 60.0})).decisions == []
         assert len(actions.results) == 1 and machine.sent == [("feed_override_pct", 60.0)]
+        # until the watchdog says the machine is back, a decision is recorded, not written
+        later = cycle(3, 1.2, {"feed_override_pct": 60.0}, feed(1.2, 40.0))
+        (held,) = actions.process(later).decisions
+        assert not held.confirmed and held.note == "not written: the machine is lost"
+        assert machine.sent == [("feed_override_pct", 60.0)]
 
     run(test)
 

@@ -98,8 +98,9 @@ class CommandResult:
     confirmed_s
         ``time.monotonic()`` of the arrival of the confirming reading, s (NaN without).
     note
-        Why a command that was written is not confirmed (not carried out, superseded, no
-        read-back in time, machine lost, run ended); empty otherwise.
+        Why a command the safety filter let through is not confirmed (not written while the
+        machine is lost, not carried out, superseded, no read-back in time, machine lost,
+        run ended); empty otherwise.
     """
 
     verdict: Verdict
@@ -239,7 +240,8 @@ class ActionStage:
     def _carry_out(self, state: CycleState, verdict: Verdict) -> None:
         """Write what the verdict lets through (recorded once settled); record the rest."""
         if not (verdict.send and self._online and verdict.command is not None):
-            self._record(state, CommandResult(verdict, None, False, math.nan, math.nan))
+            lost = "not written: the machine is lost" if verdict.send else ""
+            self._record(state, CommandResult(verdict, None, False, math.nan, math.nan, lost))
             return
         name = verdict.command
         value = float(verdict.value if verdict.value is not None else math.nan)
@@ -299,7 +301,12 @@ class ActionStage:
 
     def _settle_answered(self, state: CycleState, flight: _InFlight) -> bool:
         """Settle a write whose answer was a refusal or a lost link; whether it was."""
-        err = flight.answer.exception()
+        answer = flight.answer
+        err: BaseException | None
+        if answer.cancelled():
+            err = ConnectionLost("the wait for its answer was cancelled")
+        else:
+            err = answer.exception()
         if err is None:
             return False
         if not isinstance(err, ConnectionLost | CommandRejected):
