@@ -268,6 +268,17 @@ def test_window_never_moves_backwards(line_map: EngagementMap,
         previous = match.s_mm
 
 
+def test_warm_up_builds_the_search_ahead_of_the_first_lookup() -> None:
+    emap = build(LINE, (100.0, 100.0, -1.0), (101.0, 101.0, 0.0))
+    assert "_tree" not in emap.__dict__  # built lazily, by the first global search
+    emap.warm_up()
+    assert "_tree" in emap.__dict__
+    start = float(corners(LINE)[0])
+    match = emap.lookup((5.0, 10.0, -2.0))  # and the map answers as before
+    assert match.status == MatchStatus.RESYNCED
+    assert match.s_mm == pytest.approx(start + 5.0, abs=1e-9)
+
+
 def slot_h_mean_range(fz: float, step: float) -> tuple[float, float]:
     """Range of Martellotti's mean chip thickness fz (integral of max(sin, 0)) / (b - a) of a
     slot whose contact [a, b] has its ends within the angle tolerance of 0 and pi (mm)."""

@@ -173,6 +173,29 @@ def test_write_read_back_sends_the_read_before_the_write_is_answered(
     shared.run(body)
 
 
+def test_a_started_write_is_in_the_socket_when_the_call_returns(shared: Shared) -> None:
+    """start_write hands the Write to the socket before it returns (the twin's cycle goes on
+    meanwhile); the future holds the answer: None, or the refusal."""
+
+    async def body(server: Shared, machine: FakeMachine) -> None:
+        async with OpcUaConnection(config(server)) as conn:
+            assert conn._client is not None
+            protocol = conn._client.uaclient.protocol
+            assert protocol is not None
+            with watched(protocol) as traffic:
+                answer = conn.start_write("feed_override_pct", 44.0)
+                assert traffic.events == ["Write"] and traffic.writes == [1]
+                assert await answer is None
+                assert machine.commands == [("feed_override_pct", 44.0)]
+                refused = conn.start_write("feed_override_pct", 151.0)
+                with pytest.raises(CommandRejected, match="BadOutOfRange"):
+                    await refused
+            assert conn.state is ConnectionState.CONNECTED
+            assert (await conn.read()).values["feed_override_pct"] == 44.0
+
+    shared.run(body)
+
+
 def test_invalid_write_is_rejected_with_the_bad_status_and_the_connection_stays(
     shared: Shared,
 ) -> None:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+from collections.abc import Awaitable
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +24,7 @@ from cnctwin.dynamics import load_stability_config
 from cnctwin.dynamics.stability import MillingProcess, sdm_lobes
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.mechanics import immersion_angles, milling_material
-from cnctwin.thread import ConnectionLost, SampleBlock
+from cnctwin.thread import ConnectionLost, ConnectionState, MachineConnection, Reading, SampleBlock
 from cnctwin.twin import CycleState, LocalConnection, RunConfig, build_twin, load_run_config
 from cnctwin.twin.chatter_live import ChatterConfig, ChatterRequest, ChatterStage
 from cnctwin.virtual import VirtualMachine
@@ -207,25 +208,42 @@ def test_the_stage_is_timed_and_its_outputs_reach_rules(runs: dict[str, Any]) ->
     assert notes and "roadmap speed" in notes[0].verdict.decision.reason
 
 
-class _Blocks:
+class _Blocks(MachineConnection):
     """A connection stand-in: serves ``block`` or fails."""
 
     def __init__(self) -> None:
+        super().__init__()
+        self.state = ConnectionState.CONNECTED
         self.lost = False
         self.calls = 0
 
-    async def read_block(self, name: str, since: int) -> SampleBlock:
+    async def _open(self) -> None:
+        return None
+
+    async def _close(self) -> None:
+        return None
+
+    async def _read(self) -> Reading:
+        raise NotImplementedError
+
+    async def _write(self, name: str, value: float) -> None:
+        raise NotImplementedError
+
+    async def _block(self, name: str, since: int) -> SampleBlock:
+        return SampleBlock(name, since, 10_000.0, np.zeros((100, 2)))
+
+    def _start_read_block(self, name: str, since: int) -> Awaitable[SampleBlock]:
         self.calls += 1
         if self.lost:
             raise ConnectionLost("gone")
-        return SampleBlock(name, since, 10_000.0, np.zeros((100, 2)))
+        return self._block(name, since)
 
 
 def test_no_reading_and_no_command_while_the_machine_is_lost() -> None:
     blocks = _Blocks()
     stage = ChatterStage(
         ChatterConfig(enabled=True, avoid=False), blocks, {1: 4}, None, (50, 120), (0, 150)
-    )  # type: ignore[arg-type]
+    )
     state = CycleState(0, 0.0, 1.0, connected=False, tool=1, line=14)
     asyncio.run(stage.process(state))
     assert blocks.calls == 0 and not state.commands
@@ -236,40 +254,36 @@ def test_no_reading_and_no_command_while_the_machine_is_lost() -> None:
     assert not state.commands and "chatter_ratio" not in state.predicted
 
 
-class _Answering:
-    """A machine that takes the block read at once and answers it when told (``answer``),
-    through ``asyncio.wait_for`` as :meth:`MachineConnection.read_block` does."""
+class _Answering(_Blocks):
+    """A machine that takes the block read when it is sent and answers it when told
+    (``answer``)."""
 
     def __init__(self) -> None:
-        self.sent = 0
+        super().__init__()
         self.answer = asyncio.Event()
 
-    async def _served(self, name: str, since: int) -> SampleBlock:
-        self.sent += 1
+    async def _block(self, name: str, since: int) -> SampleBlock:
         await self.answer.wait()
-        return SampleBlock(name, since, 10_000.0, np.zeros((100, 2)))
-
-    async def read_block(self, name: str, since: int) -> SampleBlock:
-        return await asyncio.wait_for(self._served(name, since), 1.0)
+        return await super()._block(name, since)
 
 
 def test_the_read_goes_out_before_the_physics_and_the_stage_takes_its_answer() -> None:
     machine = _Answering()
     stage = ChatterStage(
         ChatterConfig(enabled=True, avoid=False), machine, {1: 4}, None, (50, 120), (0, 150)
-    )  # type: ignore[arg-type]
+    )
     request = ChatterRequest(stage)
 
     async def cycle() -> CycleState:
         state = CycleState(0, 0.0, 1.0, connected=True, tool=1, line=14)
         state.measured = {"spindle_rpm": 8000.0, "t_s": 1.0}
-        await request.process(state)
-        assert machine.sent == 1  # the machine has the request before the physics stages run
+        request.process(state)
+        assert machine.calls == 1  # the machine has the request before the physics stages run
         machine.answer.set()  # ... and answers while they run
         return await stage.process(state)
 
     state = asyncio.run(cycle())
-    assert machine.sent == 1 and state.predicted["chatter_vibration_um"] == 0.0
+    assert machine.calls == 1 and state.predicted["chatter_vibration_um"] == 0.0
 
 
 def test_the_request_stage_follows_the_read(runs: dict[str, Any]) -> None:
@@ -306,10 +320,10 @@ class _Garbage(_Blocks):
         super().__init__()
         self.bad = False
 
-    async def read_block(self, name: str, since: int) -> SampleBlock:
+    async def _block(self, name: str, since: int) -> SampleBlock:
         if self.bad:
             raise DataError("block 'vibration': Machine.Vibration.Block: rate nan Hz; valid: ...")
-        return await super().read_block(name, since)
+        return await super()._block(name, since)
 
 
 def _cycle(stage: ChatterStage, k: int) -> CycleState:
@@ -322,7 +336,7 @@ def test_a_garbage_block_after_good_ones_is_rejected_and_the_stage_goes_on() -> 
     blocks = _Garbage()
     stage = ChatterStage(
         ChatterConfig(enabled=True, avoid=False), blocks, {1: 4}, None, (50, 120), (0, 150)
-    )  # type: ignore[arg-type]
+    )
     _cycle(stage, 0)  # a good block: the machine serves vibration
     blocks.bad = True
     state = _cycle(stage, 1)
@@ -338,6 +352,6 @@ def test_a_machine_whose_first_block_is_garbage_is_refused() -> None:
     blocks.bad = True
     stage = ChatterStage(
         ChatterConfig(enabled=True, avoid=False), blocks, {1: 4}, None, (50, 120), (0, 150)
-    )  # type: ignore[arg-type]
+    )
     with pytest.raises(DataError, match=r"^twin\.chatter: block 'vibration'"):
         _cycle(stage, 0)

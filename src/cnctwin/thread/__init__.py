@@ -20,6 +20,7 @@ from cnctwin.thread.connection import (
     ReadBack,
     Reading,
     SampleBlock,
+    drop_answer,
     now_s,
 )
 from cnctwin.thread.signals import COMMANDS, SIGNALS, RunState, SignalSpec
@@ -183,6 +184,7 @@ __all__ = [
     "SampleBlock",
     "RunState",
     "SignalSpec",
+    "drop_answer",
     "now_s",
     "ConnectionConfig",
     "OpcUaSecurityConfig",

@@ -5,6 +5,13 @@ subscription's cache) and writes commands one at a time, each with a timeout. Tr
 (:mod:`cnctwin.thread.opcua`, :mod:`cnctwin.thread.modbus`, ...) implement the four
 ``_``-methods; reconnection with capped exponential backoff and the connection state live
 here, once.
+
+A request can also be *started* (:meth:`MachineConnection.start_write`,
+:meth:`MachineConnection.start_read_block`): the call sends it and returns at once with a
+future of the machine's answer, so a caller in a fixed-period cycle goes on while the machine
+answers. A transport that can send without awaiting (OPC UA: the request is handed to the
+socket; the in-process machine: the command is applied) has the request on its way when the
+call returns; the others (Modbus, ADS, LinuxCNC, MQTT) send it at the event loop's next turn.
 """
 
 from __future__ import annotations
@@ -14,9 +21,9 @@ import enum
 import logging
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Awaitable, Callable, Coroutine, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Self
+from typing import TYPE_CHECKING, Any, Self, TypeVar
 
 import numpy as np
 
@@ -34,9 +41,13 @@ __all__ = [
     "Reading",
     "ReadBack",
     "SampleBlock",
+    "drop_answer",
 ]
 
 logger = logging.getLogger(__name__)
+
+_T = TypeVar("_T")
+_A = TypeVar("_A")
 
 
 class ConnectionLost(CnctwinError, RuntimeError):
@@ -227,8 +238,15 @@ class MachineConnection(ABC):
         back = await self._read_signal(name)
         return ReadBack(back, t1 - t0, time.perf_counter() - t1)
 
-    async def _read_block(self, name: str, since: int) -> SampleBlock:
-        """The samples of block ``name`` from index ``since`` on; this default has none."""
+    def _start_write(self, name: str, value: float) -> Awaitable[None]:
+        """Send command ``name`` = ``value`` now if the transport can without awaiting, and
+        return the awaitable of its answer (raise like :meth:`_write`). This default sends
+        nothing itself: it returns :meth:`_write`, which sends when it is first awaited."""
+        return self._write(name, value)
+
+    def _start_read_block(self, name: str, since: int) -> Awaitable[SampleBlock]:
+        """Send the read of block ``name`` from sample ``since`` on (as :meth:`_start_write`);
+        its answer is the :class:`SampleBlock`. This default has no blocks: DataError."""
         raise DataError(
             f"the {type(self).__name__} transport carries no sample blocks ({name!r}); "
             "read it over an in-process connection"
@@ -293,24 +311,80 @@ class MachineConnection(ABC):
         oldest kept, when the machine no longer holds them); :class:`ConnectionLost` (and a
         reconnect) on failure, :class:`~cnctwin.errors.DataError` when the transport or the
         machine has no such block."""
-        self._require_connected()
-        try:
-            return await asyncio.wait_for(self._read_block(name, since), self.timeout_s)
-        except (OSError, TimeoutError, ConnectionLost) as err:
-            self._lost(err)
-            raise ConnectionLost(
-                f"read of block {name} failed: {err or type(err).__name__}"
-            ) from err
+        return await self._send_and_wait(
+            f"read of block {name}", self._start_read_block, name, since
+        )
+
+    def start_read_block(self, name: str, since: int) -> asyncio.Future[SampleBlock]:
+        """Send the read of :meth:`read_block` now and return the future of its answer
+        (module notes: where the transport can, the request is on its way on return).
+
+        The future fails as :meth:`read_block` raises, a failure at the send included.
+        Call it in the running event loop, and retrieve the future's result or exception.
+        """
+        return self._started(f"read of block {name}", self._start_read_block, name, since)
 
     async def write(self, name: str, value: float) -> None:
-        """Write one command; :class:`ConnectionLost` (and a reconnect) on failure."""
+        """Write one command; :class:`ConnectionLost` (and a reconnect) on failure,
+        :class:`CommandRejected` when the machine refuses it."""
+        await self._send_and_wait(f"write of {name}={value!r}", self._start_write, name, value)
+
+    def start_write(self, name: str, value: float) -> asyncio.Future[None]:
+        """Send one command now and return the future of the machine's answer (module
+        notes: where the transport can, the command is on its way on return).
+
+        The future completes with ``None`` when the machine took the command, and fails as
+        :meth:`write` raises (:class:`CommandRejected`; :class:`ConnectionLost`, and a
+        reconnect, on a failure at the send or no answer within ``timeout_s``). A read of
+        the machine that shows the command is the caller's to make. Call it in the running
+        event loop, and retrieve the future's result or exception.
+        """
+        return self._started(f"write of {name}={value!r}", self._start_write, name, value)
+
+    def _sent_now(
+        self, what: str, send: Callable[[str, _A], Awaitable[_T]], name: str, arg: _A
+    ) -> Awaitable[_T]:
+        """Send ``send(name, arg)`` (a ``_start_`` hook) now; return the awaitable of its
+        answer. A failure of the link at the send is :class:`ConnectionLost` (and a
+        reconnect); ``what`` names the request in it."""
         self._require_connected()
         try:
+            return send(name, arg)
+        except (OSError, ConnectionLost) as err:
+            self._lost(err)
+            raise ConnectionLost(f"{what} failed: {err or type(err).__name__}") from err
+
+    async def _answered(self, what: str, answer: Awaitable[_T]) -> _T:
+        """The answer of a request sent, within ``timeout_s``; a failure of the link is
+        :class:`ConnectionLost` (and a reconnect)."""
+        try:
             async with asyncio.timeout(self.timeout_s):
-                await self._write(name, value)
+                return await answer
         except (OSError, TimeoutError, ConnectionLost) as err:
             self._lost(err)
-            raise ConnectionLost(f"write of {name}={value!r} failed: {err}") from err
+            raise ConnectionLost(f"{what} failed: {err or type(err).__name__}") from err
+
+    async def _send_and_wait(
+        self, what: str, send: Callable[[str, _A], Awaitable[_T]], name: str, arg: _A
+    ) -> _T:
+        return await self._answered(what, self._sent_now(what, send, name, arg))
+
+    def _started(
+        self, what: str, send: Callable[[str, _A], Awaitable[_T]], name: str, arg: _A
+    ) -> asyncio.Future[_T]:
+        """:meth:`_sent_now` now, its answer in a future (a failure at the send too)."""
+        loop = asyncio.get_running_loop()
+        try:
+            answer = self._sent_now(what, send, name, arg)
+        except (ConnectionLost, CommandRejected, DataError) as err:
+            failed: asyncio.Future[_T] = loop.create_future()
+            failed.set_exception(err)
+            return failed
+        task = loop.create_task(self._answered(what, answer))
+        if isinstance(answer, Coroutine):
+            # a fallback's request cancelled before it was sent (the event loop closing)
+            task.add_done_callback(lambda _: answer.close())
+        return task
 
     async def write_read_back(self, name: str, value: float, *, pipelined: bool = True) -> ReadBack:
         """Write one command and read its feedback, in one timeout: Heide 2025's
@@ -377,6 +451,22 @@ class MachineConnection(ABC):
             self.last_reconnect = how
             self.state = ConnectionState.CONNECTED
             logger.info("machine connection restored after %d attempts: %s", attempt, how)
+
+
+def drop_answer(answer: asyncio.Future[Any]) -> None:
+    """Stop waiting for the answer of a started request (:meth:`MachineConnection.start_write`):
+    its outcome, when it comes, is taken and dropped (so that no failure is left unretrieved).
+    Nothing is cancelled: the request is on its way, and its answer still counts for the
+    connection (no answer within ``timeout_s`` is a lost connection)."""
+    if answer.done():
+        _take(answer)
+    else:
+        answer.add_done_callback(_take)
+
+
+def _take(answer: asyncio.Future[Any]) -> None:
+    if not answer.cancelled():
+        answer.exception()
 
 
 def now_s() -> float:

@@ -21,7 +21,7 @@ import logging
 import math
 import struct
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Awaitable, Iterable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -400,8 +400,9 @@ class OpcUaConnection(MachineConnection):
         subscription.restore = watched  # type: ignore[method-assign]
         subscription.recreate = recreating  # type: ignore[method-assign]
 
-    async def _read_block(self, name: str, since: int) -> SampleBlock:
-        """Read :data:`BLOCK_NODE` (the newest samples) and keep those from ``since`` on."""
+    def _start_read_block(self, name: str, since: int) -> Awaitable[SampleBlock]:
+        """Send a Read of :data:`BLOCK_NODE` (the newest samples) now; the answer keeps those
+        from ``since`` on."""
         client = self._client
         if client is None or client.uaclient.state is not UaClientState.CONNECTED:
             raise ConnectionLost("OPC UA client is not open")
@@ -413,9 +414,14 @@ class OpcUaConnection(MachineConnection):
                 f"block {name!r}: {self.endpoint} serves no {BLOCK_NODE} "
                 f"(no namespace {NAMESPACE_URI!r})"
             )
-        # the Read built at connect, sent as the cycle's other requests are (_call): none of
+        # the Read built at connect, sent as the cycle's other requests are (_send): none of
         # asyncua's per-request task and timer in the cycle
-        (result,) = (await self._call(client, request, ua.ReadResponse, f"read of {name}")).Results
+        (sent,) = self._send(client, (request, b"", f"read of {name}"))
+        return self._block(sent, name, since)
+
+    async def _block(self, sent: _Sent, name: str, since: int) -> SampleBlock:
+        """The block of the answer to a Read of :data:`BLOCK_NODE` (:meth:`_start_read_block`)."""
+        (result,) = (await self._answer(sent, ua.ReadResponse)).Results
         status = result.StatusCode
         if status is not None and not status.is_good():
             raise DataError(
@@ -584,10 +590,18 @@ class OpcUaConnection(MachineConnection):
             )
 
     async def _write(self, name: str, value: float) -> None:
+        await self._start_write(name, value)
+
+    def _start_write(self, name: str, value: float) -> Awaitable[None]:
+        """Send the Write now (:meth:`_send_write`); the answer is awaited by :meth:`_written`."""
         client = self._client
         if client is None:
             raise ConnectionLost("OPC UA client is not open")
         (write,) = self._send_write(client, name, value)
+        return self._written(client, write, name, value)
+
+    async def _written(self, client: Client, write: _Sent, name: str, value: float) -> None:
+        """Check the answer to a Write (:meth:`_check_written`) and refresh the cache."""
         await self._check_written(write, name, value)
         if self._cache is not None:
             # Refresh the cache with the read-back now, so a read() after the write shows it

@@ -12,6 +12,19 @@ decision with its reason, and a stop that no step confirms is an event and a dec
 record. Every decision is recorded with its rule, its reason, the filter's verdict and the
 read-back.
 
+**The cycle does not wait for the machine.** A write is sent in the cycle that decides it
+(:meth:`MachineConnection.start_write`: over OPC UA the request is in the socket when the
+stage returns) and settled in a later cycle, from that cycle's reading and the write's answer
+when it has come. A write is recorded (and counted in ``state.decisions``) once settled:
+*confirmed* when the machine answered it without a refusal and a reading that arrived after
+the write shows the value (within ``readback_tolerance_pct`` for an override); *not carried
+out* when the answer is a refusal (:class:`CommandRejected`) or a lost link
+(:class:`ConnectionLost`); *not confirmed* when no reading shows it within
+``readback_timeout_s`` of the twin's clock, when a later write of the same command with
+another value supersedes it, when the machine is lost, or when the run ends first. A stop,
+feed hold or emergency stop is sent at once and watched by motion from the next reading on,
+whatever its read-back.
+
 Lost connection (the policy, docs/twin.md): while the machine is lost nothing is written and
 the rules' hold timers restart; when it is back, :meth:`SafetyFilter.after_reconnect`
 (:class:`~cnctwin.control.LostMachinePolicy`) says what to write so that nothing the twin
@@ -30,7 +43,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from cnctwin.control import Decision, RuleEngine, SafetyFilter, Verdict
-from cnctwin.thread import CommandRejected, ConnectionLost, MachineConnection
+from cnctwin.thread import CommandRejected, ConnectionLost, MachineConnection, drop_answer
 from cnctwin.twin.recorder import Recorder
 from cnctwin.twin.settings import StopConfirmationConfig
 from cnctwin.twin.state import CycleState, TwinEvent
@@ -77,13 +90,17 @@ class CommandResult:
     verdict
         The safety filter's verdict.
     readback
-        The value the machine showed after the write, or ``None``.
+        The value the machine showed last after the write, or ``None``.
     confirmed
-        Whether the read-back showed the command in effect.
+        Whether a read-back showed the command in effect.
     written_s
         ``time.monotonic()`` of the write, s (NaN when nothing was written).
     confirmed_s
-        ``time.monotonic()`` of the confirming read-back, s (NaN without).
+        ``time.monotonic()`` of the arrival of the confirming reading, s (NaN without).
+    note
+        Why a command the safety filter let through is not confirmed (not written while the
+        machine is lost, not carried out, superseded, no read-back in time, machine lost,
+        run ended); empty otherwise.
     """
 
     verdict: Verdict
@@ -91,10 +108,28 @@ class CommandResult:
     confirmed: bool
     written_s: float
     confirmed_s: float
+    note: str = ""
+
+
+@dataclass(slots=True)
+class _InFlight:
+    """A command written whose answer or read-back has not settled it yet."""
+
+    verdict: Verdict
+    name: str
+    value: float
+    written_s: float  # time.monotonic() of the write
+    deadline_s: float  # the twin's clock (CycleState.time_s) by which a read-back must show it
+    answer: asyncio.Future[None]
+    readback: float | None = None
 
 
 class ActionStage:
     """Passes decisions through the safety filter, writes them, verifies them by read-back.
+
+    A write is sent in the cycle and not waited for (:meth:`MachineConnection.start_write`):
+    the machine's answer and the read-back that shows the command settle it in later cycles,
+    from their readings (module notes, docs/control.md).
 
     Parameters
     ----------
@@ -106,7 +141,8 @@ class ActionStage:
     recorder
         Where decisions go, or ``None``.
     readback_timeout_s
-        How long to poll the machine for a read-back that acknowledges a write, s.
+        How long after a write a reading may show it, s of the twin's clock
+        (``CycleState.time_s``); a write not shown by then is recorded as not confirmed.
     stop_confirmation
         When a stop counts as done (motion at rest) and how it escalates.
 
@@ -120,9 +156,10 @@ class ActionStage:
         The last stop's state: ``None`` (none yet), ``"pending"`` (axes not yet at rest),
         ``"confirmed"`` or ``"failed"`` (no step of the escalation brought them to rest).
     results
-        Every decision's result, in order (kept for tests and the live view; bounded).
+        Every decision's result, in the order they were settled (kept for tests and the
+        live view; bounded).
     writes
-        Commands written to the machine.
+        Commands sent to the machine.
     decision_count
         Decisions recorded.
     """
@@ -153,6 +190,7 @@ class ActionStage:
         self._online = True
         self._anomaly_s: float | None = None
         self._submitted: deque[Decision] = deque(maxlen=16)
+        self._in_flight: list[_InFlight] = []
 
     def submit(self, decision: Decision) -> None:
         """Queue a decision made outside the rules (an operator on the dashboard) for the
@@ -162,8 +200,11 @@ class ActionStage:
         self._submitted.append(decision)
 
     # ------------------------------------------------------------------ the stage
-    async def process(self, state: CycleState) -> CycleState:
-        """Filter, write and verify this cycle's decisions; record each with its reason."""
+    def process(self, state: CycleState) -> CycleState:
+        """Settle the writes of earlier cycles on this reading; filter and write this cycle's
+        decisions; record each decision once settled, with its reason."""
+        if self._in_flight:
+            self._settle(state)
         if not state.connected:
             self._submitted.clear()
             return state
@@ -178,12 +219,12 @@ class ActionStage:
         # a stop under way is judged on this reading before anything new is written
         watch = self._watch
         if watch is not None:
-            await self._follow_stop(state, watch, watch.update(state.measured, now))
+            self._follow_stop(state, watch, watch.update(state.measured, now))
         verdicts = [self.safety.check(d, now, state.measured) for d in state.commands]
         # a ramp's step waiting for its rate limit is no decision: only steps sent count
         verdicts.extend(v for v in self.safety.follow_up(now, state.measured) if v.send)
         for verdict in verdicts:
-            await self._carry_out(state, verdict)
+            self._carry_out(state, verdict)
         return state
 
     @property
@@ -191,12 +232,98 @@ class ActionStage:
         """Whether a stop was sent and the axes have not been seen at rest yet."""
         return self._watch is not None
 
-    async def _carry_out(self, state: CycleState, verdict: Verdict) -> None:
-        result = CommandResult(verdict, None, False, math.nan, math.nan)
-        if verdict.send and self._online and verdict.command is not None:
-            result = await self._write_and_verify(verdict)
-            if verdict.command in LADDER and (verdict.value or 0.0) >= 0.5:
-                self._watch_step(state, verdict.command)
+    @property
+    def in_flight(self) -> int:
+        """Commands written and not settled yet (no answer or no read-back so far)."""
+        return len(self._in_flight)
+
+    def _carry_out(self, state: CycleState, verdict: Verdict) -> None:
+        """Write what the verdict lets through (recorded once settled); record the rest."""
+        if not (verdict.send and self._online and verdict.command is not None):
+            lost = "not written: the machine is lost" if verdict.send else ""
+            self._record(state, CommandResult(verdict, None, False, math.nan, math.nan, lost))
+            return
+        name = verdict.command
+        value = float(verdict.value if verdict.value is not None else math.nan)
+        tolerance = self.safety.config.readback_tolerance_pct
+        for earlier in [p for p in self._in_flight if p.name == name]:
+            # a later write of the same command: the earlier one can no longer be shown
+            # unless the two are equal (then the same read-back shows both)
+            if not _shows(name, earlier.value, {name: value}, tolerance):
+                self._settle_one(state, earlier, f"superseded by {name}={value:g}")
+        flight = _InFlight(
+            verdict,
+            name,
+            value,
+            time.monotonic(),
+            state.time_s + self.readback_timeout_s,
+            self.connection.start_write(name, value),
+        )
+        self.writes += 1
+        self._in_flight.append(flight)
+        if flight.answer.done():  # refused at the send (the link is down): settled now
+            self._settle_answered(state, flight)
+        if name in LADDER and value >= 0.5:
+            self._watch_step(state, name)
+
+    def _settle(self, state: CycleState) -> None:
+        """Settle the writes in flight that this cycle's reading or their answers decide."""
+        values = state.measured if state.connected else {}
+        # a reading taken before a write cannot show it
+        received = state.received_s if math.isfinite(state.received_s) else -math.inf
+        tolerance = self.safety.config.readback_tolerance_pct
+        for flight in list(self._in_flight):
+            if flight.answer.done():
+                if self._settle_answered(state, flight):
+                    continue
+                if received >= flight.written_s:
+                    name = flight.name
+                    if name in values:
+                        flight.readback = values[name]
+                    if _shows(name, flight.value, values, tolerance):
+                        self.safety.observe(values)
+                        self._in_flight.remove(flight)
+                        self._record(
+                            state,
+                            CommandResult(
+                                flight.verdict, flight.readback, True, flight.written_s, received
+                            ),
+                        )
+                        continue
+                    if state.connected and name in LADDER and name not in values:
+                        # a flag the machine does not read back: motion decides
+                        self._settle_one(state, flight, "the machine does not read it back")
+                        continue
+            if state.time_s >= flight.deadline_s:
+                waited = "no answer" if not flight.answer.done() else "no read-back showed it"
+                limit = f"readback_timeout_s = {self.readback_timeout_s:g}"
+                self._settle_one(state, flight, f"{waited} within {limit}")
+
+    def _settle_answered(self, state: CycleState, flight: _InFlight) -> bool:
+        """Settle a write whose answer was a refusal or a lost link; whether it was."""
+        answer = flight.answer
+        err: BaseException | None
+        if answer.cancelled():
+            err = ConnectionLost("the wait for its answer was cancelled")
+        else:
+            err = answer.exception()
+        if err is None:
+            return False
+        if not isinstance(err, ConnectionLost | CommandRejected):
+            raise err
+        logger.warning("command %s=%g not carried out: %s", flight.name, flight.value, err)
+        self._settle_one(state, flight, f"not carried out: {err}")
+        return True
+
+    def _settle_one(self, state: CycleState | None, flight: _InFlight, note: str) -> None:
+        """Record a write in flight as not confirmed, with why; its answer is not waited for."""
+        self._in_flight.remove(flight)
+        drop_answer(flight.answer)
+        if not note.startswith("not carried out"):
+            logger.warning("command %s=%g not confirmed: %s", flight.name, flight.value, note)
+        result = CommandResult(
+            flight.verdict, flight.readback, False, flight.written_s, math.nan, note
+        )
         self._record(state, result)
 
     def _watch_step(self, state: CycleState, step: str) -> None:
@@ -210,7 +337,7 @@ class ActionStage:
         elif LADDER.index(step) > LADDER.index(watch.step):
             watch.escalated(step, state.time_s)
 
-    async def _follow_stop(self, state: CycleState, watch: StopWatch, status: StopStatus) -> None:
+    def _follow_stop(self, state: CycleState, watch: StopWatch, status: StopStatus) -> None:
         """Act on one reading's verdict on the stop under way (see :mod:`.stopping`)."""
         if status.verdict == "watching":
             return
@@ -256,7 +383,7 @@ class ActionStage:
                 )
             )
             verdict = self.safety.escalate(status.next_step, state.time_s, reason)
-            await self._carry_out(state, verdict)
+            self._carry_out(state, verdict)
             if not verdict.send:
                 self._fail(state, watch, f"{why}; escalation to {status.next_step} blocked")
             return
@@ -276,56 +403,29 @@ class ActionStage:
         if self.recorder is not None:
             self.recorder.decision(now, "stop_confirmation", watch.step, 1.0, reason, False, None)
 
-    async def _write_and_verify(self, verdict: Verdict) -> CommandResult:
-        name = str(verdict.command)
-        value = float(verdict.value if verdict.value is not None else math.nan)
-        written = time.monotonic()
-        try:
-            await self.connection.write(name, value)
-        except (ConnectionLost, CommandRejected) as err:
-            logger.warning("command %s=%g not carried out: %s", name, value, err)
-            return CommandResult(verdict, None, False, written, math.nan)
-        self.writes += 1
-        deadline = written + self.readback_timeout_s
-        readback: float | None = None
-        while True:
-            try:
-                reading = await self.connection.read()
-            except ConnectionLost:
-                break
-            now = time.monotonic()
-            readback = reading.values.get(name)
-            if name not in reading.values and name in LADDER:
-                break  # a flag the machine does not read back: motion decides
-            if _shows(name, value, reading.values, self.safety.config.readback_tolerance_pct):
-                self.safety.observe(reading.values)
-                return CommandResult(verdict, readback, True, written, now)
-            if now >= deadline:
-                break
-            await asyncio.sleep(0.001)
-        logger.warning("command %s=%g not confirmed by read-back (%r)", name, value, readback)
-        return CommandResult(verdict, readback, False, written, math.nan)
-
-    def _record(self, state: CycleState, result: CommandResult) -> None:
+    def _record(self, state: CycleState | None, result: CommandResult) -> None:
+        """Record a settled decision (in ``state.decisions`` too, where there is a cycle)."""
         verdict = result.verdict
         decision: Decision = verdict.decision
         self.decision_count += 1
         self.results.append(result)
         if len(self.results) > 10_000:
             del self.results[:5_000]
-        state.decisions.append(result)
+        if state is not None:
+            state.decisions.append(result)
         reason = decision.reason
         if verdict.note:
             reason = f"{reason} [{verdict.outcome}: {verdict.note}]"
         elif verdict.outcome != "sent":
             reason = f"{reason} [{verdict.outcome}]"
         if verdict.send and not result.confirmed:
-            reason += " [not confirmed by read-back]"
+            reason += f" [not confirmed by read-back: {result.note}]"
         logger.info("decision %s: %s -> %s", decision.rule, decision.action, verdict.outcome)
         if self.recorder is not None:
             value = verdict.value if verdict.value is not None else decision.value
+            written = result.written_s
             self.recorder.decision(
-                time.monotonic(),
+                written if math.isfinite(written) else time.monotonic(),
                 decision.rule,
                 verdict.command or decision.action,
                 value if value is not None and math.isfinite(value) else 0.0,
@@ -335,18 +435,22 @@ class ActionStage:
             )
 
     # ------------------------------------------------------------------ lost machine
-    def connection_lost(self) -> None:
-        """The machine is lost: write nothing until it is back."""
+    def connection_lost(self, state: CycleState) -> None:
+        """The machine is lost: write nothing until it is back. The writes in flight are
+        recorded as not confirmed now (none is sent again: the reconnection policy decides
+        what to write when the machine is back)."""
         self._online = False
         self._anomaly_s = None
+        for flight in list(self._in_flight):
+            self._settle_one(state, flight, "the machine was lost before a read-back showed it")
 
-    async def connection_restored(self, state: CycleState) -> list[TwinEvent]:
+    def connection_restored(self, state: CycleState) -> list[TwinEvent]:
         """The machine is back: apply the lost-connection policy; return its events."""
         self._online = True
         now = time.monotonic()
         events = []
         for verdict in self.safety.after_reconnect(state.measured, state.time_s):
-            await self._carry_out(state, verdict)
+            self._carry_out(state, verdict)
             events.append(
                 TwinEvent(
                     "reconnect_policy",
@@ -356,6 +460,11 @@ class ActionStage:
                 )
             )
         return events
+
+    def close(self) -> None:
+        """The run ends: the writes in flight are recorded as not confirmed."""
+        for flight in list(self._in_flight):
+            self._settle_one(None, flight, "the run ended before a read-back showed it")
 
 
 def _shows(name: str, value: float, values: Mapping[str, float], tol_pct: float) -> bool:

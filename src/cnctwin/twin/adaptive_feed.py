@@ -197,7 +197,10 @@ class AdaptiveFeedStage:
 
         self.config = config
         self.engagement_map = engagement_map
-        self._cursor = None if engagement_map is None else MapCursor(engagement_map)
+        self._cursor = None
+        if engagement_map is not None:
+            engagement_map.warm_up()  # before the first cycle, not in it
+            self._cursor = MapCursor(engagement_map)
         self._area = None if engagement_map is None else engagement_map.column("cut_area_mm2")
         self.min_pct = min_pct
         self.max_pct = max_pct

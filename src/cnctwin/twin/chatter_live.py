@@ -30,11 +30,12 @@ of the rule ``chatter_avoidance``: they pass the safety filter (enable switch, b
 limits) and obey the lost-machine policy (docs/control.md). One avoidance per line.
 
 The read runs alongside the cycle: :class:`ChatterRequest`, placed right after the read
-stage, sends it, so the machine answers while the physics stages run, and the chatter stage
-takes the answer. A machine that has not answered within 1 ms of the chatter stage's turn is
-asked no more until it has, and its samples are taken in a later cycle (they carry their own
-sample index, so nothing is lost or counted twice; a cycle without new samples shows the last
-outputs).
+stage, sends it (:meth:`MachineConnection.start_read_block`: over OPC UA the request is in
+the socket when the step returns), so the machine answers while the physics stages run, and
+the chatter stage takes the answer. A machine that has not answered within 1 ms of the
+chatter stage's turn is asked no more until it has, and its samples are taken in a later
+cycle (they carry their own sample index, so nothing is lost or counted twice; a cycle
+without new samples shows the last outputs).
 
 **Lost machine.** While the connection is down the stage commands nothing and reads
 nothing; afterwards the detectors start again (the windows across the gap would join
@@ -73,7 +74,7 @@ from cnctwin.dynamics import (
     WindowVerdict,
 )
 from cnctwin.errors import ConfigError, DataError
-from cnctwin.thread import ConnectionLost, MachineConnection, SampleBlock
+from cnctwin.thread import ConnectionLost, MachineConnection, SampleBlock, drop_answer
 from cnctwin.twin.state import CycleState, TwinEvent
 
 if TYPE_CHECKING:
@@ -96,10 +97,6 @@ RULE = "chatter_avoidance"
 #: Longest wait for the machine's samples in a cycle, s; a slower answer is taken in the next
 #: cycle (the read goes on meanwhile), so a busy machine does not hold up the cycle.
 _WAIT_S = 0.001
-
-#: Turns of the event loop :meth:`ChatterStage.request` gives the read to reach the socket
-#: (the read's task, then the timeout's inner task that sends the request).
-_SEND_TURNS = 3
 
 #: The names the stage adds (units in the names).
 CHATTER_PREDICTIONS = (
@@ -243,21 +240,19 @@ class ChatterStage:
         self._detections: list[dict[str, float]] = []
         self._avoidances: list[dict[str, float]] = []
 
-    async def request(self, state: CycleState) -> None:
+    def request(self, state: CycleState) -> None:
         """Send the read of the samples since the last block (unless one is on its way), so
         that the machine answers while the cycle's other stages run."""
         if not state.connected or self._pending is not None:
             return
         self._pending = self._read_from_next()
-        for _ in range(_SEND_TURNS):
-            await asyncio.sleep(0)
 
     async def process(self, state: CycleState) -> CycleState:
         """Read the new samples, detect, and on chatter ask for the roadmap's speed."""
         if not state.connected:
             self._blind = True
             if self._pending is not None:
-                self._pending.cancel()
+                drop_answer(self._pending)
                 self._pending = None
             return state
         if self._blind:  # after a gap: the windows start again
@@ -265,8 +260,9 @@ class ChatterStage:
             self._restart()
         if self._pending is None:  # without a ChatterRequest stage: sent now
             self._pending = self._read_from_next()
-        done, _ = await asyncio.wait({self._pending}, timeout=_WAIT_S)
-        if not done:  # the machine has not answered yet: the samples come next cycle
+        if not self._pending.done():
+            await asyncio.wait({self._pending}, timeout=_WAIT_S)
+        if not self._pending.done():  # no answer yet: the samples come next cycle
             self._carry(state)
             return state
         task, self._pending = self._pending, None
@@ -333,8 +329,8 @@ class ChatterStage:
         state.predicted.update(self._outputs)
 
     def _read_from_next(self) -> asyncio.Future[SampleBlock]:
-        """The read of the samples from the next one wanted on, started."""
-        return asyncio.ensure_future(self.connection.read_block(self.config.block, self._next))
+        """The read of the samples from the next one wanted on, sent."""
+        return self.connection.start_read_block(self.config.block, self._next)
 
     def _restart(self) -> None:
         self._cut_since_s = math.nan
@@ -514,9 +510,9 @@ class ChatterRequest:
     def __init__(self, stage: ChatterStage) -> None:
         self.stage = stage
 
-    async def process(self, state: CycleState) -> CycleState:
+    def process(self, state: CycleState) -> CycleState:
         """Send the chatter stage's read; the state passes unchanged."""
-        await self.stage.request(state)
+        self.stage.request(state)
         return state
 
 

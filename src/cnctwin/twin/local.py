@@ -11,7 +11,8 @@ allows and gives the same result every time; otherwise something else (a
 from __future__ import annotations
 
 import math
-from typing import Protocol
+from collections.abc import Awaitable
+from typing import Protocol, TypeVar
 
 from cnctwin.errors import ConfigError, DataError
 from cnctwin.thread import (
@@ -25,6 +26,8 @@ from cnctwin.thread import (
 )
 
 __all__ = ["LocalConnection", "MachineSource"]
+
+_T = TypeVar("_T")
 
 
 class MachineSource(Protocol):
@@ -119,18 +122,29 @@ class LocalConnection(MachineConnection):
             values[name] = value
         return Reading(values, now_s(), rejected)
 
-    async def _read_block(self, name: str, since: int) -> SampleBlock:
+    def _start_read_block(self, name: str, since: int) -> Awaitable[SampleBlock]:
+        """The block taken now; the awaitable only hands it over."""
         if not self._up:
             raise ConnectionLost("local link is down")
         block = getattr(self.machine, "block", None)
         if block is None:
             raise DataError(f"block {name!r}: the machine serves no sample blocks")
         result: SampleBlock = block(name, since)
-        return result
+        return _answer(result)
 
     async def _write(self, name: str, value: float) -> None:
+        await self._start_write(name, value)
+
+    def _start_write(self, name: str, value: float) -> Awaitable[None]:
+        """The command applied now; the awaitable only answers."""
         if not self._up:
             raise ConnectionLost("local link is down")
         if name not in COMMANDS:
             raise ConfigError(f"{name!r} is not a command; valid: {', '.join(COMMANDS)}")
         self.machine.command(name, value)
+        return _answer(None)
+
+
+async def _answer(value: _T) -> _T:
+    """An answer that is there already."""
+    return value

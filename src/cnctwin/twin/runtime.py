@@ -329,6 +329,8 @@ class TwinRuntime:
             ended = "interrupted"
             raise
         finally:
+            if self.actions is not None:
+                self.actions.close()
             summary = self.summary(ended)
             if self.recorder is not None:
                 self.recorder.end(_status(ended), summary.to_dict())
@@ -425,7 +427,7 @@ class TwinRuntime:
                 ),
             )
             if self.actions is not None:
-                self.actions.connection_lost()
+                self.actions.connection_lost(state)
             for stage in self.stages:
                 forget = getattr(stage, "forget", None)
                 if callable(forget):
@@ -447,7 +449,7 @@ class TwinRuntime:
                     ),
                 )
                 if self.actions is not None:
-                    for event in await self.actions.connection_restored(state):
+                    for event in self.actions.connection_restored(state):
                         self._emit(state, event)
             else:
                 self._emit(state, TwinEvent("connected", "machine connected", now))
