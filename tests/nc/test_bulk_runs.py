@@ -15,14 +15,15 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from cnctwin.errors import NCError
 from cnctwin.nc.interpreter import Interpreter
-from cnctwin.nc.runs import MIN_RUN_LINES, MoveRun
-from cnctwin.nc.segments import Segment
+from cnctwin.nc.runs import MIN_RUN_LINES, MoveRun, arc_sweeps
+from cnctwin.nc.segments import Plane, Segment, arc_sweep_rad
 from cnctwin.nc.setup import NCSetup, ToolEntry
 from cnctwin.nc.summary import summarize
 
@@ -373,3 +374,31 @@ def test_the_word_order_check_stops_at_the_first_line_out_of_order(odd: str) -> 
     for data in (good + odd + "\n" + good, good + odd.lower() + "\nX1\n"):
         assert runs._valid_prefix(runs._MOVES, data.encode()) == len(good)
     assert runs._valid_prefix(runs._MOVES, good.encode()) == len(good)
+
+
+coordinate = st.one_of(
+    st.floats(-1000, 1000, allow_nan=False),
+    st.sampled_from([0.0, -0.0, 1e-13, -1e-13, math.pi, -math.pi, 2.5, -2.5]),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(*[coordinate] * 6, st.sampled_from([1, -1])), min_size=1, max_size=40))
+def test_arc_sweeps_equal_the_one_arc_function(arcs: list[tuple[float, ...]]) -> None:
+    """The bulk sweeps (numpy's ``mod`` for Python's ``%``, a radius passed in or not) are
+    :func:`arc_sweep_rad`'s numbers arc by arc, to the bit (starts at the centre, ends at
+    the start and angles across +-pi among them)."""
+    start = np.array([(a[0], a[1], 0.0) for a in arcs])
+    end = np.array([(a[2], a[3], 1.0) for a in arcs])
+    center = np.array([(a[4], a[5], 0.0) for a in arcs])
+    turns = np.array([a[6] for a in arcs])
+    expected = [
+        arc_sweep_rad(tuple(s), tuple(e), tuple(c), int(t), Plane.XY)
+        for s, e, c, t in zip(start.tolist(), end.tolist(), center.tolist(), turns, strict=True)
+    ]
+    radius = np.array([r for r, _, _ in expected])
+    for given_radius in (None, radius):
+        got = arc_sweeps(start, end, center, turns, given_radius)
+        assert repr([tuple(v) for v in zip(*(g.tolist() for g in got), strict=True)]) == repr(
+            expected
+        )

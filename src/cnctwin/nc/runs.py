@@ -29,7 +29,6 @@ letter such a line needs: X, Y, Z, I or J), so reading a short program does not 
 from __future__ import annotations
 
 import math
-import operator
 import re
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
@@ -169,6 +168,9 @@ class MoveRun:
     center_mm
         (n, 3) arc centres, mm (a centre's Z is its arc's start Z); a straight move's row
         is its start point and is not used.
+    radius_mm
+        (n,) arc radii at the start point, mm (``math.hypot`` of the start's XY offset from
+        the centre); a straight move's is 0 and is not used.
     feed_mm_min
         (n,) path feed of each move, mm/min (0 for rapids).
     programmed_feed
@@ -188,6 +190,7 @@ class MoveRun:
     end_mm: NDArray[np.float64]
     motion: NDArray[np.int64]
     center_mm: NDArray[np.float64]
+    radius_mm: NDArray[np.float64]
     feed_mm_min: NDArray[np.float64]
     programmed_feed: NDArray[np.float64]
     state: MachineState
@@ -246,11 +249,18 @@ class MoveRun:
             line += 1
 
 
-def arc_sweeps(start: Any, end: Any, center: Any, turns: Any) -> tuple[Any, Any, Any]:
+def arc_sweeps(
+    start: Any, end: Any, center: Any, turns: Any, radius: Any = None
+) -> tuple[Any, Any, Any]:
     """:func:`~cnctwin.nc.segments.arc_sweep_rad` of many XY-plane arcs of one turn at
     most (``turns`` +-1): (n, 3) start, end and centre points (mm, numpy) to radius (mm),
     start angle and sweep (rad), each (n,), with the same operations (``math.atan2``,
-    ``math.hypot``, Python's ``%``) as the one-arc function."""
+    ``math.hypot``, Python's ``%``) as the one-arc function. ``radius`` (mm, (n,)), if
+    given, is the ``math.hypot`` of the start's offset from the centre, already computed.
+
+    numpy's ``mod`` is Python's float ``%`` (``fmod``, then the divisor added when the signs
+    differ), bit for bit; numpy's ``arctan2`` and ``hypot`` are not ``math``'s (they differ
+    in the last bit for some arguments), so those stay ``math``'s, one call per arc."""
     np = _numpy()
     u0 = (start[:, 0] - center[:, 0]).tolist()
     v0 = (start[:, 1] - center[:, 1]).tolist()
@@ -258,8 +268,9 @@ def arc_sweeps(start: Any, end: Any, center: Any, turns: Any) -> tuple[Any, Any,
     v1 = (end[:, 1] - center[:, 1]).tolist()
     a0 = map_floats(math.atan2, v0, u0)
     a1 = map_floats(math.atan2, v1, u1)
-    radius = map_floats(math.hypot, u0, v0)
-    ccw = map_floats(operator.mod, (a1 - a0).tolist(), repeat(_TWO_PI, len(u0)))
+    if radius is None:
+        radius = map_floats(math.hypot, u0, v0)
+    ccw = np.mod(a1 - a0, _TWO_PI)
     cw = _TWO_PI - ccw
     ccw[(ccw <= 1e-12) | (ccw >= _TWO_PI - 1e-12)] = _TWO_PI
     cw[(cw <= 1e-12) | (cw >= _TWO_PI - 1e-12)] = _TWO_PI
@@ -413,6 +424,7 @@ def move_run(
     starts[0] = start_mm
     starts[1:] = ends[:-1]
     centers = starts.copy()
+    radii = np.zeros(n)
     inside = (np.abs(ends) <= MAX_POSITION_MM).all(axis=1)
     arc_lines = np.flatnonzero(on_arc)
     if len(arc_lines):
@@ -433,6 +445,7 @@ def move_run(
             (arc_ends[:, 0] - arc_centers[:, 0]).tolist(),
             (arc_ends[:, 1] - arc_centers[:, 1]).tolist(),
         )
+        radii[arc_rows] = r0
         tolerance = (
             ARC_END_TOLERANCE_INCH * MM_PER_INCH if state.units == "inch" else ARC_END_TOLERANCE_MM
         )
@@ -459,6 +472,7 @@ def move_run(
         end_mm=ends[:limit],
         motion=codes.astype(np.int64),
         center_mm=centers[:limit],
+        radius_mm=radii[:limit],
         feed_mm_min=np.where(codes == 0.0, 0.0, programmed * factor),
         programmed_feed=programmed,
         state=state,

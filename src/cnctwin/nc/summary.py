@@ -268,7 +268,9 @@ def _add_run(
         lengths[straight] = np.sqrt(x2 + y2 + z2)
     turns = np.where(run.motion[arcs] == 30, 1, -1)
     if any_arc:
-        radius, a0, sweep = arc_sweeps(starts[arcs], ends[arcs], run.center_mm[arcs], turns)
+        radius, a0, sweep = arc_sweeps(
+            starts[arcs], ends[arcs], run.center_mm[arcs], turns, run.radius_mm[arcs]
+        )
         rise = (ends[arcs, 2] - starts[arcs, 2]).tolist()
         lengths[arcs] = map_floats(math.hypot, (radius * sweep).tolist(), rise)
     rapid = run.motion == 0
