@@ -302,6 +302,9 @@ def _add_run(
         quadrant_cos, quadrant_sin = np.array(_COS), np.array(_SIN)
         for slot in range(4):
             k = k_first + slot
+            taken = k <= k_last
+            if not taken.any():  # nor any later slot
+                break
             quadrant = np.mod(k, 4).astype(np.intp)
             fraction = (k * _QUARTER - a0) / sweep
             extreme = np.empty((len(center), 3))
@@ -309,7 +312,7 @@ def _add_run(
             extreme[:, 1] = center[:, 1] + radius * quadrant_sin[quadrant]
             extreme[:, 2] = tcp_start[:, 2] + fraction * (tcp_end[:, 2] - tcp_start[:, 2])
             points[arcs, 2 + slot] = extreme
-            valid[arcs, 2 + slot] = k <= k_last
+            valid[arcs, 2 + slot] = taken
     flat_valid = None if valid is None else valid.reshape(-1)
     low, high = _box(points.reshape(-1, 3), flat_valid, low, high)
     return rapid_length, feed_length, machining_time, low, high
@@ -321,10 +324,9 @@ def _box(points: Any, valid: Any, low: Vec3, high: Vec3) -> tuple[Vec3, Vec3]:
     point of the lowest (highest) value wins (-0.0 against 0.0)."""
     import numpy as np
 
-    below = points if valid is None else np.where(valid[:, None], points, np.inf)
-    above = points if valid is None else np.where(valid[:, None], points, -np.inf)
-    lows = below[np.argmin(below, axis=0), (0, 1, 2)].tolist()
-    highs = above[np.argmax(above, axis=0), (0, 1, 2)].tolist()
+    taken = points if valid is None else points[valid]
+    lows = taken[np.argmin(taken, axis=0), (0, 1, 2)].tolist()
+    highs = taken[np.argmax(taken, axis=0), (0, 1, 2)].tolist()
     new_low = [v if v < old else old for v, old in zip(lows, low, strict=True)]
     new_high = [v if v > old else old for v, old in zip(highs, high, strict=True)]
     return (new_low[0], new_low[1], new_low[2]), (new_high[0], new_high[1], new_high[2])
