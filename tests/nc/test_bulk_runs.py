@@ -402,3 +402,10 @@ def test_arc_sweeps_equal_the_one_arc_function(arcs: list[tuple[float, ...]]) ->
         assert repr([tuple(v) for v in zip(*(g.tolist() for g in got), strict=True)]) == repr(
             expected
         )
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(allow_nan=False, allow_infinity=False), st.sampled_from([0.0, -0.0]))
+def test_hypot_with_a_zero_is_abs_to_the_bit(a: float, zero: float) -> None:
+    """The bulk summary takes ``abs`` for ``math.hypot`` of a flat arc's length."""
+    assert repr(math.hypot(a, zero)) == repr(abs(a))

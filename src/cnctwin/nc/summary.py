@@ -271,8 +271,16 @@ def _add_run(
         radius, a0, sweep = arc_sweeps(
             starts[arcs], ends[arcs], run.center_mm[arcs], turns, run.radius_mm[arcs]
         )
-        rise = (ends[arcs, 2] - starts[arcs, 2]).tolist()
-        lengths[arcs] = map_floats(math.hypot, (radius * sweep).tolist(), rise)
+        # math.hypot(a, 0.0) is abs(a) to the bit (a scaling by a power of two, an exact
+        # square and a correctly rounded root), so only helices take math.hypot.
+        rise = ends[arcs, 2] - starts[arcs, 2]
+        arc_lengths = np.abs(radius * sweep)
+        helix = np.flatnonzero(rise)
+        if len(helix):
+            arc_lengths[helix] = map_floats(
+                math.hypot, (radius * sweep)[helix].tolist(), rise[helix].tolist()
+            )
+        lengths[arcs] = arc_lengths
     rapid = run.motion == 0
     if rapid.any():
         rapid_length = float(np.add.accumulate(np.append(rapid_length, lengths[rapid]))[-1])
