@@ -44,6 +44,7 @@ import json
 import math
 import os
 import resource
+import sys
 import tempfile
 import time
 from collections import Counter
@@ -130,8 +131,9 @@ class _ClientHops:
         # own _send in frame_message (which frames a plain message itself, and calls
         # message_to_binary for any other, not in this set-up)
         _wrap(SecureConnection, "message_to_binary", lambda *_: mark("c_encode"), None)
-        from cnctwin.thread import opcua
+        from cnctwin.thread import OpcUaConnection
 
+        opcua = sys.modules[OpcUaConnection.__module__]  # where its _send finds frame_message
         frame = opcua.frame_message
 
         def framed(connection: Any, body: bytes, request_id: int) -> bytes:
