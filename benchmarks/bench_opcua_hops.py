@@ -8,9 +8,10 @@ server in a child process (:func:`cnctwin.virtual.virtual_machine_server`), the 
 (:func:`cnctwin.thread.measure_latency`). Both processes stamp each hop with
 ``time.perf_counter_ns`` (CLOCK_MONOTONIC on Linux: one clock for both processes):
 
-- client: each request's framing for the secure channel (``SecureConnection.message_to_binary``,
-  after its encoding), the end of each ``transport.write`` (one for a Write and the Read sent
-  behind it), the arrival of each answer (``data_received``) and the end of the round trip;
+- client: each request's framing for the secure channel (``SecureConnection.message_to_binary``
+  or cnctwin's ``frame_message``, after its encoding), the end of each ``transport.write``
+  (one for a Write and the Read sent behind it), the arrival of each answer
+  (``data_received``) and the end of the round trip;
 - server: the arrival of each request (``data_received`` of cnctwin's lean connection,
   :mod:`cnctwin.virtual.opcua_lean`, which answers the common Read and Write there and whose
   return is stamped as an answer written), the start of asyncua's processing of any other
@@ -43,6 +44,7 @@ import json
 import math
 import os
 import resource
+import sys
 import tempfile
 import time
 from collections import Counter
@@ -125,10 +127,21 @@ class _ClientHops:
 
         self.events: list[tuple[str, int, int]] = []
         mark = self.mark
-        # every request is framed here, by asyncua's _send_request or cnctwin's own _send
+        # every request is framed here: asyncua's _send_request in message_to_binary, cnctwin's
+        # own _send in frame_message (which frames a plain message itself, and calls
+        # message_to_binary for any other, not in this set-up)
         _wrap(SecureConnection, "message_to_binary", lambda *_: mark("c_encode"), None)
+        from cnctwin.thread import OpcUaConnection
+
+        opcua = sys.modules[OpcUaConnection.__module__]  # where its _send finds frame_message
+        frame = opcua.frame_message
+
+        def framed(connection: Any, body: bytes, request_id: int) -> bytes:
+            mark("c_encode")
+            return frame(connection, body, request_id)
+
+        opcua.frame_message = framed  # type: ignore[attr-defined]
         _wrap(_SelectorSocketTransport, "write", None, lambda *_: mark("c_sent"))
-        from cnctwin.thread import OpcUaConnection  # noqa: F401  (its protocol subclass)
 
         # cnctwin's connection gives its links a subclass that takes the common answers
         for cls in (UASocketProtocol, *_own("data_received", UASocketProtocol)):

@@ -21,6 +21,7 @@ from asyncua.ua.ua_binary import nodeid_from_binary, struct_from_binary
 from timeouts import BODY_S, SERVER_START_S
 
 from cnctwin.errors import ConfigError
+from cnctwin.thread import opcua as opcua_client
 from cnctwin.thread.signals import SIGNALS
 from cnctwin.virtual.opcua_server import OpcUaMachineServer
 from cnctwin.virtual.users import UserTable
@@ -140,19 +141,21 @@ class Traffic:
 @contextlib.contextmanager
 def watched(protocol: UASocketProtocol) -> Iterator[Traffic]:
     """Watch ``protocol``'s requests where every one passes, asyncua's or
-    :class:`~cnctwin.thread.OpcUaConnection`'s: framing (``message_to_binary``), the socket
+    :class:`~cnctwin.thread.OpcUaConnection`'s: framing (asyncua's ``message_to_binary``,
+    the connection's ``frame_message``, which frames a plain message itself), the socket
     write and the answer's hand-over (``_call_callback``)."""
     traffic = Traffic()
     connection = protocol._connection
     frame, answer = connection.message_to_binary, protocol._call_callback
+    lean_frame = opcua_client.frame_message
+    in_lean_frame: list[bool] = []  # asyncua's framing inside frame_message is noted there
     transport = protocol.transport
     assert transport is not None
     write = transport.write
     kinds: dict[int, str] = {}
     framed: list[int] = []  # requests framed since the last socket write
 
-    def framing(message: bytes, *args: Any, **kwargs: Any) -> bytes:
-        request_id = kwargs.get("request_id", args[1] if len(args) > 1 else 0)
+    def note(message: bytes, request_id: int) -> None:
         typeid = nodeid_from_binary(Buffer(message))
         request: Any = struct_from_binary(ua.extension_objects_by_typeid[typeid], Buffer(message))
         traffic.sent.append((request_id, request))
@@ -160,7 +163,21 @@ def watched(protocol: UASocketProtocol) -> Iterator[Traffic]:
         if kind in ("Write", "Read"):
             traffic.events.append(kind)
         framed.append(request_id)
+
+    def framing(message: bytes, *args: Any, **kwargs: Any) -> bytes:
+        if not in_lean_frame:
+            note(message, kwargs.get("request_id", args[1] if len(args) > 1 else 0))
         return frame(message, *args, **kwargs)
+
+    def lean_framing(on: Any, message: bytes, request_id: int) -> bytes:
+        if on is not connection:  # another client's channel in this process
+            return lean_frame(on, message, request_id)
+        note(message, request_id)
+        in_lean_frame.append(True)
+        try:
+            return lean_frame(on, message, request_id)
+        finally:
+            in_lean_frame.pop()
 
     def writing(data: Any) -> None:
         traffic.writes.append(len(framed))
@@ -173,11 +190,13 @@ def watched(protocol: UASocketProtocol) -> Iterator[Traffic]:
         answer(request_id, body)
 
     connection.message_to_binary = framing  # type: ignore[method-assign]
+    opcua_client.frame_message = lean_framing  # type: ignore[attr-defined]
     transport.write = writing  # type: ignore[method-assign]
     protocol._call_callback = answered  # type: ignore[method-assign]
     try:
         yield traffic
     finally:
         connection.message_to_binary = frame  # type: ignore[method-assign]
+        opcua_client.frame_message = lean_frame  # type: ignore[attr-defined]
         transport.write = write  # type: ignore[method-assign]
         protocol._call_callback = answer  # type: ignore[method-assign]

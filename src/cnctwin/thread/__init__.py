@@ -83,6 +83,7 @@ if TYPE_CHECKING:
     from cnctwin.thread.opcua_channel import (
         PlainMessage,
         filetime_now,
+        frame_message,
         plain_message,
         take_plain_message,
     )
@@ -145,6 +146,7 @@ _LAZY = {
     "variant_type": "opcua",
     "PlainMessage": "opcua_channel",
     "filetime_now": "opcua_channel",
+    "frame_message": "opcua_channel",
     "plain_message": "opcua_channel",
     "take_plain_message": "opcua_channel",
     "TrustList": "trust",
@@ -203,6 +205,7 @@ __all__ = [
     "variant_type",
     "PlainMessage",
     "filetime_now",
+    "frame_message",
     "plain_message",
     "take_plain_message",
     "TrustList",

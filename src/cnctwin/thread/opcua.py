@@ -56,7 +56,7 @@ from cnctwin.thread.connection import (
     SampleBlock,
     now_s,
 )
-from cnctwin.thread.opcua_channel import plain_message, take_plain_message
+from cnctwin.thread.opcua_channel import frame_message, plain_message, take_plain_message
 from cnctwin.thread.signals import COMMANDS, SIGNALS
 from cnctwin.thread.trust import TrustList
 
@@ -491,7 +491,7 @@ class OpcUaConnection(MachineConnection):
                 body = request.encode(token, timeout_ms, protocol._request_handle, value)
                 protocol.revolve_security_token()
                 request_id = protocol._request_id + 1
-                messages.append(protocol._connection.message_to_binary(body, request_id=request_id))
+                messages.append(frame_message(protocol._connection, body, request_id))
                 protocol._request_id = request_id
                 future: asyncio.Future[Any] = loop.create_future()
                 protocol._callbackmap[request_id] = future

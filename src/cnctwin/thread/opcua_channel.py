@@ -1,4 +1,4 @@
-"""The plain secure-channel message of OPC UA, read without asyncua's chunk objects.
+"""The plain secure-channel message of OPC UA, read and framed without asyncua's chunk objects.
 
 A service request or answer on a secure channel with security policy None travels, in the
 common case, as one final chunk (OPC 10000-6 6.7.2): the MessageHeader (``MSG``, chunk type
@@ -11,8 +11,11 @@ intermediate or aborting chunk, a token or sequence number asyncua must judge: r
 wrap-around, an error) is left to asyncua, so signing, encryption and their checks stay
 asyncua's. Used by the twin's client (:mod:`cnctwin.thread.opcua`) and the virtual machine's
 server (:mod:`cnctwin.virtual.opcua_lean`) for their common answers and requests.
+:func:`frame_message` is the other way: it frames such a message as asyncua's
+``SecureConnection.message_to_binary`` does, byte for byte, with the channel's own sequence
+counter, and leaves every other message to asyncua.
 
-This reads asyncua's private channel state (``_peer_sequence_number``,
+This reads asyncua's private channel state (``_peer_sequence_number``, ``_sequence_number``,
 ``_incoming_parts``, ``_limits``): pyproject.toml pins asyncua to the versions it was
 written for, and tests/thread/test_opcua_channel.py fails if that state changes shape.
 """
@@ -27,11 +30,13 @@ from asyncua.common.connection import SecureConnection
 from asyncua.crypto.security_policies import SecurityPolicyNone
 from asyncua.ua.uatypes import EPOCH_AS_FILETIME
 
-__all__ = ["PlainMessage", "filetime_now", "plain_message", "take_plain_message"]
+__all__ = ["PlainMessage", "filetime_now", "frame_message", "plain_message", "take_plain_message"]
 
 #: MessageHeader (type, chunk type, size), SecureChannelId, TokenId, SequenceNumber, RequestId.
 _HEAD = struct.Struct("<3scIIIII")
 _HEAD_SIZE = _HEAD.size
+#: Sequence numbers are UInt32; asyncua's counter wraps (to 1) when it reaches this.
+_SEQUENCE_WRAP = 1 << 32
 
 
 class PlainMessage(NamedTuple):
@@ -78,6 +83,32 @@ def take_plain_message(connection: SecureConnection, message: PlainMessage) -> N
     """Take ``message`` (of :func:`plain_message`) as received on ``connection``: its
     sequence number becomes the channel's last, as asyncua's receive makes it."""
     connection._peer_sequence_number = message.sequence_number
+
+
+def frame_message(connection: SecureConnection, body: bytes, request_id: int) -> bytes:
+    """``connection.message_to_binary(body, request_id=request_id)``, byte for byte: the
+    service message ``body`` framed for request ``request_id`` on ``connection``'s channel,
+    the channel's sequence number advanced.
+
+    Framed here when asyncua would make one plain final chunk of it (policy None, a body
+    not empty that fits the chunk size the peer receives, ``max_send_buffer``; OPC 10000-6
+    6.7.2) and the sequence number does not wrap: the header of :func:`plain_message`, with
+    the channel's current ChannelId and TokenId and the next number of asyncua's own counter
+    (``SecureConnection._sequence_number``, which asyncua's frames on the same channel
+    advance too). Anything else (signing, encryption, several chunks, the wrap to 1) is
+    asyncua's ``message_to_binary``.
+    """
+    if type(connection.security_policy) is SecurityPolicyNone:
+        size = len(body) + _HEAD_SIZE
+        sequence = connection._sequence_number + 1
+        if _HEAD_SIZE < size <= connection._limits.max_send_buffer and sequence < _SEQUENCE_WRAP:
+            current = connection.security_token
+            head = _HEAD.pack(
+                b"MSG", b"F", size, current.ChannelId, current.TokenId, sequence, request_id
+            )
+            connection._sequence_number = sequence
+            return head + body
+    return connection.message_to_binary(body, request_id=request_id)
 
 
 def filetime_now() -> int:

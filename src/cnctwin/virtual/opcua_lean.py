@@ -22,7 +22,8 @@ channel are still handled in order. The Read answers the DataValue the address s
 :meth:`~cnctwin.virtual.opcua_server.OpcUaMachineServer.command_status`, as asyncua's write
 service of the server does. Every other message goes to asyncua unchanged (other services,
 several nodes, other types, arrays, a signed or encrypted channel, anything malformed:
-asyncua's errors then). The answer is framed by asyncua's secure channel.
+asyncua's errors then). The answer is framed as asyncua's secure channel frames it, with its
+sequence counter (:func:`~cnctwin.thread.opcua_channel.frame_message`).
 
 This reaches into asyncua's private server classes (``Server.bserver``,
 ``BinaryServer._make_protocol``, ``OPCUAProtocol._buffer``, ``messages`` and
@@ -47,7 +48,13 @@ from asyncua.server.binary_server_asyncio import BinaryServer, OPCUAProtocol
 from asyncua.server.uaprocessor import UaProcessor
 from asyncua.ua.ua_binary import nodeid_to_binary, struct_to_binary
 
-from cnctwin.thread import PlainMessage, filetime_now, plain_message, take_plain_message
+from cnctwin.thread import (
+    PlainMessage,
+    filetime_now,
+    frame_message,
+    plain_message,
+    take_plain_message,
+)
 
 __all__ = ["LeanServer", "LeanService", "MachineNode", "encode_data_value"]
 
@@ -346,7 +353,7 @@ class _LeanProtocol(OPCUAProtocol):
                 if body is None:
                     break
                 take_plain_message(connection, message)
-                answers.append(connection.message_to_binary(body, request_id=message.request_id))
+                answers.append(frame_message(connection, body, message.request_id))
                 at = message.end
             if answers and self.transport is not None:
                 self.transport.write(b"".join(answers))
