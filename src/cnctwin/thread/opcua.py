@@ -459,9 +459,10 @@ class OpcUaConnection(MachineConnection):
         value of a Write (``b""`` for a Read) and what it is for messages. Only the header's
         time stamp, request handle and authentication token and a Write's value change from
         one send to the next, so the request is not encoded anew (:class:`_Request`). Each
-        goes through asyncua's secure channel as any of its requests does (request id,
-        sequence number, chunking, signing and encryption of the session's policy), so a
-        request sent later is behind these on the channel; left out are asyncua's
+        is framed on the session's secure channel with asyncua's request id and sequence
+        counter (:func:`~cnctwin.thread.opcua_channel.frame_message`: a plain single chunk
+        of policy None directly, anything else by asyncua's chunking, signing and
+        encryption), so a request sent later is behind these on the channel; left out are asyncua's
         per-request wrappers (a task and a timer of its own, a wait while its supervisor
         reconnects): the caller's timeout (:class:`MachineConnection`, ``timeout_s``) bounds
         the wait, and a link that is not up fails at once. Two requests in one write reach
