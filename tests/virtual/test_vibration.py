@@ -123,6 +123,23 @@ def test_the_sensor_serves_what_it_took_since_an_index(tmp_path: Path) -> None:
     assert vm.block("vibration", 15_001).samples.shape == (0, 2)
 
 
+def test_the_warm_up_leaves_the_machine_as_it_was() -> None:
+    # A warmed machine (its kernels compiled before the clock starts) cuts what a cold one cuts,
+    # sample for sample: the warm-up integrates a throw-away stream, not the sensor's.
+    config = load_run_config(EXAMPLE)
+    assert config.virtual is not None
+    warmed, cold = VirtualMachine(config.virtual, config), VirtualMachine(config.virtual, config)
+    warmed.warm_up()
+    assert warmed.block("vibration", 0).end_index == 0
+    for _ in range(400):  # 2 s: into the cut
+        warmed.step(warmed.tick_s)
+        cold.step(cold.tick_s)
+    ours, theirs = warmed.block("vibration", 0), cold.block("vibration", 0)
+    assert ours.end_index == theirs.end_index == 20_000
+    assert np.abs(theirs.samples).max() > 1.0  # um: the tool did cut
+    np.testing.assert_array_equal(ours.samples, theirs.samples)
+
+
 def test_the_block_travels_over_opc_ua() -> None:
     # The server makes the node's value when it is read: the newest 0.1 s; the client keeps
     # the samples from its index on, and from the oldest served when it asks for older ones.

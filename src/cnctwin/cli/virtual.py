@@ -2,13 +2,14 @@
 
 Serves the ``[virtual]`` machine of a twin configuration (default: the packaged demo's) until
 its program ends or Ctrl-C, so that ``cnctwin run`` (or any OPC UA, Modbus or MTConnect
-client) can be tried without a real machine. ``--once`` ends with the program
-(:data:`END_GRACE_S` later, for a watching client to read the end); otherwise the machine idles
-after it, still answering. Security (docs/security.md): ``--security-mode``,
-``--certificate``, ``--private-key``, ``--trust``, ``--users``, ``--anonymous``; a non-loopback
-``--host`` without security needs ``--insecure``. ``cnctwin virtual hash-password`` makes a
-users file's entry. ``--replay LOG`` serves a recorded log instead (``--map``, ``--loop``;
-docs/replay.md).
+client) can be tried without a real machine. The machine's kernels are compiled before it
+listens. ``--once`` ends with the program (:data:`END_GRACE_S` later, for a watching client to
+read the end, or once the last OPC UA client has gone, :data:`END_HOLD_MAX_S` at most);
+otherwise the machine idles after it, still answering. Security (docs/security.md):
+``--security-mode``, ``--certificate``, ``--private-key``, ``--trust``, ``--users``,
+``--anonymous``; a non-loopback ``--host`` without security needs ``--insecure``.
+``cnctwin virtual hash-password`` makes a users file's entry. ``--replay LOG`` serves a
+recorded log instead (``--map``, ``--loop``; docs/replay.md).
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from cnctwin.errors import InputError
 from cnctwin.virtual import ROLES, Role, UserTable, check_exposure, hash_password, load_users
 
 if TYPE_CHECKING:
-    from cnctwin.twin import RunConfig
+    from cnctwin.twin import MachineServer, RunConfig
     from cnctwin.virtual import OpcUaServerSecurity, ReplayMachine
 
 __all__ = ["app", "hash_password_command", "serve"]
@@ -45,6 +46,10 @@ app = typer.Typer(
 #: the machine to come back (docs/twin.md, "The lost-connection policy"); 2 s was missed by
 #: twins on a 2-core machine at load 10.
 END_GRACE_S = 10.0
+#: With ``--once``: the longest the server stays after the program ends while an OPC UA client
+#: is still connected, s. A twin that connected and then spent its first run compiling its
+#: kernels (about 35 s on 2 cores, more under load) reads the finished state and disconnects.
+END_HOLD_MAX_S = 120.0
 
 #: The packaged twin configuration whose [virtual] table is served by default.
 DEFAULT_CONFIG = "demo_twin.toml"
@@ -297,6 +302,7 @@ async def _serve(
             replay,
             machine_tool_model=True,  # OPC 40501's MachineTool object (docs/opcua.md)
         )
+        machine.warm_up()
         await machine.start()
     except OSError as err:
         raise InputError(f"cannot listen on {host}:{port}: {err.strerror or err}") from err
@@ -314,10 +320,22 @@ async def _serve(
             if once and machine.vm.finished:
                 done = "replay" if replay is not None else "program"
                 note(f"{done} finished at t = {machine.vm.time_s:.2f} s")
-                with contextlib.suppress(TimeoutError):
-                    await asyncio.wait_for(stop.wait(), END_GRACE_S)
+                await _linger(machine, stop)
                 break
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(stop.wait(), 0.1)
     finally:
         await machine.stop()
+
+
+async def _linger(machine: MachineServer, stop: asyncio.Event) -> None:
+    """After the program's end with ``--once``: serve ``END_GRACE_S`` more, and on while an
+    OPC UA client stays connected, ``END_HOLD_MAX_S`` at most (or until Ctrl-C)."""
+    loop = asyncio.get_running_loop()
+    ended = loop.time()
+    while not stop.is_set():
+        elapsed = loop.time() - ended
+        if elapsed >= END_HOLD_MAX_S or (elapsed >= END_GRACE_S and not machine.clients):
+            return
+        with contextlib.suppress(TimeoutError):
+            await asyncio.wait_for(stop.wait(), 0.1)

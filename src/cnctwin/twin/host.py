@@ -168,6 +168,31 @@ class MachineServer:
         ``ads://...``)."""
         return self.server.endpoint
 
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) the machine's kernels before it listens, so
+        that its clock does not stall on them once a twin watches (on a first run after
+        installing the compilation takes tens of seconds): a throw-away machine runs its first
+        ticks, the cut and force kernels run on a copy of the blank and the vibration sensor
+        integrates a few steps. A replay has nothing to compile.
+        """
+        if self.config is None or self.config.virtual is None or self.replay is not None:
+            return
+        from cnctwin.twin.physics import TwinPhysics
+
+        vm = VirtualMachine(self.config.virtual, self.config)
+        for _ in range(20):
+            vm.step(vm.tick_s)
+        vm.warm_up()
+        TwinPhysics(self.config, density_per_mm=self.config.virtual.density_per_mm).warm_up()
+
+    @property
+    def clients(self) -> int | None:
+        """OPC UA clients connected now; ``None`` for the other transports, whose clients
+        poll (MTConnect) or are not counted."""
+        from cnctwin.virtual import OpcUaMachineServer
+
+        return self.server.clients if isinstance(self.server, OpcUaMachineServer) else None
+
     async def start(self) -> None:
         """Listen (the clock stays paused until :meth:`go`)."""
         await self.server.start()
@@ -221,10 +246,10 @@ async def serve(
     """
     loop = asyncio.get_running_loop()
     try:
-        _warm_up(config)
+        machine = MachineServer(config, transport, speed, host, port, threaded=True)
+        machine.warm_up()
         # the loop gets the GIL back within 0.1 ms of the machine's thread taking it
         sys.setswitchinterval(SWITCH_S)
-        machine = MachineServer(config, transport, speed, host, port, threaded=True)
         await machine.start()
     except (CnctwinError, OSError) as err:
         _answer({"error": str(err)})
@@ -260,19 +285,6 @@ def _state(machine: MachineServer) -> dict[str, Any]:
         "tool_wear_mm": vm.tool_wear_mm if isinstance(vm, VirtualMachine) else None,
         "clock": dataclasses.asdict(machine.clock.stats),
     }
-
-
-def _warm_up(config: RunConfig) -> None:
-    """Compile the machine's numba kernels before it listens (its clock must not stall on
-    them once the twin watches): a throw-away machine runs its first ticks, and the cut and
-    force kernels run on a copy of the blank."""
-    from cnctwin.twin.physics import TwinPhysics
-
-    assert config.virtual is not None
-    vm = VirtualMachine(config.virtual, config)
-    for _ in range(20):
-        vm.step(vm.tick_s)
-    TwinPhysics(config, density_per_mm=config.virtual.density_per_mm).warm_up()
 
 
 def _answer(message: dict[str, Any]) -> None:

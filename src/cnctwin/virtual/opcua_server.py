@@ -339,6 +339,13 @@ class OpcUaMachineServer:
         self.publish()
         logger.info("OPC UA machine server listening at %s (%s)", self.endpoint, security.mode)
 
+    @property
+    def clients(self) -> int:
+        """Clients connected now (open TCP connections; 0 when not listening)."""
+        if self._server is None or self._server.bserver is None:
+            return 0
+        return len(self._server.bserver.clients)
+
     async def stop(self) -> None:
         """Stop listening and drop every session."""
         server, self._server = self._server, None

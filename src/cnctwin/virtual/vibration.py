@@ -95,10 +95,10 @@ class VibrationSensor:
         self._last_t = 0.0  # machine time and displacement (m) of the last output
         self._last_r = np.zeros(2)
 
-    def _start(self, rpm: float) -> MillingStream:
-        """The model's stream, its grid made for the speed of the first cut."""
+    def _stream(self, rpm: float) -> MillingStream:
+        """A stream of the model, its grid made for ``rpm`` (rpm)."""
         try:
-            stream = MillingStream(
+            return MillingStream(
                 self.modes,
                 self.cutter,
                 self.coefficients,
@@ -107,9 +107,30 @@ class VibrationSensor:
             )
         except InputError as err:
             raise ConfigError(f"virtual.vibration: tool T{self.tool_number}: {err}") from None
+
+    def _start(self, rpm: float) -> MillingStream:
+        """The model's stream, its grid made for the speed of the first cut."""
+        stream = self._stream(rpm)
         self._design_rpm = rpm
         self._offset_s = self._last_t
         return stream
+
+    def warm_up(self, rpm: float) -> None:
+        """Compile (or load from numba's cache) the time-domain kernels before the machine
+        runs, so that its first cut does not stall its clock (tens of seconds on a first run
+        after installing): a throw-away stream integrates a few steps of a cut at ``rpm``
+        (rpm, > 0) and in air. The sensor itself is untouched.
+
+        Raises
+        ------
+        ConfigError
+            For a tool the time-domain model does not take (as the first cut would).
+        """
+        stream = self._stream(rpm)
+        spindle_rad_s = rpm * _RPM
+        cut = CutConditions(spindle_rad_s, 1e-3, 0.0, 0.5 * math.pi, 5e-5)
+        stream.advance(cut, 4)
+        stream.advance(CutConditions(spindle_rad_s, 0.0, 0.0, 0.0, 0.0), 4)
 
     @property
     def samples_taken(self) -> int:
