@@ -77,6 +77,21 @@ def test_above_the_band_the_commanded_chip_load_meets_its_edge() -> None:
     assert _meets_edge(0.04 * r)
 
 
+def test_the_limit_thickness_is_found_once_and_the_cycle_evaluates_the_model_once() -> None:
+    stage = _stage()
+    limit = stage.limit_thickness_mm
+    assert _by_hand(limit) <= 35.0 < _by_hand(limit * (1.0 + 1e-5))  # the model by hand
+    calls = []
+    model = stage.mirs_mpa
+    stage.mirs_mpa = lambda h_mm: calls.append(h_mm) or model(h_mm)  # type: ignore[method-assign]
+    for t_s, (h_mm, feed) in enumerate(((0.04, 100.0), (0.09, 80.0), (0.08, 100.0))):
+        calls.clear()
+        state = stage.process(_state(h_mm, feed=feed, t_s=100.0 * (t_s + 1)))
+        assert calls == [h_mm]  # the prediction; the command needs no search
+        (command,) = state.commands
+        assert _meets_edge(h_mm * (command.value / feed))
+
+
 def test_feed_only_by_default_and_the_bounds_hold() -> None:
     (feed,) = _stage().process(_state(0.04)).commands
     assert feed.action == "feed_override"

@@ -9,8 +9,11 @@ material's coefficients of the force stage, and the elastic constants of ``[twin
 
 **Control** (``control = true``), Ward's Fig. 3 loop with the update rule made explicit: when
 the MIRS is above ``max_mpa``, or below ``min_mpa`` while the overrides are under 100 %, the
-stage finds (bisection on the model) the chip-thickness ratio ``r`` at which the MIRS meets
-``max_mpa`` (at most the ratio that brings the overrides back to 100 %), and asks for::
+stage asks for the chip-thickness ratio ``r`` at which the MIRS meets ``max_mpa`` (at most the
+ratio that brings the overrides back to 100 %). The MIRS depends on the chip thickness alone
+(the loads of Ward's Eq. 1 are affine in ``h``) and grows with it, so the largest chip thickness
+``h*`` whose MIRS is at most ``max_mpa`` is found once, by bisection of the model when the stage
+is built, and ``r = h* / h`` costs no model evaluation in the cycle. It asks for::
 
     spindle ratio  s = 1 - spindle_share (1 - r)
     feed ratio     r s                      (so that fz = feed / (n z) changes by r)
@@ -67,8 +70,12 @@ RULE = "mirs"
 _MPA = 1e6
 _MM = 1e-3
 #: The search for the chip-thickness ratio stops when its bracket is this narrow, relative
-#: (0.025 % of an override: far below the 1 % steps of a control's override).
-_RATIO_TOLERANCE = 2.5e-4
+#: The bisection for ``h*`` stops when its bracket is this narrow, relative (far below the 1 %
+#: steps of a control's override).
+_THICKNESS_TOLERANCE = 1e-6
+#: The chip thicknesses, mm, between which ``h*`` is sought: below the first the stage asks for
+#: the smallest ratio, above the last (a MIRS band no cut reaches) for no change.
+_THICKNESS_RANGE_MM = (1e-5, 10.0)
 #: Smallest chip-thickness ratio the stage asks for in one command.
 _MIN_RATIO = 0.05
 
@@ -181,6 +188,14 @@ class MirsStage:
             np.linspace(0.0, config.depth_um * 1e-6, config.points),
         )
         self._last_s = -math.inf
+        # the model's first call loads its compiled kernel (0.2-0.4 s): here, not in a cycle
+        self.mirs_mpa(_THICKNESS_RANGE_MM[0])
+        #: ``h*``, mm: the largest chip thickness whose MIRS is at most ``max_mpa``.
+        self.limit_thickness_mm = (
+            self._limit_thickness_mm(config.max_mpa)
+            if config.control and config.max_mpa is not None
+            else math.nan
+        )
 
     def forget(self) -> None:
         """After a gap: the next command is not held back by one from before it."""
@@ -227,7 +242,7 @@ class MirsStage:
             return state
         if state.time_s - self._last_s < c.interval_s:
             return state
-        ratio = self._ratio(h_mm, c.max_mpa, feed, spindle)
+        ratio = self._ratio(h_mm, feed, spindle)
         s = 1.0 - c.spindle_share * (1.0 - ratio)
         feed_target = _clip(feed * ratio * s, self.feed_bounds)
         spindle_target = _clip(spindle * s, self.spindle_bounds)
@@ -266,10 +281,26 @@ class MirsStage:
             self._last_s = state.time_s
         return state
 
-    def _ratio(self, h_mm: float, limit_mpa: float, feed: float, spindle: float) -> float:
-        """Largest chip-thickness ratio whose MIRS is at most ``limit_mpa`` (bisection, to
-        ``_RATIO_TOLERANCE``), no larger than the one that brings both overrides back to
-        100 %."""
+    def _limit_thickness_mm(self, limit_mpa: float) -> float:
+        """``h*``: the largest chip thickness, mm, whose MIRS is at most ``limit_mpa`` (MPa), to
+        ``_THICKNESS_TOLERANCE`` (bisection of the logarithm over ``_THICKNESS_RANGE_MM``);
+        0 when even the thinnest chip is above it, ``inf`` when the thickest is not."""
+        ok, bad = _THICKNESS_RANGE_MM
+        if self.mirs_mpa(bad)[0] <= limit_mpa:
+            return math.inf
+        if self.mirs_mpa(ok)[0] > limit_mpa:
+            return 0.0
+        while bad > ok * (1.0 + _THICKNESS_TOLERANCE):
+            mid = math.sqrt(ok * bad)
+            if self.mirs_mpa(mid)[0] <= limit_mpa:
+                ok = mid
+            else:
+                bad = mid
+        return ok
+
+    def _ratio(self, h_mm: float, feed: float, spindle: float) -> float:
+        """Chip-thickness ratio to ``h*`` from ``h_mm`` (mm), within ``_MIN_RATIO`` and the one
+        that brings both overrides (%) back to 100 %."""
         share = self.config.spindle_share
         # feed ratio r s = 100 / feed with s = 1 - share (1 - r): share r^2 + (1 - share) r
         if share > 0.0:
@@ -278,16 +309,7 @@ class MirsStage:
         else:
             top = 100.0 / feed
         top = max(top, 1.0)
-        if self.mirs_mpa(h_mm * top)[0] <= limit_mpa:
-            return top
-        ok, bad = _MIN_RATIO, top
-        while bad > ok * (1.0 + _RATIO_TOLERANCE):
-            mid = math.sqrt(ok * bad)  # bisection of the logarithm: a relative precision
-            if self.mirs_mpa(h_mm * mid)[0] <= limit_mpa:
-                ok = mid
-            else:
-                bad = mid
-        return ok
+        return max(_MIN_RATIO, min(top, self.limit_thickness_mm / h_mm))
 
 
 def _clip(value: float, bounds: tuple[float, float]) -> float:
