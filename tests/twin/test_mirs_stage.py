@@ -77,6 +77,13 @@ def test_above_the_band_the_commanded_chip_load_meets_its_edge() -> None:
     assert _meets_edge(0.04 * r)
 
 
+def test_the_mirs_grows_with_the_chip_thickness() -> None:
+    # what the stage's h* relies on, over the whole range it searches
+    h_mm = np.geomspace(1e-5, 10.0, 400)
+    mirs = np.array([_by_hand(h) for h in h_mm])
+    assert np.all(np.diff(mirs) > 0.0)
+
+
 def test_the_limit_thickness_is_found_once_and_the_cycle_evaluates_the_model_once() -> None:
     stage = _stage()
     limit = stage.limit_thickness_mm
