@@ -57,6 +57,8 @@ __all__ = [
     "map_floats",
     "move_run",
     "rows",
+    "xy_atan2",
+    "xy_hypot",
 ]
 
 #: Fewer lines than this are not worth a run (numpy's fixed cost per call).
@@ -254,28 +256,61 @@ def arc_sweeps(
 ) -> tuple[Any, Any, Any]:
     """:func:`~cnctwin.nc.segments.arc_sweep_rad` of many XY-plane arcs of one turn at
     most (``turns`` +-1): (n, 3) start, end and centre points (mm, numpy) to radius (mm),
-    start angle and sweep (rad), each (n,), with the same operations (``math.atan2``,
-    ``math.hypot``, Python's ``%``) as the one-arc function. ``radius`` (mm, (n,)), if
-    given, is the ``math.hypot`` of the start's offset from the centre, already computed.
+    start angle and sweep (rad), each (n,), with the same numbers as the one-arc function
+    (``math.atan2`` through :func:`xy_atan2`, ``math.hypot`` through :func:`xy_hypot`,
+    Python's ``%``). ``radius`` (mm, (n,)), if given, is the ``math.hypot`` of the start's
+    offset from the centre, already computed.
 
     numpy's ``mod`` is Python's float ``%`` (``fmod``, then the divisor added when the signs
-    differ), bit for bit; numpy's ``arctan2`` and ``hypot`` are not ``math``'s (they differ
-    in the last bit for some arguments), so those stay ``math``'s, one call per arc."""
+    differ), bit for bit."""
     np = _numpy()
-    u0 = (start[:, 0] - center[:, 0]).tolist()
-    v0 = (start[:, 1] - center[:, 1]).tolist()
-    u1 = (end[:, 0] - center[:, 0]).tolist()
-    v1 = (end[:, 1] - center[:, 1]).tolist()
-    a0 = map_floats(math.atan2, v0, u0)
-    a1 = map_floats(math.atan2, v1, u1)
+    u0 = start[:, 0] - center[:, 0]
+    v0 = start[:, 1] - center[:, 1]
+    a0 = xy_atan2(v0, u0)
+    a1 = xy_atan2(end[:, 1] - center[:, 1], end[:, 0] - center[:, 0])
     if radius is None:
-        radius = map_floats(math.hypot, u0, v0)
+        radius = xy_hypot(u0, v0)
     ccw = np.mod(a1 - a0, _TWO_PI)
     cw = _TWO_PI - ccw
     ccw[(ccw <= 1e-12) | (ccw >= _TWO_PI - 1e-12)] = _TWO_PI
     cw[(cw <= 1e-12) | (cw >= _TWO_PI - 1e-12)] = _TWO_PI
     sweep = np.where(turns > 0, ccw + 0.0, -(cw + 0.0))
     return radius, a0, sweep
+
+
+def xy_hypot(u: Any, v: Any) -> Any:
+    """``math.hypot(u[i], v[i])`` of two (n,) numpy arrays (mm), bit for bit, as a numpy
+    array. Where ``u`` or ``v`` is +-0.0 it is the other's ``abs`` (``math.hypot`` of a
+    number and a zero is its ``abs`` to the bit: a scaling by a power of two, an exact
+    square and a correctly rounded root), with no call per item; elsewhere one
+    ``math.hypot`` call per item (numpy's ``hypot`` differs from it in the last bit for
+    some arguments)."""
+    np = _numpy()
+    out = np.abs(np.where(u == 0.0, v, u))
+    general = np.flatnonzero((u != 0.0) & (v != 0.0))
+    if len(general):
+        general = rows(general, len(out))
+        out[general] = map_floats(math.hypot, u[general].tolist(), v[general].tolist())
+    return out
+
+
+def xy_atan2(v: Any, u: Any) -> Any:
+    """``math.atan2(v[i], u[i])`` of two (n,) numpy arrays, bit for bit, as a numpy array
+    of angles (rad). With no call per item: where ``v`` is +-0.0 (and ``u`` is not NaN),
+    +-0.0 when ``u``'s sign bit is clear, else +-pi, the sign ``v``'s (CPython's own branch
+    of ``math.atan2``, before the C library's ``atan2``); where ``u`` is +-0.0 and ``v`` is
+    not zero nor NaN, +-pi/2 (C99 F.9.1.4, exact in the C library; tests check it).
+    Elsewhere one ``math.atan2`` call per item (numpy's ``arctan2`` differs from it in the
+    last bit for some arguments)."""
+    np = _numpy()
+    out = np.copysign(np.where(np.signbit(u), math.pi, 0.0), v)
+    upright = (u == 0.0) & (np.abs(v) > 0.0)
+    out[upright] = np.copysign(math.pi / 2, v[upright])
+    general = np.flatnonzero(~(((v == 0.0) & (u == u)) | upright))
+    if len(general):
+        general = rows(general, len(out))
+        out[general] = map_floats(math.atan2, v[general].tolist(), u[general].tolist())
+    return out
 
 
 def map_floats(function: Callable[..., float], first: Sequence[Any], *rest: Iterable[Any]) -> Any:
@@ -435,16 +470,8 @@ def move_run(
             offset[line_of[mask]] = values[mask] * factor
             centers[:, axis] = starts[:, axis] + offset
         arc_starts, arc_ends, arc_centers = starts[arc_rows], ends[arc_rows], centers[arc_rows]
-        r0 = map_floats(
-            math.hypot,
-            (arc_starts[:, 0] - arc_centers[:, 0]).tolist(),
-            (arc_starts[:, 1] - arc_centers[:, 1]).tolist(),
-        )
-        r1 = map_floats(
-            math.hypot,
-            (arc_ends[:, 0] - arc_centers[:, 0]).tolist(),
-            (arc_ends[:, 1] - arc_centers[:, 1]).tolist(),
-        )
+        r0 = xy_hypot(arc_starts[:, 0] - arc_centers[:, 0], arc_starts[:, 1] - arc_centers[:, 1])
+        r1 = xy_hypot(arc_ends[:, 0] - arc_centers[:, 0], arc_ends[:, 1] - arc_centers[:, 1])
         radii[arc_rows] = r0
         tolerance = (
             ARC_END_TOLERANCE_INCH * MM_PER_INCH if state.units == "inch" else ARC_END_TOLERANCE_MM
