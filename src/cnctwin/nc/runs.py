@@ -552,17 +552,20 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
     # only (value 0); the other words: float() of their text.
     g_at = np.flatnonzero(which == ord("g"))
     n_at = np.flatnonzero(which == ord("n"))
-    for at, accepted in ((g_at, grammar.g_words.__contains__), (n_at, bytes.isdigit)):
-        if len(at) == 0:
-            continue
-        picked = _pick(tokens, at)
-        fits = np.fromiter(map(accepted, picked), dtype=bool, count=len(at))
+    if len(g_at):
+        g_values = np.fromiter(
+            map(grammar.g_words.get, _pick(tokens, g_at), repeat(-1.0)),
+            dtype=float,
+            count=len(g_at),
+        )
+        values[g_at] = g_values
+        misfits = np.flatnonzero(g_values < 0.0)  # -1: not a G word of the grammar
+        if len(misfits):
+            limit = min(limit, int(line_of[g_at[misfits[0]]]))
+    if len(n_at):
+        fits = np.fromiter(map(bytes.isdigit, _pick(tokens, n_at)), dtype=bool, count=len(n_at))
         if not fits.all():
-            limit = min(limit, int(line_of[at[np.argmin(fits)]]))
-        if at is g_at:
-            values[at] = np.fromiter(
-                map(grammar.g_words.get, picked, repeat(-1.0)), dtype=float, count=len(at)
-            )
+            limit = min(limit, int(line_of[n_at[np.argmin(fits)]]))
     rest = np.flatnonzero((which != ord("g")) & (which != ord("n")))
     try:
         values[rest] = map_floats(float, _pick(tokens, rest))
