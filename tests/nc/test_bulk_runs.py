@@ -429,3 +429,33 @@ def test_xy_hypot_and_atan2_are_maths_to_the_bit(pairs: list[tuple[float, float]
     v = np.array([p[1] for p in pairs])
     assert repr(xy_hypot(u, v).tolist()) == repr([math.hypot(a, b) for a, b in pairs])
     assert repr(xy_atan2(v, u).tolist()) == repr([math.atan2(b, a) for a, b in pairs])
+
+
+number_text = st.one_of(
+    st.floats(allow_nan=False, allow_infinity=False).map(lambda x: f"{x:f}"),
+    st.floats(-1e4, 1e4).map(repr).filter(lambda t: "e" not in t),
+    st.text("0123456789.+-", min_size=1, max_size=24),
+    st.sampled_from(["-0", "+0", "-0.0", ".5", "5.", "-.5", "0000000000000000001", "1" * 16]),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(number_text, min_size=1, max_size=40))
+def test_numbers_read_in_bulk_are_float_of_their_text(texts: list[str]) -> None:
+    """:func:`cnctwin.nc.runs._numbers` gives ``float()`` of each number by ``repr`` (the
+    integer over a power of ten up to 15 digits, ``float()`` beyond), says which ones
+    ``float()`` refuses and which are digits only."""
+    from cnctwin.nc import runs
+
+    head = "".join(f"X{text}\n" if i % 2 else f" Y {text}\r\n" for i, text in enumerate(texts))
+    values, digits_only, refused, _ = runs._numbers(head.encode())
+    for text, value, plain, wrong in zip(
+        texts, values.tolist(), digits_only.tolist(), refused.tolist(), strict=True
+    ):
+        assert plain == text.isdigit()
+        try:
+            expected = float(text)
+        except ValueError:
+            assert wrong
+        else:
+            assert not wrong and repr(value) == repr(expected)

@@ -32,8 +32,6 @@ import math
 import re
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
-from itertools import repeat
-from operator import itemgetter
 from typing import TYPE_CHECKING, Any
 
 from cnctwin.nc.arcs import (
@@ -71,28 +69,35 @@ _FIRST_WINDOW = 4096
 _BAD, _LETTER_NG, _LETTER, _NUMBER, _BLANK, _CR, _EOL = range(7)
 _ALL_BYTES = bytes(range(256))
 _TWO_PI = 2.0 * math.pi
+#: Most digits of a G word a run takes (zeros in front of its number included).
+_G_DIGITS = 8
+#: Most digits of a number read by :func:`_numbers` as an integer over a power of ten:
+#: below 2**53 and 10**22, so both are exact doubles and their quotient, rounded once, is
+#: the correctly rounded value of the text, as ``float()`` gives it (Clinger 1990).
+_EXACT_DIGITS = 15
 _np: Any = None
 _WRONG_PAIRS: Any = None
+_NUMBER_BYTES: Any = None
+_POWERS_OF_TEN: Any = None
 
 
 class _Grammar:
     """The lines of one kind of run: their letters, word order and G words."""
 
     def __init__(
-        self, letters: bytes, order: bytes, g_words: tuple[bytes, ...], needed: bytes
+        self, letters: bytes, order: bytes, g_numbers: tuple[int, ...], needed: bytes
     ) -> None:
         self.letters = letters + letters.lower()
         #: Finds one of the letters every such line has.
         self.needed = re.compile(b"[" + needed + needed.lower() + b"]")
         #: The letters of a line, in order, as the per-line fast path accepts them.
         self.order = re.compile(order)
-        #: bytes.translate tables: keep only letters and line ends; letters to blanks.
+        #: bytes.translate table: keep only letters and line ends.
         self.not_letters = bytes(b for b in _ALL_BYTES if b not in self.letters + b"\n")
-        self.to_blanks = bytes.maketrans(self.letters, b" " * len(self.letters))
         #: Every byte such a line may hold, but its LF.
         self.alphabet = self.letters + b"0123456789.+- \t\r"
-        #: The numbers of the G words taken (the codes, zeros in front), and their values.
-        self.g_words = {b"0" * zeros + g: float(g) for zeros in range(8) for g in g_words}
+        #: The numbers of the G words taken (digits only, at most :data:`_G_DIGITS`).
+        self.g_numbers = g_numbers
         self.classes: Any = None
 
     def byte_classes(self, np: Any) -> Any:
@@ -118,7 +123,7 @@ _MOVES = _Grammar(
     # (Written so that the regular expression need not backtrack: X Y Z words, then F or
     # I J words or neither; or I J words alone.)
     rb"[nN]?[gG]?(?:(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])(?:[iI][jJ]?|[jJ]|[fF])?|[iI][jJ]?|[jJ])",
-    (b"0", b"1", b"2", b"3"),
+    (0, 1, 2, 3),
     b"XYZIJ",
 )
 
@@ -139,10 +144,13 @@ def _wrong_pair(before: int, after: int, apart: bool) -> bool:
 
 def _numpy() -> Any:
     """numpy, imported on first use."""
-    global _np, _WRONG_PAIRS
+    global _np, _WRONG_PAIRS, _NUMBER_BYTES, _POWERS_OF_TEN
     if _np is None:
         import numpy
 
+        _NUMBER_BYTES = numpy.zeros(256, dtype=bool)
+        _NUMBER_BYTES[list(b"0123456789.+-")] = True
+        _POWERS_OF_TEN = 10.0 ** numpy.arange(_EXACT_DIGITS + 1)
         _WRONG_PAIRS = numpy.array(
             [_wrong_pair(k // 14, k // 2 % 7, bool(k % 2)) for k in range(98)], dtype=bool
         )
@@ -541,35 +549,24 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
     n = head.count(b"\n")
     if n < MIN_RUN_LINES:
         return max(n, 1)
-    tokens = head.translate(grammar.to_blanks).split()
     layout = head.translate(None, grammar.not_letters)
     which = np.frombuffer(layout.replace(b"\n", b""), dtype=np.uint8) | 0x20
     per_line = np.diff(np.flatnonzero(np.frombuffer(layout, dtype=np.uint8) == 10), prepend=-1)
     line_of = np.repeat(np.arange(n), per_line - 1)
     limit = n
-    values = np.zeros(len(tokens))
+    values, digits_only, refused, digits = _numbers(head)
     # G words: those of the grammar (their G number as value), digits only; N words: digits
     # only (value 0); the other words: float() of their text.
     g_at = np.flatnonzero(which == ord("g"))
+    g_fits = (
+        digits_only[g_at] & (digits[g_at] <= _G_DIGITS) & np.isin(values[g_at], grammar.g_numbers)
+    )
     n_at = np.flatnonzero(which == ord("n"))
-    if len(g_at):
-        g_values = np.fromiter(
-            map(grammar.g_words.get, _pick(tokens, g_at), repeat(-1.0)),
-            dtype=float,
-            count=len(g_at),
-        )
-        values[g_at] = g_values
-        misfits = np.flatnonzero(g_values < 0.0)  # -1: not a G word of the grammar
-        if len(misfits):
-            limit = min(limit, int(line_of[g_at[misfits[0]]]))
-    if len(n_at):
-        fits = np.fromiter(map(bytes.isdigit, _pick(tokens, n_at)), dtype=bool, count=len(n_at))
+    values[n_at] = 0.0
+    for at, fits in ((g_at, g_fits), (n_at, digits_only[n_at])):
         if not fits.all():
-            limit = min(limit, int(line_of[n_at[np.argmin(fits)]]))
-    rest = np.flatnonzero((which != ord("g")) & (which != ord("n")))
-    try:
-        values[rest] = map_floats(float, _pick(tokens, rest))
-    except ValueError:
+            limit = min(limit, int(line_of[at[np.argmin(fits)]]))
+    if refused[(which != ord("g")) & (which != ord("n"))].any():
         return n
     return head, n, values, which, line_of, limit
 
@@ -580,13 +577,52 @@ def rows(at: Any, n: int) -> Any:
     return slice(None) if len(at) == n else at
 
 
-def _pick(tokens: list[bytes], at: Any) -> tuple[bytes, ...] | list[bytes]:
-    """``tokens`` at the indices ``at`` (a numpy array)."""
-    if len(at) == len(tokens):
-        return tokens
-    if len(at) == 1:
-        return [tokens[int(at[0])]]
-    return itemgetter(*at.tolist())(tokens)  # type: ignore[no-any-return]
+def _numbers(head: bytes) -> tuple[Any, Any, Any, Any]:
+    """The numbers of the words of ``head`` (complete lines whose characters and word
+    order :func:`_valid_prefix` accepted: each word's number follows its letter, and a
+    number is one piece of the characters ``0-9 . + -``), in order, each (n,) numpy:
+    ``float()`` of its text (where that accepts it), whether it is digits only, whether
+    ``float()`` refuses it (a sign not in front, two dots, no digit) and its digits.
+
+    A number of at most :data:`_EXACT_DIGITS` digits is its digits as an integer divided
+    by ten to the power of its digits after the dot, negated after a minus (``-0`` gives
+    -0.0, as ``float()``): the correctly rounded quotient of two exact doubles is the
+    correctly rounded value of the text (Clinger, "How to read floating point numbers
+    accurately", PLDI 1990). A longer number is read by ``float()``. The digits are read
+    column by column (the first characters of all numbers, then the second, ...)."""
+    np = _numpy()
+    a = np.frombuffer(head, dtype=np.uint8)
+    number = _NUMBER_BYTES[a]
+    # Each number starts and ends where a byte of one and one of none meet (the lines
+    # start with a letter or a blank and end with LF).
+    edges = np.flatnonzero(number[1:] != number[:-1]) + 1
+    starts, ends = edges[0::2], edges[1::2]
+    length = ends - starts
+    count = len(starts)
+    integer = np.zeros(count, dtype=np.int64)
+    after_dot = np.zeros(count, dtype=np.int64)
+    digits = np.zeros(count, dtype=np.int64)
+    dotted = np.zeros(count, dtype=bool)
+    refused = np.zeros(count, dtype=bool)
+    for column in range(int(length.max(initial=0))):
+        inside = length > column
+        char = a[np.minimum(starts + column, len(a) - 1)]
+        digit = char - np.uint8(48)
+        is_digit = (digit <= 9) & inside
+        integer = np.where(is_digit, integer * 10 + digit, integer)
+        digits += is_digit
+        after_dot += is_digit & dotted
+        dot = (char == 46) & inside
+        refused |= dot & dotted
+        dotted |= dot
+        if column:
+            refused |= ((char == 43) | (char == 45)) & inside
+    refused |= digits == 0
+    values = integer / _POWERS_OF_TEN[np.minimum(after_dot, _EXACT_DIGITS)]
+    np.negative(values, out=values, where=a[starts] == 45)
+    for i in np.flatnonzero((digits > _EXACT_DIGITS) & ~refused).tolist():
+        values[i] = float(head[starts[i] : ends[i]])
+    return values, digits == length, refused, digits
 
 
 def _codes(
