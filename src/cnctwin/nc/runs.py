@@ -7,13 +7,15 @@ CAM output is mostly long runs of lines such as ``G1 X12.5 Y-3.25``, often with 
 an optional G0/G1, X, Y, Z and F words (at least one of X, Y, Z), in that order, or of an
 optional N word, an optional G2/G3, X, Y, Z, I, J words (I or J at least; XY plane), in any
 mix: lines the interpreter's per-line fast paths take (``_XYZ_LINE`` and ``_ARC_LINE`` in
-:mod:`cnctwin.nc.interpreter`). It checks them with numpy over the bytes, converts their
-words with ``float()`` and computes the machine positions, feeds and arc centres of the whole
-run. :func:`cnctwin.nc.summary.summarize` sums a run without making a segment per line;
-``segments()`` gives the segments the line-by-line path gives. Every number is computed with
-the same floating-point operations in the same order as on the line-by-line path (Motion.
-xyz_move, Motion.arc, ``arc_sweep_rad``), so the results are equal to the bit
-(``tests/nc/test_bulk_runs.py`` compares both ways).
+:mod:`cnctwin.nc.interpreter`). It checks them with numpy over the bytes, reads their
+numbers with numpy to the values ``float()`` gives (:func:`_numbers`) and computes the machine
+positions, feeds and arc centres of the whole run. :func:`cnctwin.nc.summary.summarize`
+sums a run without making a segment per line; ``segments()`` gives the segments the
+line-by-line path gives. Every number is that of the line-by-line path (Motion.xyz_move,
+Motion.arc, ``arc_sweep_rad``) to the bit: the same floating-point operations in the same
+order, or, for the words' values, ``math.hypot`` and ``math.atan2``, operations that give
+the same bits (:func:`_numbers`, :func:`xy_hypot`, :func:`xy_atan2`);
+``tests/nc/test_bulk_runs.py`` compares both ways.
 
 A run ends before the first line that is not such a line, that the line-by-line path would
 refuse or treat otherwise (a line over :data:`~cnctwin.nc.limits.MAX_NUMBER_CHARS`
@@ -556,7 +558,7 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
     limit = n
     values, digits_only, refused, digits = _numbers(head)
     # G words: those of the grammar (their G number as value), digits only; N words: digits
-    # only (value 0); the other words: float() of their text.
+    # only (value 0); the other words: float() of their text (none if float() refuses one).
     g_at = np.flatnonzero(which == ord("g"))
     g_fits = (
         digits_only[g_at] & (digits[g_at] <= _G_DIGITS) & np.isin(values[g_at], grammar.g_numbers)
