@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 
 from cnctwin.errors import NCError
 from cnctwin.nc.interpreter import Interpreter
-from cnctwin.nc.runs import MIN_RUN_LINES, MoveRun, arc_sweeps
+from cnctwin.nc.runs import MIN_RUN_LINES, MoveRun, arc_sweeps, xy_atan2, xy_hypot
 from cnctwin.nc.segments import Plane, Segment, arc_sweep_rad
 from cnctwin.nc.setup import NCSetup, ToolEntry
 from cnctwin.nc.summary import summarize
@@ -407,5 +407,55 @@ def test_arc_sweeps_equal_the_one_arc_function(arcs: list[tuple[float, ...]]) ->
 @settings(max_examples=300, deadline=None)
 @given(st.floats(allow_nan=False, allow_infinity=False), st.sampled_from([0.0, -0.0]))
 def test_hypot_with_a_zero_is_abs_to_the_bit(a: float, zero: float) -> None:
-    """The bulk summary takes ``abs`` for ``math.hypot`` of a flat arc's length."""
+    """The bulk summary takes ``abs`` for ``math.hypot`` of a flat arc's length, and
+    :func:`xy_hypot` for a radius with a zero offset, in either order."""
     assert repr(math.hypot(a, zero)) == repr(abs(a))
+    assert repr(math.hypot(zero, a)) == repr(abs(a))
+
+
+special = st.sampled_from(
+    [0.0, -0.0, 5e-324, -5e-324, 1e308, -1e308, math.inf, -math.inf, math.nan, math.pi, -2.5]
+)
+pair_item = st.one_of(st.floats(), special, special)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(pair_item, pair_item), min_size=1, max_size=40))
+def test_xy_hypot_and_atan2_are_maths_to_the_bit(pairs: list[tuple[float, float]]) -> None:
+    """:func:`xy_hypot` and :func:`xy_atan2` (no call per item where one side is a zero)
+    give ``math.hypot`` and ``math.atan2`` of each pair by ``repr``: zeros of both signs,
+    NaN, infinities and subnormals among the pairs."""
+    u = np.array([p[0] for p in pairs])
+    v = np.array([p[1] for p in pairs])
+    assert repr(xy_hypot(u, v).tolist()) == repr([math.hypot(a, b) for a, b in pairs])
+    assert repr(xy_atan2(v, u).tolist()) == repr([math.atan2(b, a) for a, b in pairs])
+
+
+number_text = st.one_of(
+    st.floats(allow_nan=False, allow_infinity=False).map(lambda x: f"{x:f}"),
+    st.floats(-1e4, 1e4).map(repr).filter(lambda t: "e" not in t),
+    st.text("0123456789.+-", min_size=1, max_size=24),
+    st.sampled_from(["-0", "+0", "-0.0", ".5", "5.", "-.5", "0000000000000000001", "1" * 16]),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(number_text, min_size=1, max_size=40))
+def test_numbers_read_in_bulk_are_float_of_their_text(texts: list[str]) -> None:
+    """:func:`cnctwin.nc.runs._numbers` gives ``float()`` of each number by ``repr`` (the
+    integer over a power of ten up to 15 digits, ``float()`` beyond), says which ones
+    ``float()`` refuses and which are digits only."""
+    from cnctwin.nc import runs
+
+    head = "".join(f"X{text}\n" if i % 2 else f" Y {text}\r\n" for i, text in enumerate(texts))
+    values, digits_only, refused, _ = runs._numbers(head.encode())
+    for text, value, plain, wrong in zip(
+        texts, values.tolist(), digits_only.tolist(), refused.tolist(), strict=True
+    ):
+        assert plain == text.isdigit()
+        try:
+            expected = float(text)
+        except ValueError:
+            assert wrong
+        else:
+            assert not wrong and repr(value) == repr(expected)

@@ -7,13 +7,15 @@ CAM output is mostly long runs of lines such as ``G1 X12.5 Y-3.25``, often with 
 an optional G0/G1, X, Y, Z and F words (at least one of X, Y, Z), in that order, or of an
 optional N word, an optional G2/G3, X, Y, Z, I, J words (I or J at least; XY plane), in any
 mix: lines the interpreter's per-line fast paths take (``_XYZ_LINE`` and ``_ARC_LINE`` in
-:mod:`cnctwin.nc.interpreter`). It checks them with numpy over the bytes, converts their
-words with ``float()`` and computes the machine positions, feeds and arc centres of the whole
-run. :func:`cnctwin.nc.summary.summarize` sums a run without making a segment per line;
-``segments()`` gives the segments the line-by-line path gives. Every number is computed with
-the same floating-point operations in the same order as on the line-by-line path (Motion.
-xyz_move, Motion.arc, ``arc_sweep_rad``), so the results are equal to the bit
-(``tests/nc/test_bulk_runs.py`` compares both ways).
+:mod:`cnctwin.nc.interpreter`). It checks them with numpy over the bytes, reads their
+numbers with numpy to the values ``float()`` gives (:func:`_numbers`) and computes the machine
+positions, feeds and arc centres of the whole run. :func:`cnctwin.nc.summary.summarize`
+sums a run without making a segment per line; ``segments()`` gives the segments the
+line-by-line path gives. Every number is that of the line-by-line path (Motion.xyz_move,
+Motion.arc, ``arc_sweep_rad``) to the bit: the same floating-point operations in the same
+order, or, for the words' values, ``math.hypot`` and ``math.atan2``, operations that give
+the same bits (:func:`_numbers`, :func:`xy_hypot`, :func:`xy_atan2`);
+``tests/nc/test_bulk_runs.py`` compares both ways.
 
 A run ends before the first line that is not such a line, that the line-by-line path would
 refuse or treat otherwise (a line over :data:`~cnctwin.nc.limits.MAX_NUMBER_CHARS`
@@ -32,8 +34,6 @@ import math
 import re
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
-from itertools import repeat
-from operator import itemgetter
 from typing import TYPE_CHECKING, Any
 
 from cnctwin.nc.arcs import (
@@ -57,6 +57,8 @@ __all__ = [
     "map_floats",
     "move_run",
     "rows",
+    "xy_atan2",
+    "xy_hypot",
 ]
 
 #: Fewer lines than this are not worth a run (numpy's fixed cost per call).
@@ -69,28 +71,35 @@ _FIRST_WINDOW = 4096
 _BAD, _LETTER_NG, _LETTER, _NUMBER, _BLANK, _CR, _EOL = range(7)
 _ALL_BYTES = bytes(range(256))
 _TWO_PI = 2.0 * math.pi
+#: Most digits of a G word a run takes (zeros in front of its number included).
+_G_DIGITS = 8
+#: Most digits of a number read by :func:`_numbers` as an integer over a power of ten:
+#: below 2**53 and 10**22, so both are exact doubles and their quotient, rounded once, is
+#: the correctly rounded value of the text, as ``float()`` gives it (Clinger 1990).
+_EXACT_DIGITS = 15
 _np: Any = None
 _WRONG_PAIRS: Any = None
+_NUMBER_BYTES: Any = None
+_POWERS_OF_TEN: Any = None
 
 
 class _Grammar:
     """The lines of one kind of run: their letters, word order and G words."""
 
     def __init__(
-        self, letters: bytes, order: bytes, g_words: tuple[bytes, ...], needed: bytes
+        self, letters: bytes, order: bytes, g_numbers: tuple[int, ...], needed: bytes
     ) -> None:
         self.letters = letters + letters.lower()
         #: Finds one of the letters every such line has.
         self.needed = re.compile(b"[" + needed + needed.lower() + b"]")
         #: The letters of a line, in order, as the per-line fast path accepts them.
         self.order = re.compile(order)
-        #: bytes.translate tables: keep only letters and line ends; letters to blanks.
+        #: bytes.translate table: keep only letters and line ends.
         self.not_letters = bytes(b for b in _ALL_BYTES if b not in self.letters + b"\n")
-        self.to_blanks = bytes.maketrans(self.letters, b" " * len(self.letters))
         #: Every byte such a line may hold, but its LF.
         self.alphabet = self.letters + b"0123456789.+- \t\r"
-        #: The numbers of the G words taken (the codes, zeros in front), and their values.
-        self.g_words = {b"0" * zeros + g: float(g) for zeros in range(8) for g in g_words}
+        #: The numbers of the G words taken (digits only, at most :data:`_G_DIGITS`).
+        self.g_numbers = g_numbers
         self.classes: Any = None
 
     def byte_classes(self, np: Any) -> Any:
@@ -116,7 +125,7 @@ _MOVES = _Grammar(
     # (Written so that the regular expression need not backtrack: X Y Z words, then F or
     # I J words or neither; or I J words alone.)
     rb"[nN]?[gG]?(?:(?:[xX][yY]?[zZ]?|[yY][zZ]?|[zZ])(?:[iI][jJ]?|[jJ]|[fF])?|[iI][jJ]?|[jJ])",
-    (b"0", b"1", b"2", b"3"),
+    (0, 1, 2, 3),
     b"XYZIJ",
 )
 
@@ -137,10 +146,13 @@ def _wrong_pair(before: int, after: int, apart: bool) -> bool:
 
 def _numpy() -> Any:
     """numpy, imported on first use."""
-    global _np, _WRONG_PAIRS
+    global _np, _WRONG_PAIRS, _NUMBER_BYTES, _POWERS_OF_TEN
     if _np is None:
         import numpy
 
+        _NUMBER_BYTES = numpy.zeros(256, dtype=bool)
+        _NUMBER_BYTES[list(b"0123456789.+-")] = True
+        _POWERS_OF_TEN = 10.0 ** numpy.arange(_EXACT_DIGITS + 1)
         _WRONG_PAIRS = numpy.array(
             [_wrong_pair(k // 14, k // 2 % 7, bool(k % 2)) for k in range(98)], dtype=bool
         )
@@ -254,28 +266,61 @@ def arc_sweeps(
 ) -> tuple[Any, Any, Any]:
     """:func:`~cnctwin.nc.segments.arc_sweep_rad` of many XY-plane arcs of one turn at
     most (``turns`` +-1): (n, 3) start, end and centre points (mm, numpy) to radius (mm),
-    start angle and sweep (rad), each (n,), with the same operations (``math.atan2``,
-    ``math.hypot``, Python's ``%``) as the one-arc function. ``radius`` (mm, (n,)), if
-    given, is the ``math.hypot`` of the start's offset from the centre, already computed.
+    start angle and sweep (rad), each (n,), with the same numbers as the one-arc function
+    (``math.atan2`` through :func:`xy_atan2`, ``math.hypot`` through :func:`xy_hypot`,
+    Python's ``%``). ``radius`` (mm, (n,)), if given, is the ``math.hypot`` of the start's
+    offset from the centre, already computed.
 
     numpy's ``mod`` is Python's float ``%`` (``fmod``, then the divisor added when the signs
-    differ), bit for bit; numpy's ``arctan2`` and ``hypot`` are not ``math``'s (they differ
-    in the last bit for some arguments), so those stay ``math``'s, one call per arc."""
+    differ), bit for bit."""
     np = _numpy()
-    u0 = (start[:, 0] - center[:, 0]).tolist()
-    v0 = (start[:, 1] - center[:, 1]).tolist()
-    u1 = (end[:, 0] - center[:, 0]).tolist()
-    v1 = (end[:, 1] - center[:, 1]).tolist()
-    a0 = map_floats(math.atan2, v0, u0)
-    a1 = map_floats(math.atan2, v1, u1)
+    u0 = start[:, 0] - center[:, 0]
+    v0 = start[:, 1] - center[:, 1]
+    a0 = xy_atan2(v0, u0)
+    a1 = xy_atan2(end[:, 1] - center[:, 1], end[:, 0] - center[:, 0])
     if radius is None:
-        radius = map_floats(math.hypot, u0, v0)
+        radius = xy_hypot(u0, v0)
     ccw = np.mod(a1 - a0, _TWO_PI)
     cw = _TWO_PI - ccw
     ccw[(ccw <= 1e-12) | (ccw >= _TWO_PI - 1e-12)] = _TWO_PI
     cw[(cw <= 1e-12) | (cw >= _TWO_PI - 1e-12)] = _TWO_PI
     sweep = np.where(turns > 0, ccw + 0.0, -(cw + 0.0))
     return radius, a0, sweep
+
+
+def xy_hypot(u: Any, v: Any) -> Any:
+    """``math.hypot(u[i], v[i])`` of two (n,) numpy arrays (mm), bit for bit, as a numpy
+    array. Where ``u`` or ``v`` is +-0.0 it is the other's ``abs`` (``math.hypot`` of a
+    number and a zero is its ``abs`` to the bit: a scaling by a power of two, an exact
+    square and a correctly rounded root), with no call per item; elsewhere one
+    ``math.hypot`` call per item (numpy's ``hypot`` differs from it in the last bit for
+    some arguments)."""
+    np = _numpy()
+    out = np.abs(np.where(u == 0.0, v, u))
+    general = np.flatnonzero((u != 0.0) & (v != 0.0))
+    if len(general):
+        general = rows(general, len(out))
+        out[general] = map_floats(math.hypot, u[general].tolist(), v[general].tolist())
+    return out
+
+
+def xy_atan2(v: Any, u: Any) -> Any:
+    """``math.atan2(v[i], u[i])`` of two (n,) numpy arrays, bit for bit, as a numpy array
+    of angles (rad). With no call per item: where ``v`` is +-0.0 (and ``u`` is not NaN),
+    +-0.0 when ``u``'s sign bit is clear, else +-pi, the sign ``v``'s (CPython's own branch
+    of ``math.atan2``, before the C library's ``atan2``); where ``u`` is +-0.0 and ``v`` is
+    not zero nor NaN, +-pi/2 (C99 F.9.1.4, exact in the C library; tests check it).
+    Elsewhere one ``math.atan2`` call per item (numpy's ``arctan2`` differs from it in the
+    last bit for some arguments)."""
+    np = _numpy()
+    out = np.copysign(np.where(np.signbit(u), math.pi, 0.0), v)
+    upright = (u == 0.0) & (np.abs(v) > 0.0)
+    out[upright] = np.copysign(math.pi / 2, v[upright])
+    general = np.flatnonzero(~(((v == 0.0) & (u == u)) | upright))
+    if len(general):
+        general = rows(general, len(out))
+        out[general] = map_floats(math.atan2, v[general].tolist(), u[general].tolist())
+    return out
 
 
 def map_floats(function: Callable[..., float], first: Sequence[Any], *rest: Iterable[Any]) -> Any:
@@ -435,16 +480,8 @@ def move_run(
             offset[line_of[mask]] = values[mask] * factor
             centers[:, axis] = starts[:, axis] + offset
         arc_starts, arc_ends, arc_centers = starts[arc_rows], ends[arc_rows], centers[arc_rows]
-        r0 = map_floats(
-            math.hypot,
-            (arc_starts[:, 0] - arc_centers[:, 0]).tolist(),
-            (arc_starts[:, 1] - arc_centers[:, 1]).tolist(),
-        )
-        r1 = map_floats(
-            math.hypot,
-            (arc_ends[:, 0] - arc_centers[:, 0]).tolist(),
-            (arc_ends[:, 1] - arc_centers[:, 1]).tolist(),
-        )
+        r0 = xy_hypot(arc_starts[:, 0] - arc_centers[:, 0], arc_starts[:, 1] - arc_centers[:, 1])
+        r1 = xy_hypot(arc_ends[:, 0] - arc_centers[:, 0], arc_ends[:, 1] - arc_centers[:, 1])
         radii[arc_rows] = r0
         tolerance = (
             ARC_END_TOLERANCE_INCH * MM_PER_INCH if state.units == "inch" else ARC_END_TOLERANCE_MM
@@ -514,32 +551,24 @@ def _words(grammar: _Grammar, data: bytes) -> tuple[bytes, int, Any, Any, Any, i
     n = head.count(b"\n")
     if n < MIN_RUN_LINES:
         return max(n, 1)
-    tokens = head.translate(grammar.to_blanks).split()
     layout = head.translate(None, grammar.not_letters)
     which = np.frombuffer(layout.replace(b"\n", b""), dtype=np.uint8) | 0x20
     per_line = np.diff(np.flatnonzero(np.frombuffer(layout, dtype=np.uint8) == 10), prepend=-1)
     line_of = np.repeat(np.arange(n), per_line - 1)
     limit = n
-    values = np.zeros(len(tokens))
+    values, digits_only, refused, digits = _numbers(head)
     # G words: those of the grammar (their G number as value), digits only; N words: digits
-    # only (value 0); the other words: float() of their text.
+    # only (value 0); the other words: float() of their text (none if float() refuses one).
     g_at = np.flatnonzero(which == ord("g"))
+    g_fits = (
+        digits_only[g_at] & (digits[g_at] <= _G_DIGITS) & np.isin(values[g_at], grammar.g_numbers)
+    )
     n_at = np.flatnonzero(which == ord("n"))
-    for at, accepted in ((g_at, grammar.g_words.__contains__), (n_at, bytes.isdigit)):
-        if len(at) == 0:
-            continue
-        picked = _pick(tokens, at)
-        fits = np.fromiter(map(accepted, picked), dtype=bool, count=len(at))
+    values[n_at] = 0.0
+    for at, fits in ((g_at, g_fits), (n_at, digits_only[n_at])):
         if not fits.all():
             limit = min(limit, int(line_of[at[np.argmin(fits)]]))
-        if at is g_at:
-            values[at] = np.fromiter(
-                map(grammar.g_words.get, picked, repeat(-1.0)), dtype=float, count=len(at)
-            )
-    rest = np.flatnonzero((which != ord("g")) & (which != ord("n")))
-    try:
-        values[rest] = map_floats(float, _pick(tokens, rest))
-    except ValueError:
+    if refused[(which != ord("g")) & (which != ord("n"))].any():
         return n
     return head, n, values, which, line_of, limit
 
@@ -550,13 +579,52 @@ def rows(at: Any, n: int) -> Any:
     return slice(None) if len(at) == n else at
 
 
-def _pick(tokens: list[bytes], at: Any) -> tuple[bytes, ...] | list[bytes]:
-    """``tokens`` at the indices ``at`` (a numpy array)."""
-    if len(at) == len(tokens):
-        return tokens
-    if len(at) == 1:
-        return [tokens[int(at[0])]]
-    return itemgetter(*at.tolist())(tokens)  # type: ignore[no-any-return]
+def _numbers(head: bytes) -> tuple[Any, Any, Any, Any]:
+    """The numbers of the words of ``head`` (complete lines whose characters and word
+    order :func:`_valid_prefix` accepted: each word's number follows its letter, and a
+    number is one piece of the characters ``0-9 . + -``), in order, each (n,) numpy:
+    ``float()`` of its text (where that accepts it), whether it is digits only, whether
+    ``float()`` refuses it (a sign not in front, two dots, no digit) and its digits.
+
+    A number of at most :data:`_EXACT_DIGITS` digits is its digits as an integer divided
+    by ten to the power of its digits after the dot, negated after a minus (``-0`` gives
+    -0.0, as ``float()``): the correctly rounded quotient of two exact doubles is the
+    correctly rounded value of the text (Clinger, "How to read floating point numbers
+    accurately", PLDI 1990). A longer number is read by ``float()``. The digits are read
+    column by column (the first characters of all numbers, then the second, ...)."""
+    np = _numpy()
+    a = np.frombuffer(head, dtype=np.uint8)
+    number = _NUMBER_BYTES[a]
+    # Each number starts and ends where a byte of one and one of none meet (the lines
+    # start with a letter or a blank and end with LF).
+    edges = np.flatnonzero(number[1:] != number[:-1]) + 1
+    starts, ends = edges[0::2], edges[1::2]
+    length = ends - starts
+    count = len(starts)
+    integer = np.zeros(count, dtype=np.int64)
+    after_dot = np.zeros(count, dtype=np.int64)
+    digits = np.zeros(count, dtype=np.int64)
+    dotted = np.zeros(count, dtype=bool)
+    refused = np.zeros(count, dtype=bool)
+    for column in range(int(length.max(initial=0))):
+        inside = length > column
+        char = a[np.minimum(starts + column, len(a) - 1)]
+        digit = char - np.uint8(48)
+        is_digit = (digit <= 9) & inside
+        integer = np.where(is_digit, integer * 10 + digit, integer)
+        digits += is_digit
+        after_dot += is_digit & dotted
+        dot = (char == 46) & inside
+        refused |= dot & dotted
+        dotted |= dot
+        if column:
+            refused |= ((char == 43) | (char == 45)) & inside
+    refused |= digits == 0
+    values = integer / _POWERS_OF_TEN[np.minimum(after_dot, _EXACT_DIGITS)]
+    np.negative(values, out=values, where=a[starts] == 45)
+    for i in np.flatnonzero((digits > _EXACT_DIGITS) & ~refused).tolist():
+        values[i] = float(head[starts[i] : ends[i]])
+    return values, digits == length, refused, digits
 
 
 def _codes(

@@ -25,8 +25,9 @@ from cnctwin.nc.limits import MAX_LINE_BYTES, MAX_PROGRAM_BYTES, MAX_REPEATED_LI
 
 __all__ = ["CHUNK_BYTES", "LineSource", "RepeatBudget"]
 
-#: Bytes read from the file at a time.
-CHUNK_BYTES = 65_536
+#: Bytes read from the file at a time; a run of moves read in bulk (:mod:`cnctwin.nc.runs`)
+#: is taken from one chunk, so larger chunks make fewer, longer runs.
+CHUNK_BYTES = 262_144
 _EOL = re.compile(rb"\r\n|\r|\n")
 _CR = 13
 
