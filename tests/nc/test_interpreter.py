@@ -840,6 +840,31 @@ def test_if_elseif_else(value: int, x: float) -> None:
     assert xs(program) == [x, x]
 
 
+@pytest.mark.parametrize(("value", "x"), [(0, 10.0), (1, 20.0), (2, 30.0)])
+def test_a_skipped_branch_finds_its_statements_however_written(value: int, x: float) -> None:
+    # Skipping a branch reads the statements as the lexer does: case, spaces and tabs,
+    # comments, statements of other labels and a program number are told apart.
+    program = (
+        f"#1={value}\n"
+        "O3 IF [#1 EQ 0]\nG0 X10\n"
+        "(o3 else) ; o3 endif\n"
+        "o33 if [1]\no33 endif\n"
+        "o 3\tElseIf [#1 eq 1]\nG0 X20\n"
+        "o1003\n"
+        "o3 (comment) else\nG0 X30\n"
+        "o<3> if [0]\no<3> endif\n"
+        "o3 endif ; done\nG0 Y1"
+    )
+    assert xs(program) == [x, x]
+
+
+def test_a_malformed_statement_in_a_skipped_branch_is_refused() -> None:
+    # The lexer refuses it wherever it stands, as when its branch runs.
+    with pytest.raises(NCError, match="unrecognised O-word statement 'o3nothing'") as caught:
+        run("o3 if [0]\no3 nothing\no3 endif\n")
+    assert caught.value.line == 2
+
+
 def test_break_and_continue() -> None:
     program = (
         "#1=0\n"

@@ -30,7 +30,7 @@ from cnctwin.nc.expressions import (
 )
 from cnctwin.nc.limits import MAX_NUMBER_CHARS, check_number_text, check_word
 
-__all__ = ["Block", "OWord", "lex_block", "strip_comments", "O_KEYWORDS"]
+__all__ = ["Block", "OWord", "lex_block", "read_oword", "strip_comments", "O_KEYWORDS"]
 
 _NUMBER = r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)"
 _SIMPLE_LINE = re.compile(rf"(?:[a-z@^]{_NUMBER})*")
@@ -245,6 +245,23 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
     steps = _compile_line(text)  # met again: compiled, evaluated from now on
     _COMPILED_LINES[raw] = (tuple(messages), steps)
     return _evaluate_line(messages, steps, params)
+
+
+def read_oword(text: str, params: Parameters) -> OWord | None:
+    """The O-word statement of a prepared line that starts with ``o`` (comments and white
+    space removed, lower case), as :func:`lex_block` reads it from that text: ``None`` for
+    a block without one (a program number such as ``o1003``).
+
+    Raises
+    ------
+    NCError
+        For a line that :func:`lex_block` refuses (an unrecognised O-word statement).
+    """
+    found = _O_WORD.match(text)
+    if found is not None:
+        return OWord(found.group(1), found.group(2), text, found.end())
+    lex_block(text, params)  # no statement: raises for a malformed line
+    return None
 
 
 def _sort_words(

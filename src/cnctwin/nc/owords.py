@@ -15,7 +15,7 @@ from typing import Any
 from cnctwin.errors import NCError
 from cnctwin.nc.cursor import ProgramCursor
 from cnctwin.nc.expressions import Parameters, read_value, read_value_once
-from cnctwin.nc.lexer import OWord, lex_block, strip_comments
+from cnctwin.nc.lexer import OWord, read_oword, strip_comments
 from cnctwin.nc.source import LineSource
 
 __all__ = ["OWordControl", "MAX_CALL_DEPTH", "MAX_LOOP_ITERATIONS"]
@@ -257,19 +257,22 @@ class OWordControl:
             low = raw.lower()
             if "o" not in low:
                 continue
-            try:
-                text = "".join(strip_comments(raw).split()).lower()
-            except NCError:
-                continue
+            if "(" in raw or ";" in raw:
+                try:
+                    text = "".join(strip_comments(raw).split()).lower()
+                except NCError:
+                    continue
+            else:
+                text = "".join(low.split())
             if not text.startswith("o"):
                 continue
-            block = lex_block(text, self._params) if text[1:2] else None
-            if block is None or block.oword is None or block.oword.label != label:
+            ow = read_oword(text, self._params) if text[1:2] else None
+            if ow is None or ow.label != label:
                 continue
-            if block.oword.keyword in keywords:
+            if ow.keyword in keywords:
                 if stop_before:
                     src.seek(start, lineno - 1)
-                return block.oword
+                return ow
         self._where.line = start_line
         raise self._where.error(f"o{label}: no matching o{label} {' or '.join(keywords)} found")
 
