@@ -865,6 +865,30 @@ def test_a_malformed_statement_in_a_skipped_branch_is_refused() -> None:
     assert caught.value.line == 2
 
 
+@pytest.mark.parametrize("comment", ["", " (note)"])
+def test_o_word_statements_read_alike_with_or_without_a_comment(comment: str) -> None:
+    # A statement without a comment is read apart from the lexer's blocks: written in
+    # capitals, with tabs, after a program number or reading system parameters, it runs
+    # as the same statement with a comment does.
+    program = (
+        f"O1003{comment}\n"
+        "G10 L2 P1 X2\n"
+        f"O1\tREPEAT [#5221 + 1]{comment}\nG91 G0 X1\nO1 ENDREPEAT{comment}\n"
+        f"o2 if [#5221 eq 2]{comment}\nG0 Y1\no2 endif{comment}\n"
+    )
+    # #5221 (G54 X) is 2: three incremental steps of X1 from X0, then the if's Y1.
+    assert [seg.end_mm for seg in segments(program)] == [
+        (1.0, 0.0, 0.0),
+        (2.0, 0.0, 0.0),
+        (3.0, 0.0, 0.0),
+        (3.0, 1.0, 0.0),
+    ]
+    with pytest.raises(NCError) as caught:
+        run(f"G0 X1\nO3 Nothing{comment}\n")
+    assert (caught.value.line, caught.value.column) == (2, 1)
+    assert caught.value.message.startswith("unrecognised O-word statement 'o3nothing'")
+
+
 def test_break_and_continue() -> None:
     program = (
         "#1=0\n"

@@ -28,7 +28,7 @@ from cnctwin.errors import NCError
 from cnctwin.nc.cursor import ProgramCursor
 from cnctwin.nc.executor import BlockExecutor
 from cnctwin.nc.expressions import Parameters
-from cnctwin.nc.lexer import lex_block
+from cnctwin.nc.lexer import lex_block, read_oword, squeeze
 from cnctwin.nc.limits import MAX_NUMBER_CHARS, WORD_LIMITS
 from cnctwin.nc.owords import OWordControl
 from cnctwin.nc.runs import MoveRun, move_run
@@ -59,6 +59,8 @@ _LENGTH_WORD_LIMIT = WORD_LIMITS["x"][0]
 _FEED_WORD_LIMIT = WORD_LIMITS["f"][0]
 #: What :meth:`Interpreter._block` asks of the line loop: go on, or read the new source.
 _NEXT, _SWITCH = 0, 1
+#: The first letters of a line that may be an O-word statement read in :meth:`Interpreter._block`.
+_O_LETTERS = ("o", "O")
 #: Lines without a look for a run of moves after a look that found none, at most.
 _MAX_BACKOFF = 4096
 
@@ -328,6 +330,12 @@ class Interpreter:
                 # Only lines that mention them refresh the system parameters (it costs a
                 # few microseconds).
                 executor.sync_parameters()
+            if raw[:1] in _O_LETTERS and "(" not in raw and ";" not in raw:
+                # An O-word statement without comments: read without a block.
+                statement = read_oword(squeeze(raw), self.params)
+                if statement is not None:
+                    self._started = True
+                    return _SWITCH if self._owords.execute(statement, src, start) else _NEXT
             block = lex_block(raw, self.params)
             if block is None:
                 if self._started and raw.strip() == "%":

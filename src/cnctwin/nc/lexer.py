@@ -30,7 +30,7 @@ from cnctwin.nc.expressions import (
 )
 from cnctwin.nc.limits import MAX_NUMBER_CHARS, check_number_text, check_word
 
-__all__ = ["Block", "OWord", "lex_block", "read_oword", "strip_comments", "O_KEYWORDS"]
+__all__ = ["Block", "OWord", "lex_block", "read_oword", "squeeze", "strip_comments", "O_KEYWORDS"]
 
 _NUMBER = r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)"
 _SIMPLE_LINE = re.compile(rf"(?:[a-z@^]{_NUMBER})*")
@@ -210,11 +210,7 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
     if compiled is not None and compiled is not _UNSEEN:
         return _evaluate_line(compiled[0], compiled[1], params)
     messages: list[tuple[str, str]] = []
-    text = strip_comments(raw, messages) if "(" in raw or ";" in raw else raw
-    text = text.replace(" ", "")
-    if "\t" in text or "\f" in text or "\v" in text:
-        text = "".join(text.split())
-    text = text.lower()
+    text = squeeze(strip_comments(raw, messages) if "(" in raw or ";" in raw else raw)
     if text.startswith("/"):
         # Block delete: the switch is off, so the block is executed.
         text = text[1:]
@@ -245,6 +241,15 @@ def lex_block(raw: str, params: Parameters) -> Block | None:
     steps = _compile_line(text)  # met again: compiled, evaluated from now on
     _COMPILED_LINES[raw] = (tuple(messages), steps)
     return _evaluate_line(messages, steps, params)
+
+
+def squeeze(text: str) -> str:
+    """A line without comments as its words are read: white space (spaces, tabs, form
+    and vertical feeds) removed, lower case."""
+    text = text.replace(" ", "")
+    if "\t" in text or "\f" in text or "\v" in text:
+        text = "".join(text.split())
+    return text.lower()
 
 
 def read_oword(text: str, params: Parameters) -> OWord | None:
