@@ -9,7 +9,8 @@ that names the construct and the line. The list is in ``docs/nc.md``.
 Segments are produced lazily: a program of any length is interpreted in constant memory.
 
 This module reads lines and dispatches them: plain G0/G1 and G2/G3 lines take raw-line fast
-paths that skip the lexer; other lines are lexed and handed to the O-word control
+paths that skip the lexer; other lines are lexed (of an O-word statement without comments,
+only the statement is read) and handed to the O-word control
 (:mod:`cnctwin.nc.owords`) or the block executor (:mod:`cnctwin.nc.executor`), which acts
 through the modal state (:mod:`~cnctwin.nc.modal`), offsets (:mod:`~cnctwin.nc.offsets`),
 tool state (:mod:`~cnctwin.nc.tool_state`), drilling cycles
