@@ -340,6 +340,11 @@ class MachineProcess:
         self._process: subprocess.Popen[str] | None = None
 
     @property
+    def pid(self) -> int | None:
+        """The child's process id; ``None`` before :meth:`spawn`."""
+        return None if self._process is None else self._process.pid
+
+    @property
     def speed_factor(self) -> float:
         """Machine seconds per wall second the machine runs at."""
         if self.speed is not None:
