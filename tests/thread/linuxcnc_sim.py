@@ -5,9 +5,12 @@
 unprivileged user (LinuxCNC refuses root; as root the user ``cnctwin-lcnc`` is created once,
 idempotently) in its own process group, and waits until linuxcncrsh listens. Only one LinuxCNC
 runs on a machine at a time (its HAL shared memory): a file lock serializes the processes
-that use it. :meth:`LinuxCncSim.stop` sends TERM to the process group (linuxcncrsh ends, and
-the ``linuxcnc`` script's own clean-up ends its servers and ``rtapi_app``, which run in
-sessions of their own), KILL after 60 s, and unloads what HAL left (``halrun -U``).
+that use it. :meth:`LinuxCncSim.run_through_nml` runs a program through LinuxCNC's own Python
+interface (:mod:`linuxcnc_nml_run`), so that a test can watch it without a second linuxcncrsh
+session beside the twin's. :meth:`LinuxCncSim.stop` sends TERM to the process group
+(linuxcncrsh ends, and the ``linuxcnc`` script's own clean-up ends its servers and
+``rtapi_app``, which run in sessions of their own), KILL after 60 s, and unloads what HAL left
+(``halrun -U``).
 
 :class:`Operator` is the person at the machine: its own linuxcncrsh session, written here
 from the protocol (``man linuxcncrsh``) and independent of :mod:`cnctwin.thread.linuxcnc`, that
@@ -33,6 +36,9 @@ from skips import missing
 
 USER = "cnctwin-lcnc"
 LOCK = Path(tempfile.gettempdir()) / "cnctwin-linuxcnc.lock"
+#: Debian's interpreter, where linuxcnc-uspace puts the ``linuxcnc`` module.
+SYSTEM_PYTHON = "/usr/bin/python3"
+NML_RUN = Path(__file__).with_name("linuxcnc_nml_run.py")
 LIMITS = {"X": (-50.0, 100.0), "Y": (-50.0, 100.0), "Z": (-50.0, 50.0)}
 
 INI = """\
@@ -151,8 +157,49 @@ class LinuxCncSim:
                 shutil.chown(path, self._user)
         self._launch()
 
+    @property
+    def alive(self) -> bool:
+        """Whether the ``linuxcnc`` script started here still runs."""
+        return self._proc is not None and self._proc.poll() is None
+
+    def log_tail(self, n_chars: int = 3000) -> str:
+        """The end of LinuxCNC's own output (its log in the folder), for a failure message."""
+        try:
+            return (self.folder / "linuxcnc.log").read_text(errors="replace")[-n_chars:]
+        except OSError as exc:
+            return f"(no LinuxCNC log: {exc})"
+
+    def ensure_running(self) -> None:
+        """Start LinuxCNC again if an earlier test's LinuxCNC died, so one crash fails one
+        test, not every later one."""
+        if not self.alive:
+            self._end(signal.SIGTERM)
+            self._launch()
+
+    def run_through_nml(self, program: Path, timeout_s: float) -> subprocess.Popen[str]:
+        """Start :mod:`linuxcnc_nml_run` on ``program``: its JSON lines come on stdout."""
+        probe = subprocess.run(
+            [SYSTEM_PYTHON, "-c", "import linuxcnc"], capture_output=True, check=False
+        )
+        if probe.returncode != 0:
+            missing(
+                f"{SYSTEM_PYTHON} has no linuxcnc module (Debian package linuxcnc-uspace)",
+                "CNCTWIN_REQUIRE_SERVICES",
+            )
+        return subprocess.Popen(
+            [*self._as_user(), SYSTEM_PYTHON, str(NML_RUN), str(program), str(timeout_s)],
+            cwd=self.folder,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+
+    def _as_user(self) -> list[str]:
+        return ["runuser", "-u", self._user, "--"] if self._user else []
+
     def _launch(self) -> None:
-        prefix = ["runuser", "-u", self._user, "--"] if self._user else []
+        prefix = self._as_user()
         home = pwd.getpwnam(self._user).pw_dir if self._user else os.environ.get("HOME", "/tmp")
         self._proc = subprocess.Popen(
             [*prefix, "env", f"HOME={home}", "linuxcnc", "sim.ini"],
@@ -210,7 +257,7 @@ class LinuxCncSim:
             proc.wait(timeout=10.0)
         with contextlib.suppress(ProcessLookupError):  # what the clean-up left in the group
             os.killpg(proc.pid, signal.SIGKILL)
-        prefix = ["runuser", "-u", self._user, "--"] if self._user else []
+        prefix = self._as_user()
         with contextlib.suppress(OSError, subprocess.TimeoutExpired):
             subprocess.run(
                 [*prefix, "halrun", "-U"], cwd=self.folder, capture_output=True, timeout=20.0
@@ -220,8 +267,9 @@ class LinuxCncSim:
 class Operator:
     """A linuxcncrsh session of its own: brings the machine up, runs programs, watches."""
 
-    def __init__(self, port: int) -> None:
-        self.sock = socket.create_connection(("127.0.0.1", port), timeout=10.0)
+    def __init__(self, sim: LinuxCncSim) -> None:
+        self.sim = sim
+        self.sock = socket.create_connection(("127.0.0.1", sim.port), timeout=10.0)
         self._buffer = b""
         assert self.ask("hello EMC operator 1.1").startswith("HELLO ACK")
         assert self.ask("set verbose on") == "SET VERBOSE ACK"
@@ -240,7 +288,9 @@ class Operator:
                 return line.decode()
             chunk = self.sock.recv(4096)
             if not chunk:
-                raise ConnectionError("linuxcncrsh closed the connection")
+                raise ConnectionError(
+                    f"linuxcncrsh closed the connection; LinuxCNC's log:\n{self.sim.log_tail()}"
+                )
             self._buffer += chunk
 
     def ask(self, line: str) -> str:

@@ -54,7 +54,8 @@ def sim(shared_data: Path) -> Iterator[LinuxCncSim]:
 
 @pytest.fixture
 def operator(sim: LinuxCncSim) -> Iterator[Operator]:
-    person = Operator(sim.port)
+    sim.ensure_running()
+    person = Operator(sim)
     try:
         person.machine_ready()
         yield person
@@ -213,6 +214,7 @@ def test_cnctwin_run_mirrors_linuxcnc_and_slows_the_last_pass(
         stderr=subprocess.PIPE,
         env=env,
     )
+    watch: subprocess.Popen[str] | None = None
     try:
         # the program starts once the twin cycles (its first samples are in the historian):
         # building the twin compiles its kernels, minutes on a loaded machine without cache
@@ -221,31 +223,31 @@ def test_cnctwin_run_mirrors_linuxcnc_and_slows_the_last_pass(
             assert twin.poll() is None, twin.communicate()[1].decode()[-3000:]
             assert time.monotonic() < ready, "the twin did not start cycling within 300 s"
             time.sleep(0.2)
-        operator.run(sim.program)
+        # LinuxCNC runs the program and says which line motion executes through its own Python
+        # interface: the twin keeps the only linuxcncrsh session while it runs (a second
+        # session polling beside it has made linuxcncrsh 2.9, and LinuxCNC with it, exit)
+        watch = sim.run_through_nml(sim.program, timeout_s=90.0)
+        watched, watch_err = watch.communicate(timeout=120.0)
+        events = [json.loads(line) for line in watched.splitlines()]
+        assert events and events[-1].get("end") == "idle", (events[-3:], watch_err[-2000:])
         first_seen: dict[int, float] = {}
-        deadline = time.monotonic() + 90.0
-        operator.wait_status("RUNNING", 10.0)
-        while operator.get("program_status") != ["IDLE"]:
-            assert time.monotonic() < deadline, "the program did not end within 90 s"
-            try:
-                line = int(operator.get("program_line")[0])
-            except ValueError:  # linuxcncrsh 2.9 crosses answers between sessions, rarely
-                continue
-            if first_seen and line < max(first_seen):
+        for event in events[:-1]:
+            if first_seen and event["line"] < max(first_seen):
                 first_seen.clear()  # the line of an earlier run, shown until this one starts
-            first_seen.setdefault(line, time.monotonic())
-            time.sleep(0.1)  # a faster poll beside the twin's crashes LinuxCNC 2.9's linuxcncrsh
+            first_seen.setdefault(event["line"], event["t"])
         out, err = twin.communicate(timeout=60.0)
     finally:
-        if twin.poll() is None:
-            twin.kill()
-            twin.communicate()
+        for child in (twin, watch):
+            if child is not None and child.poll() is None:
+                child.kill()
+                child.communicate()
     assert twin.returncode == 0, err.decode()[-3000:]
     summary = json.loads(out)
     assert summary["ended"] == "finished"
     assert summary["feed_override_min"] == 50.0
     assert summary["decisions"] >= 1 and summary["samples_recorded"] > 50
-    assert operator.get("feed_override") == ["50"]  # LinuxCNC's own word
+    assert events[-1]["feed_override_pct"] == 50.0  # LinuxCNC's own word, through NML
+    assert operator.get("feed_override") == ["50"]  # and through linuxcncrsh
 
     def took(span: tuple[int, int]) -> float:
         return first_seen[span[1]] - first_seen[span[0]]
@@ -269,8 +271,10 @@ def _recorded_samples(db: Path) -> int:
 def test_a_restarted_linuxcnc_is_reconnected_and_nothing_is_replayed(
     sim: LinuxCncSim,
 ) -> None:
+    sim.ensure_running()
+
     async def scenario() -> None:
-        person = Operator(sim.port)
+        person = Operator(sim)
         person.machine_ready()
         person.close()
         async with LinuxCncConnection(config(sim.port)) as conn:
