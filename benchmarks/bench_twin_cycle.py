@@ -21,12 +21,16 @@ Usage::
     python benchmarks/bench_twin_cycle.py [--quick] [--minutes M] [--trials N] [--out FILE]
                                           [--without-wear] [--model MODEL.onnx]
                                           [--all-stages] [--machine-nice N]
+                                          [--realtime-priority N]
 
 ``--quick`` (CI): 20 s of cycling, 3 stop trials. ``--out`` writes the figures as Markdown.
 ``--machine-nice N`` runs the machine's child at nice level N during the cycle phase: the
 virtual machine stands in for a control with its own processor, and on a computer with few
 cores its integration would otherwise take the twin's core (the result's ``machine_clock``
 says whether it still kept real time).
+``--realtime-priority N`` sets ``[twin] realtime_priority = N``: the twin's cycles run under
+SCHED_FIFO at priority N (:mod:`cnctwin.twin.priority`; root or ``CAP_SYS_NICE``), the
+machine's child at the ordinary scheduler.
 ``--without-wear``: the wear stage off, for comparison. ``--model`` adds a model stage
 (``[[twin.models]]``, docs/twin.md) running that model file on every sample, e.g. the one
 ``examples/twin_model/twin.toml``'s comment trains (issue 13: the cycle p99 with a model
@@ -348,6 +352,10 @@ def markdown(result: dict[str, Any], command: str) -> str:
     )
     verdict_cycle = "met" if c["cycle_p99_ms"] < 5.0 and c["overruns"] == 0 else "NOT met"
     verdict_stop = "met" if r["p99"] < 12.5 else "NOT met"
+    priority = result["realtime_priority"]
+    scheduling = f", its cycles under SCHED_FIFO at priority {priority}" if priority else ""
+    if result["machine_nice"]:
+        scheduling += f"; the machine's child at nice {result['machine_nice']}"
     return f"""# Benchmark: twin cycle and stop reaction (bench_twin_cycle)
 
 Date: {result["date"]}. Machine: 2-core sandbox ({result["platform"]}), shared with other
@@ -356,7 +364,7 @@ jobs (load average {result["load"]}). Command: `{command}`.
 The virtual machine runs in a child process and serves OPC UA on loopback; the twin (dexel cut
 of its own blank at {result["density"]} dexels/mm, forces, filters, windows, force band, form
 error, {added}rules, control, historian) runs in the
-benchmark's process at a 12.5 ms cycle. Model stage: {result["model"] or "none"}.
+benchmark's process at a 12.5 ms cycle{scheduling}. Model stage: {result["model"] or "none"}.
 
 ## Cycle ({c["seconds"]:.0f} s of continuous zig-zag milling, real time)
 
@@ -405,6 +413,15 @@ def main() -> None:
         help="run the machine's child at this nice level (0-19) in the cycle phase, as a "
         "stand-in for a machine with its own processor (default 0: the twin's equal)",
     )
+    parser.add_argument(
+        "--realtime-priority",
+        type=int,
+        default=0,
+        choices=range(99),
+        metavar="N",
+        help="[twin] realtime_priority: the twin's cycles under SCHED_FIFO at priority N "
+        "(1-98; root or CAP_SYS_NICE); default 0: the ordinary scheduler",
+    )
     args = parser.parse_args()
     seconds = 20.0 if args.quick else args.minutes * 60.0
     trials = 3 if args.quick else args.trials
@@ -414,6 +431,9 @@ def main() -> None:
         base = _with_wear(base)
     if args.all_stages:
         base = with_all_stages(base)
+    if args.realtime_priority:
+        twin = base.twin.model_copy(update={"realtime_priority": args.realtime_priority})
+        base = base.model_copy(update={"twin": twin})
     model = args.model
     started = time.time()
     with tempfile.TemporaryDirectory() as tmp:
@@ -443,6 +463,7 @@ def main() -> None:
         "model": None if model is None else str(args.model or f"{model.name} (written)"),
         "all_stages": args.all_stages,
         "machine_nice": args.machine_nice,
+        "realtime_priority": args.realtime_priority,
         "load_at_start": " ".join(f"{x:.1f}" for x in load_before),
     }
     print(json.dumps(result, indent=2))
@@ -453,6 +474,7 @@ def main() -> None:
             + ("" if args.model is None else f" --model {args.model}")
             + (" --all-stages" if args.all_stages else "")
             + (f" --machine-nice {args.machine_nice}" if args.machine_nice else "")
+            + (f" --realtime-priority {args.realtime_priority}" if args.realtime_priority else "")
         )
         command += " --without-wear" if args.without_wear else ""
         args.out.write_text(markdown(result, command))

@@ -9,7 +9,8 @@ twin runs against another server; ``"none"`` leaves a signal out (a machine with
 
 A cycle's :meth:`~OpcUaConnection.read` takes every mapped node from a subscription's cache
 (no request in the cycle), or with ``subscription_ms=None`` from one Read service call for all
-nodes; docs/_bench_opcua.md compares both. Values that are not a finite number of a plausible
+nodes; docs/_bench_opcua.md compares both. The subscription's publishes of the usual layout
+are decoded by :mod:`cnctwin.thread.opcua_publish`, the rest by asyncua. Values that are not a finite number of a plausible
 type and range, or arrive with a Bad status, land in :attr:`Reading.rejected` with a one-line
 reason instead of raising.
 """
@@ -57,6 +58,7 @@ from cnctwin.thread.connection import (
     now_s,
 )
 from cnctwin.thread.opcua_channel import frame_message, plain_message, take_plain_message
+from cnctwin.thread.opcua_publish import use_lean_publish
 from cnctwin.thread.signals import COMMANDS, SIGNALS
 from cnctwin.thread.trust import TrustList
 
@@ -257,6 +259,9 @@ class OpcUaConnection(MachineConnection):
         except UaError as err:
             raise ConnectionLost(f"{self.endpoint} refused the session: {err}") from err
         client.connection_lost_callback = self._link_lost
+        # the subscription's publishes of the common layout are decoded without asyncua's
+        # generic decoder (cnctwin.thread.opcua_publish); the session lives as long as client
+        use_lean_publish(client.uaclient.session)
         self._token = client.uaclient.session.authentication_token
         self._client = client
         try:

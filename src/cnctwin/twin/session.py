@@ -15,6 +15,7 @@ from cnctwin.thread import ConnectionConfig, ConnectionLost, MachineConnection
 from cnctwin.twin.config import RunConfig
 from cnctwin.twin.model_stage import load_models, model_meta
 from cnctwin.twin.pipeline import Twin, build_twin
+from cnctwin.twin.priority import check_cycle_priority, cycle_priority
 from cnctwin.twin.recorder import Recorder
 from cnctwin.twin.runtime import RunSummary
 from cnctwin.twin.state import CycleState
@@ -105,9 +106,11 @@ async def run_session(
     CnctwinError
         If the machine cannot be reached within ``connect_timeout_s``.
     cnctwin.errors.ConfigError
-        Before connecting, for a ``[[twin.models]]`` entry the twin cannot feed.
+        Before connecting, for a ``[[twin.models]]`` entry the twin cannot feed or a
+        ``[twin] realtime_priority`` the system refuses.
     """
     models = load_models(config.twin)  # a model the twin cannot feed is refused before connecting
+    check_cycle_priority(config.twin.realtime_priority)  # so is a priority the system refuses
     conn = connection if connection is not None else open_connection(config.connection, base_dir)
     endpoint = getattr(conn, "endpoint", config.connection.endpoint)
     await _connect(conn, endpoint, connect_timeout_s, stop_event)
@@ -147,7 +150,8 @@ async def run_session(
             twin.runtime.prepare()
             if on_start is not None:
                 on_start(twin)
-            summary = await twin.runtime.run(duration_s=duration_s, stop_event=stop_event)
+            with cycle_priority(config.twin.realtime_priority):
+                summary = await twin.runtime.run(duration_s=duration_s, stop_event=stop_event)
         # the counts after the publisher's final flush (the historian has those before it)
         summary.outlets = {outlet.name: outlet.stats() for outlet in twin.runtime.outlets}
         return summary

@@ -341,6 +341,10 @@ class TwinSettings(Section):
         lost, s (age: the twin's clock minus the machine's time stamp, or the time since the
         last new sample where the transport carries no time stamps; see
         :mod:`cnctwin.twin.freshness`).
+    realtime_priority
+        SCHED_FIFO priority of the cycle's thread while it cycles, 1 to 98 (Linux; root,
+        ``CAP_SYS_NICE`` or an rtprio limit); 0 (default): the ordinary scheduler
+        (:mod:`cnctwin.twin.priority`).
     plausibility
         Axis-jump and override-range checks of every sample.
     filters
@@ -377,6 +381,7 @@ class TwinSettings(Section):
     attach_s: float = Field(default=1.0, ge=0.0, le=1e6)
     position_deadband_mm: float = Field(default=0.005, ge=0.0, le=100.0)
     max_sample_age_s: float = Field(default=2.0, gt=0.0, le=3600.0)
+    realtime_priority: int = Field(default=0, ge=0, le=98)
     plausibility: PlausibilityConfig = Field(default_factory=PlausibilityConfig)
     filters: dict[str, FilterSpec] = Field(default_factory=dict)
     windows: list[WindowSpec] = Field(default_factory=list)

@@ -1,0 +1,86 @@
+"""The cycle's thread at a real-time priority (``[twin] realtime_priority``; docs/twin.md).
+
+On a computer shared with other work, most of the cycle's lateness is not its own work but
+waiting for a processor: under Linux's ordinary scheduler (CFS) a thread woken by its timer
+or its socket may wait a time slice of a few milliseconds behind a busy process
+(docs/benchmarks.md: the twin's cycle p99 with every stage on, 4.0-5.8 ms wall against 3-4 ms
+of its own CPU). Under SCHED_FIFO (POSIX real-time scheduling, ``sched(7)``) the woken thread
+runs at once, ahead of every ordinary thread, for as long as it does not sleep; the kernel
+still keeps 5 % of each second for ordinary threads (``/proc/sys/kernel/sched_rt_runtime_us``)
+so a run-away cycle cannot lock a processor up.
+
+:func:`cycle_priority` puts the calling thread (the cycle's event loop) at such a priority
+for the run and back where it was afterwards; threads it starts meanwhile inherit the
+policy. Only the running cycles get it: building the twin (compiling kernels, seconds of
+work) runs at the ordinary priority. :func:`check_cycle_priority` tries the priority once
+before anything starts, so that a system that refuses it says so before connecting.
+
+Linux only; it needs root, ``CAP_SYS_NICE`` or a real-time priority limit for the user
+(``rtprio`` in ``/etc/security/limits.conf``, ``LimitRTPRIO=`` of a systemd unit).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+from cnctwin.errors import ConfigError
+
+__all__ = ["check_cycle_priority", "cycle_priority"]
+
+
+def check_cycle_priority(priority: int) -> None:
+    """Whether this thread may run at SCHED_FIFO ``priority``: set and put back at once.
+
+    Parameters
+    ----------
+    priority
+        ``[twin] realtime_priority``, 0 (nothing asked) to 98.
+
+    Raises
+    ------
+    cnctwin.errors.ConfigError
+        If the system has no SCHED_FIFO or this user may not use it.
+    """
+    with cycle_priority(priority):
+        pass
+
+
+@contextmanager
+def cycle_priority(priority: int) -> Iterator[None]:
+    """Run the calling thread under SCHED_FIFO at ``priority`` (0: leave it as it is) and
+    put its scheduling policy and priority back on leaving.
+
+    Parameters
+    ----------
+    priority
+        SCHED_FIFO priority, 1 to 98 (99 is the kernel's own watchdogs'); 0 changes nothing.
+
+    Raises
+    ------
+    cnctwin.errors.ConfigError
+        If the system has no SCHED_FIFO or this user may not use it.
+    """
+    if priority == 0:
+        yield
+        return
+    if not hasattr(os, "sched_setscheduler"):
+        raise ConfigError(
+            f"[twin] realtime_priority = {priority}: this system has no SCHED_FIFO "
+            "(Linux only); set it to 0"
+        )
+    policy = os.sched_getscheduler(0)
+    param = os.sched_getparam(0)
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except PermissionError:
+        raise ConfigError(
+            f"[twin] realtime_priority = {priority}: this user may not use real-time "
+            "scheduling (it needs root, CAP_SYS_NICE or an rtprio limit, e.g. in "
+            "/etc/security/limits.conf); set it to 0"
+        ) from None
+    try:
+        yield
+    finally:
+        os.sched_setscheduler(0, policy, param)
