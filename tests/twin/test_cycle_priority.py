@@ -17,7 +17,7 @@ from twin_helpers import STEP_S
 
 from cnctwin.errors import ConfigError
 from cnctwin.twin import LocalConnection, RunConfig, run_session
-from cnctwin.twin.priority import check_cycle_priority, cycle_priority
+from cnctwin.twin.priority import SWITCH_INTERVAL_S, check_cycle_priority, cycle_priority
 from cnctwin.virtual import VirtualMachine
 
 REPO = Path(__file__).resolve().parents[2]
@@ -56,8 +56,12 @@ def test_the_cycles_run_at_the_asked_fifo_priority_and_only_they(demo_config: Ru
     at_start: list[int] = []
     stop = asyncio.Event()
 
+    switch = sys.getswitchinterval()
+    intervals: set[float] = set()
+
     def on_cycle(state: Any) -> None:
         seen.append((os.sched_getscheduler(0), os.sched_getparam(0).sched_priority))
+        intervals.add(sys.getswitchinterval())
         if len(seen) >= 20:
             stop.set()
 
@@ -73,15 +77,19 @@ def test_the_cycles_run_at_the_asked_fifo_priority_and_only_they(demo_config: Ru
     )
     assert at_start == [os.SCHED_OTHER]  # the build ran at the ordinary scheduler
     assert seen and set(seen) == {(os.SCHED_FIFO, 7)}
+    assert intervals == {min(switch, SWITCH_INTERVAL_S)}  # the GIL comes back within 0.5 ms
     assert os.sched_getscheduler(0) == os.SCHED_OTHER  # and so does what follows
+    assert sys.getswitchinterval() == switch
 
 
 @needs_fifo
 def test_the_priority_is_put_back_when_the_run_fails() -> None:
+    switch = sys.getswitchinterval()
     with pytest.raises(RuntimeError), cycle_priority(3):
         assert os.sched_getscheduler(0) == os.SCHED_FIFO
         raise RuntimeError("a stage failed")
     assert os.sched_getscheduler(0) == os.SCHED_OTHER
+    assert sys.getswitchinterval() == switch
 
 
 def test_a_refused_priority_is_one_line_before_connecting(

@@ -9,6 +9,12 @@ runs at once, ahead of every ordinary thread, for as long as it does not sleep; 
 still keeps 5 % of each second for ordinary threads (``/proc/sys/kernel/sched_rt_runtime_us``)
 so a run-away cycle cannot lock a processor up.
 
+A processor is not all the cycle waits for: the historian's writer and other threads of the
+process hold Python's GIL in turn, and a thread that wants it back waits up to the
+interpreter's switch interval (``sys.getswitchinterval()``, 5 ms by default) before the
+holder must let go. While the cycles run at a real-time priority the switch interval is
+:data:`SWITCH_INTERVAL_S` (0.5 ms), as long as it was not shorter already.
+
 :func:`cycle_priority` puts the calling thread (the cycle's event loop) at such a priority
 for the run and back where it was afterwards; threads it starts meanwhile inherit the
 policy. Only the running cycles get it: building the twin (compiling kernels, seconds of
@@ -22,12 +28,17 @@ Linux only; it needs root, ``CAP_SYS_NICE`` or a real-time priority limit for th
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 
 from cnctwin.errors import ConfigError
 
-__all__ = ["check_cycle_priority", "cycle_priority"]
+__all__ = ["SWITCH_INTERVAL_S", "check_cycle_priority", "cycle_priority"]
+
+#: Python's switch interval while the cycles run at a real-time priority, s: the longest the
+#: cycle waits for the GIL from another thread of the process (module notes).
+SWITCH_INTERVAL_S = 0.0005
 
 
 def check_cycle_priority(priority: int) -> None:
@@ -49,8 +60,9 @@ def check_cycle_priority(priority: int) -> None:
 
 @contextmanager
 def cycle_priority(priority: int) -> Iterator[None]:
-    """Run the calling thread under SCHED_FIFO at ``priority`` (0: leave it as it is) and
-    put its scheduling policy and priority back on leaving.
+    """Run the calling thread under SCHED_FIFO at ``priority`` (0: leave it as it is), with
+    Python's switch interval at most :data:`SWITCH_INTERVAL_S`, and put the policy, the
+    priority and the switch interval back on leaving.
 
     Parameters
     ----------
@@ -80,7 +92,10 @@ def cycle_priority(priority: int) -> Iterator[None]:
             "scheduling (it needs root, CAP_SYS_NICE or an rtprio limit, e.g. in "
             "/etc/security/limits.conf); set it to 0"
         ) from None
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(min(interval, SWITCH_INTERVAL_S))
     try:
         yield
     finally:
+        sys.setswitchinterval(interval)
         os.sched_setscheduler(0, policy, param)
