@@ -1,25 +1,27 @@
-"""The cycle's thread at a real-time priority (``[twin] realtime_priority``; docs/twin.md).
+"""The twin's cycles at a real-time priority (``[twin] realtime_priority``; docs/twin.md).
 
 On a computer shared with other work, most of the cycle's lateness is not its own work but
 waiting for a processor: under Linux's ordinary scheduler (CFS) a thread woken by its timer
 or its socket may wait a time slice of a few milliseconds behind a busy process
-(docs/benchmarks.md: the twin's cycle p99 with every stage on, 4.0-5.8 ms wall against 3-4 ms
-of its own CPU). Under SCHED_FIFO (POSIX real-time scheduling, ``sched(7)``) the woken thread
+(docs/benchmarks.md: the twin's cycle p99 with every stage on, 4.8-7.1 ms wall against 3-4 ms
+of its own CPU). Under SCHED_FIFO (POSIX real-time scheduling, ``sched(7)``) a woken thread
 runs at once, ahead of every ordinary thread, for as long as it does not sleep; the kernel
 still keeps 5 % of each second for ordinary threads (``/proc/sys/kernel/sched_rt_runtime_us``)
 so a run-away cycle cannot lock a processor up.
 
-A processor is not all the cycle waits for: the historian's writer and other threads of the
-process hold Python's GIL in turn, and a thread that wants it back waits up to the
-interpreter's switch interval (``sys.getswitchinterval()``, 5 ms by default) before the
-holder must let go. While the cycles run at a real-time priority the switch interval is
-:data:`SWITCH_INTERVAL_S` (0.5 ms), as long as it was not shorter already.
+A processor is not all the cycle waits for: the historian's writer and the other threads of
+the process hold Python's GIL in turn. So that a thread holding the GIL is never preempted by
+an ordinary process while the cycle waits for it (a priority inversion), every thread of the
+process runs at the same SCHED_FIFO priority, and a thread that wants the GIL back waits at most
+:data:`SWITCH_INTERVAL_S` (0.5 ms; Python's switch interval, 5 ms by default) before the
+holder must let go.
 
-:func:`cycle_priority` puts the calling thread (the cycle's event loop) at such a priority
-for the run and back where it was afterwards; threads it starts meanwhile inherit the
-policy. Only the running cycles get it: building the twin (compiling kernels, seconds of
-work) runs at the ordinary priority. :func:`check_cycle_priority` tries the priority once
-before anything starts, so that a system that refuses it says so before connecting.
+:func:`cycle_priority` does both for the run and puts every thread's policy and priority and
+the switch interval back afterwards; threads started meanwhile inherit the policy from the
+thread that starts them. Only the running cycles get it: building the twin (compiling kernels,
+seconds of work) runs at the ordinary priority. :func:`check_cycle_priority` tries the
+priority once before anything starts, so that a system that refuses it says so before
+connecting.
 
 Linux only; it needs root, ``CAP_SYS_NICE`` or a real-time priority limit for the user
 (``rtprio`` in ``/etc/security/limits.conf``, ``LimitRTPRIO=`` of a systemd unit).
@@ -29,6 +31,7 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -60,9 +63,9 @@ def check_cycle_priority(priority: int) -> None:
 
 @contextmanager
 def cycle_priority(priority: int) -> Iterator[None]:
-    """Run the calling thread under SCHED_FIFO at ``priority`` (0: leave it as it is), with
-    Python's switch interval at most :data:`SWITCH_INTERVAL_S`, and put the policy, the
-    priority and the switch interval back on leaving.
+    """Run every thread of the process under SCHED_FIFO at ``priority`` (0: leave them as they
+    are), with Python's switch interval at most :data:`SWITCH_INTERVAL_S`, and put each
+    thread's policy and priority and the switch interval back on leaving.
 
     Parameters
     ----------
@@ -82,11 +85,17 @@ def cycle_priority(priority: int) -> Iterator[None]:
             f"[twin] realtime_priority = {priority}: this system has no SCHED_FIFO "
             "(Linux only); set it to 0"
         )
-    policy = os.sched_getscheduler(0)
-    param = os.sched_getparam(0)
+    saved: dict[int, tuple[int, os.sched_param]] = {}
     try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+        for thread in _threads():
+            try:
+                held = (os.sched_getscheduler(thread), os.sched_getparam(thread))
+                os.sched_setscheduler(thread, os.SCHED_FIFO, os.sched_param(priority))
+            except ProcessLookupError:  # the thread ended meanwhile
+                continue
+            saved[thread] = held
     except PermissionError:
+        _put_back(saved)
         raise ConfigError(
             f"[twin] realtime_priority = {priority}: this user may not use real-time "
             "scheduling (it needs root, CAP_SYS_NICE or an rtprio limit, e.g. in "
@@ -98,4 +107,21 @@ def cycle_priority(priority: int) -> Iterator[None]:
         yield
     finally:
         sys.setswitchinterval(interval)
-        os.sched_setscheduler(0, policy, param)
+        _put_back(saved)
+
+
+def _threads() -> list[int]:
+    """The thread ids of this process, the calling thread's (0) first."""
+    try:
+        others = [int(name) for name in os.listdir("/proc/self/task")]
+    except OSError:  # no /proc: the calling thread alone
+        others = []
+    return [0, *(t for t in others if t != threading.get_native_id())]
+
+
+def _put_back(saved: dict[int, tuple[int, os.sched_param]]) -> None:
+    for thread, (policy, param) in saved.items():
+        try:
+            os.sched_setscheduler(thread, policy, param)
+        except ProcessLookupError:  # it ended while the cycles ran
+            continue
