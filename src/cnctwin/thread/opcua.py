@@ -10,9 +10,9 @@ twin runs against another server; ``"none"`` leaves a signal out (a machine with
 A cycle's :meth:`~OpcUaConnection.read` takes every mapped node from a subscription's cache
 (no request in the cycle), or with ``subscription_ms=None`` from one Read service call for all
 nodes; docs/_bench_opcua.md compares both. The subscription's publishes of the usual layout
-are decoded by :mod:`cnctwin.thread.opcua_publish`, the rest by asyncua. Values that are not a finite number of a plausible
-type and range, or arrive with a Bad status, land in :attr:`Reading.rejected` with a one-line
-reason instead of raising.
+are decoded by :mod:`cnctwin.thread.opcua_publish`, the rest by asyncua. Values that are not
+a finite number of a plausible type and range, or arrive with a Bad status, land in
+:attr:`Reading.rejected` with a one-line reason instead of raising.
 """
 
 from __future__ import annotations
