@@ -25,7 +25,7 @@ from asyncua import ua
 from asyncua.common.utils import Buffer
 from asyncua.ua.ua_binary import struct_from_binary, struct_to_binary
 
-from cnctwin.thread.opcua_publish import lean_publish_response
+from cnctwin.thread import lean_publish_response
 
 
 def publish(items: int) -> bytes:

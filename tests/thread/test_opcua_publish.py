@@ -17,7 +17,7 @@ from asyncua.ua.ua_binary import struct_from_binary, struct_to_binary
 from hypothesis import given
 from hypothesis import strategies as st
 
-from cnctwin.thread.opcua_publish import lean_publish_response, use_lean_publish
+from cnctwin.thread import lean_publish_response, use_lean_publish
 
 STAMP = datetime(2026, 11, 28, 1, 30, 0, 123456, tzinfo=UTC)
 

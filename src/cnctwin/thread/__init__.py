@@ -87,6 +87,7 @@ if TYPE_CHECKING:
         plain_message,
         take_plain_message,
     )
+    from cnctwin.thread.opcua_publish import lean_publish_response, use_lean_publish
     from cnctwin.thread.trust import TrustList
 
 # pydantic, asyncio, asyncua, pymodbus and cryptography load with these: imported on first use.
@@ -149,6 +150,8 @@ _LAZY = {
     "frame_message": "opcua_channel",
     "plain_message": "opcua_channel",
     "take_plain_message": "opcua_channel",
+    "lean_publish_response": "opcua_publish",
+    "use_lean_publish": "opcua_publish",
     "TrustList": "trust",
 }
 
@@ -208,6 +211,8 @@ __all__ = [
     "frame_message",
     "plain_message",
     "take_plain_message",
+    "lean_publish_response",
+    "use_lean_publish",
     "TrustList",
     "JitterProxy",
     "measure_latency",
