@@ -92,6 +92,30 @@ def test_endpoint_and_settings_refused_with_one_line() -> None:
         LinuxCncConnection(config(5007).model_copy(update={"mapping": {"x_mm": "X"}}))
 
 
+def test_lines_of_the_last_run_are_held_back_at_the_start_of_a_run() -> None:
+    """LinuxCNC 2.9's answers to ``get program_line`` at the start of a run after a run
+    aborted at line 20 (measured through linuxcncrsh, 2026-11-28): idle 20, 40 (where the last
+    run's interpreter had read to), 0; then running 0, 40 and only then the run's own 15."""
+    conn = LinuxCncConnection(config(5007))
+
+    def shown(running: bool, line: float) -> float | None:
+        values, rejected = {"program_line": line}, {}
+        conn._drop_stale_line(running, values, rejected)
+        assert ("program_line" in values) != ("program_line" in rejected)
+        return values.get("program_line")
+
+    assert [shown(False, line) for line in (20, 40, 0)] == [20, 40, 0]
+    assert [shown(True, line) for line in (0, 40, 15, 16, 40, 0)] == [None, None, 15, 16, 40, 0]
+    # a twin that saw nothing between the runs: the run's first line until it changes
+    assert [shown(True, line) for line in (3, 3)] == [3, 3]  # still the same run
+    assert shown(False, 41) == 41
+    assert [shown(True, line) for line in (41, 41, 17)] == [None, None, 17]
+    fresh = LinuxCncConnection(config(5007))
+    values: dict[str, float] = {"program_line": 40.0}
+    fresh._drop_stale_line(True, values, {})
+    assert values == {}
+
+
 def test_positions_follow_the_program_and_commands_reach_linuxcnc(
     sim: LinuxCncSim, operator: Operator
 ) -> None:
@@ -193,6 +217,14 @@ def test_cnctwin_run_mirrors_linuxcnc_and_slows_the_last_pass(
     )
     assert tomllib.loads(text)["twin"]["program"] == str(shared_data / PROGRAM)
     (tmp_path / "twin.toml").write_text(text)
+    # a run aborted in its first pass: at the start of the next one LinuxCNC shows lines of
+    # this one for a while (line 40, where its interpreter had read to), which the twin's rule
+    # on program_line >= 34 must not take for the new run's
+    operator.run(sim.program)
+    operator.wait_status("RUNNING", 10.0)
+    time.sleep(1.0)
+    operator.set("abort")
+    operator.wait_status("IDLE", 10.0)
     env = {**os.environ, "PYTHONPATH": str(REPO / "src")}
     twin = subprocess.Popen(
         [

@@ -20,8 +20,9 @@ Mapping to the canonical signals (:data:`cnctwin.thread.signals.SIGNALS`):
   (``USER_LINEAR_UNITS`` read at connection: MM 1, CM 10, INCH 25.4);
 - ``FEED_OVERRIDE p`` -> ``feed_override_pct``; ``SPINDLE_OVERRIDE n p`` ->
   ``spindle_override_pct`` (whole percent);
-- ``PROGRAM_LINE n`` -> ``program_line``, the line of the file from 1; the first line a run
-  shows is rejected until it changes (LinuxCNC may still show a line of the last run);
+- ``PROGRAM_LINE n`` -> ``program_line``, the line of the file from 1; at the start of a run
+  the lines shown while no program ran, and the run's first line, are rejected until it shows
+  another (LinuxCNC shows lines of the last run for a while);
 - ``PROGRAM_STATUS s`` and ``MODE m`` -> ``run_state`` and ``feed_hold`` (below);
 - ``ESTOP ON|OFF`` -> ``emergency_stop`` 1, 0; ``TOOL n`` -> ``tool_number``;
 - ``TIME t`` -> :attr:`Reading.source_time_s` (the control's clock, POSIX s), and
@@ -109,6 +110,7 @@ READ_REQUESTS = (
     "time",
 )
 _UNIT_FACTORS = {"MM": 1.0, "CM": 10.0, "INCH": 25.4}
+_STALE_LINES_KEPT = 16  # lines shown between runs held back at a run's start, newest kept
 _SKIPPED_LINES = 8  # lines that answer no request (an echo) tolerated before an answer
 
 
@@ -176,7 +178,10 @@ class LinuxCncConnection(MachineConnection):
         self._stop_sent = False  # this session aborted it
         self._interrupted = False  # the connection was lost while it ran
         self._running = False  # the last reading showed a program running or held
-        self._stale_line: float | None = None  # first line of a run, while it still shows
+        #: lines shown while no program ran, and the first a run showed: held back at the start
+        #: of a run until it shows another (_drop_stale_line)
+        self._stale_lines: dict[float, None] = {}
+        self._holding = False
         self._beats = 0  # answers whose control clock advanced (the heartbeat)
         self._last_stamp = -math.inf
 
@@ -335,21 +340,32 @@ class LinuxCncConnection(MachineConnection):
     def _drop_stale_line(
         self, running: bool, values: dict[str, float], rejected: dict[str, str]
     ) -> None:
-        """At the start of a run LinuxCNC may report a line of the last run (where it ended,
-        or where its interpreter had read to) until the new run reaches its first line: the
-        first line a run shows is rejected until it changes."""
+        """At the start of a run LinuxCNC 2.9 reports lines of the last run for a while: where
+        it ended, or where its interpreter had read to (measured: a run after an abort at line
+        20 showed 0, then 40, the line the last run's interpreter had read to, and only then
+        its own first line, 15). Every line shown while no program ran, and the first line a
+        run shows, are held back at the start of a run until it shows another."""
         line = values.get("program_line")
         if not running:
-            self._stale_line = None
-        elif not self._running:
-            self._stale_line = line
-        if running and self._stale_line is not None:
-            if line == self._stale_line:
-                del values["program_line"]
-                rejected["program_line"] = f"line {line:g}, shown since the run began, may be stale"
-            else:
-                self._stale_line = None
-        self._running = running
+            self._running = self._holding = False
+            if line is not None:
+                self._stale_lines.pop(line, None)
+                self._stale_lines[line] = None  # the newest last
+                while len(self._stale_lines) > _STALE_LINES_KEPT:
+                    del self._stale_lines[next(iter(self._stale_lines))]
+            return
+        if not self._running:  # the run begins
+            self._running = self._holding = True
+            if line is not None:
+                self._stale_lines[line] = None
+        if not self._holding or line is None:
+            return
+        if line in self._stale_lines:
+            del values["program_line"]
+            rejected["program_line"] = f"line {line:g}, shown before this run began, may be stale"
+        else:
+            self._holding = False
+            self._stale_lines.clear()
 
     def _run_state(self, status: str, auto: bool, estop: bool) -> RunState | None:
         if status not in ("IDLE", "RUNNING", "PAUSED"):
