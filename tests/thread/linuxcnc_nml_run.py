@@ -10,8 +10,10 @@ polling beside the twin's has made LinuxCNC exit.
 Usage: ``python3 linuxcnc_nml_run.py PROGRAM TIMEOUT_S``. It switches to auto mode, opens and
 starts PROGRAM, then polls the status every 5 ms and prints one JSON object per line:
 ``{"t": s, "line": n}`` whenever the line that motion executes changes (``t`` is
-``time.monotonic()``, s), and last ``{"t": s, "end": "idle", "feed_override_pct": p}`` when
-the interpreter is idle again, or ``{"t": s, "end": "timeout"}`` after TIMEOUT_S (exit 1).
+``time.monotonic()``, s), ``{"t": s, "feed_override_pct": p}`` whenever the feed override
+changes (for a failing test's message), and last
+``{"t": s, "end": "idle", "feed_override_pct": p}`` when the interpreter is idle again, or
+``{"t": s, "end": "timeout"}`` after TIMEOUT_S (exit 1).
 """
 
 from __future__ import annotations
@@ -38,8 +40,12 @@ def main(program: str, timeout_s: float) -> int:
     deadline = time.monotonic() + timeout_s
     started = False
     last = None
+    override = None
     while time.monotonic() < deadline:
         stat.poll()
+        if stat.feedrate != override:
+            override = stat.feedrate
+            _say(feed_override_pct=round(override * 100.0, 3))
         if stat.interp_state != linuxcnc.INTERP_IDLE:
             started = True
         elif started:
