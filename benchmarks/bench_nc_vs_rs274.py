@@ -14,7 +14,9 @@ and a G2 in turn, as CAM output alternates them), ``expressions`` (``#``
 parameters, functions, an O-word ``if`` and a ``repeat`` loop in every block of 10 lines)
 and, when the shared data folder is present, ``3D_Chips.ngc``.
 
-cnctwin's bytecode is compiled first, as an installation does.
+cnctwin's bytecode is compiled first, as an installation does. When the NC interpreter is
+installed compiled (``CNCTWIN_COMPILE=1``, docs/nc.md), cnctwin also runs on its sources
+(``CNCTWIN_PURE_PYTHON=1``) in the same run, and the report gives both.
 When ``rs274`` is not installed, cnctwin is measured alone and the report says so.
 Like the test suite, ``rs274`` runs hold an exclusive lock so that two never run at once
 (two at once corrupt each other's tool table in shared memory).
@@ -40,6 +42,7 @@ from pathlib import Path
 from _common import cnctwin_command, run_measured
 
 import cnctwin as cnctwin_package
+from cnctwin.nc import compiled_modules
 
 REPO = Path(__file__).resolve().parents[1]
 LOCK = Path(tempfile.gettempdir()) / "cnctwin-rs274.lock"
@@ -130,16 +133,19 @@ PROGRAMS: dict[str, Callable[[Path, int], None]] = {
 }
 
 
-def best_of(repeat: int, command: list[str], cwd: Path, lock: bool) -> tuple[float, float]:
-    """Lowest CPU seconds and peak RSS MiB of ``repeat`` runs; raises if one fails."""
+def best_of(
+    repeat: int, command: list[str], cwd: Path, lock: bool, env: dict[str, str] | None = None
+) -> tuple[float, float]:
+    """Lowest CPU seconds and peak RSS MiB of ``repeat`` runs (``env``: the children's
+    environment, default this one's); raises if one fails."""
     best = (float("inf"), 0.0)
     for _ in range(repeat):
         if lock:
             with LOCK.open("w") as held:
                 fcntl.flock(held, fcntl.LOCK_EX)
-                seconds, peak, code = run_measured(command, cwd)
+                seconds, peak, code = run_measured(command, cwd, env)
         else:
-            seconds, peak, code = run_measured(command, cwd)
+            seconds, peak, code = run_measured(command, cwd, env)
         if code != 0:
             raise SystemExit(f"{' '.join(command)} exited with {code}")
         best = min(best, (seconds, peak))
@@ -170,13 +176,22 @@ def main() -> None:
         f"Python {platform.python_version()}, load average {load[0]:.2f} {load[1]:.2f} "
         f"{load[2]:.2f}; CPU time, best of {repeat}"
     )
+    compiled = compiled_modules()
+    print(
+        f"cnctwin's NC interpreter: {len(compiled)} modules compiled with mypyc, also run on "
+        "its sources (CNCTWIN_PURE_PYTHON=1)"
+        if compiled
+        else "cnctwin's NC interpreter: pure Python"
+    )
     if rs274 is None:
         print("rs274 was not found (apt-get install linuxcnc-uspace): cnctwin measured alone")
+    sources = ["| sources CPU s | sources ratio "] if compiled else []
     print(
         "| program | lines | cnctwin CPU s | cnctwin lines/s | cnctwin peak MiB "
-        "| rs274 CPU s | rs274 lines/s | rs274 peak MiB | ratio |"
+        f"| rs274 CPU s | rs274 lines/s | rs274 peak MiB | ratio {''.join(sources)}|"
     )
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|" + ("---:|---:|" if compiled else ""))
+    pure_env = {**os.environ, "CNCTWIN_PURE_PYTHON": "1"}  # docs/nc.md
     data = Path(os.environ.get("CNCTWIN_DATA") or REPO.parent / "shared" / "data")
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
@@ -204,6 +219,11 @@ def main() -> None:
                 row += (
                     f"| {theirs:.2f} | {n / theirs:,.0f} | {theirs_mib:.0f} | {theirs / ours:.2f} |"
                 )
+            if compiled:
+                pure, _ = best_of(
+                    repeat, [*cnctwin, "nc", "inspect", "--json", str(path)], work, False, pure_env
+                )
+                row += f" {pure:.2f} | {theirs / pure:.2f} |" if rs274 else f" {pure:.2f} | - |"
             print(row, flush=True)
 
 

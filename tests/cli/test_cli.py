@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -137,7 +138,7 @@ def test_demo_is_the_live_twin(capsys) -> None:
 def test_version_and_usage_errors(capsys) -> None:
     code, out, _ = cli(capsys, "--version")
     assert code == 0
-    assert out.startswith("cnctwin ")
+    assert re.fullmatch(r"cnctwin \S+ \(NC interpreter: (compiled|pure Python)\)\n", out), out
     code, _, err = cli(capsys, "nc", "inspect")
     assert code == 2
     assert "Missing argument" in err

@@ -12,6 +12,7 @@ so that -0.0 and 0.0 differ). The number parser is checked against Python's ``fl
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -169,7 +170,7 @@ def _repr(value: object) -> object:
     if isinstance(value, dict):
         return {k: _repr(v) for k, v in value.items()}
     if isinstance(value, Segment):
-        return [_repr(getattr(value, name)) for name in value.__slots__]
+        return [_repr(getattr(value, field.name)) for field in dataclasses.fields(value)]
     return value
 
 

@@ -207,7 +207,10 @@ app = typer.Typer(
 
 def _version(value: bool) -> None:
     if value:
-        typer.echo(f"cnctwin {__version__}")
+        from cnctwin.nc import compiled_modules  # light: numpy and the interpreter stay out
+
+        build = "compiled" if compiled_modules() else "pure Python"
+        typer.echo(f"cnctwin {__version__} (NC interpreter: {build})")
         raise typer.Exit()
 
 

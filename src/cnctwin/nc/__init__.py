@@ -16,6 +16,10 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from cnctwin import _lazy
+from cnctwin.nc import compiled as _compiled
+from cnctwin.nc.compiled import compiled_modules
+
+_compiled.prepare_imports()  # before any compiled module is imported
 
 if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run time
     from cnctwin.nc.interpreter import Interpreter, interpret_file, interpret_text
@@ -108,6 +112,7 @@ __all__ = [
     "TrajectorySampler",
     "arc_sweep_rad",
     "canonical_moves",
+    "compiled_modules",
     "draw_top_view",
     "format_trace",
     "interpret_file",

@@ -207,6 +207,13 @@ class LineSource:
             self.lineno + 1,
         )
 
+    def _moved(self, offset: int) -> bool:
+        """Whether a seek, or another reader of this source (a forward scan for an O-word),
+        moved on from byte ``offset`` while a line was handled. A method, not an
+        expression in :meth:`__iter__`: there mypy would keep ``_pending`` narrowed to
+        ``None`` across the ``yield``, and code compiled by mypyc would check it."""
+        return self._pending is not None or self.offset != offset
+
     def __iter__(self) -> Iterator[tuple[int, int, str]]:
         """Yield ``(line_number, start_offset, text)`` for each line, honouring seeks.
 
@@ -274,7 +281,5 @@ class LineSource:
                 else:
                     self._seen_to = self.offset
                 yield self.lineno, start, line
-                if self._pending is not None or self.offset != base + p:
-                    # A seek, or another reader of this source (a forward scan for an
-                    # O-word) moved on: continue from where it left the source.
+                if self._moved(base + p):
                     break

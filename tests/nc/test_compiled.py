@@ -1,0 +1,180 @@
+"""The NC interpreter compiled with mypyc (``CNCTWIN_COMPILE=1``) gives what its sources
+give.
+
+The modules ``COMPILED_MODULES`` lists are compiled once, with mypyc, in a copy of the
+package. The reference is the same copy run as Python (``CNCTWIN_PURE_PYTHON=1``): two child
+processes interpret the same programs (the 45 real programs of ../shared/data/gcode, one of
+expressions and O-word loops, an erroring one), one on the compiled modules and one on the
+sources, and their segments (floats by ``repr``), warnings, summaries and errors must be
+identical. Also checked: the switch to the sources at run time, ``cnctwin --version``, and
+the refusal of a compiled module older than its source.
+
+Compiling takes about two minutes of one core; it needs a C compiler and Python's headers
+(skipped without them, failed in CI).
+"""
+
+from __future__ import annotations
+
+import importlib.machinery
+import json
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+from pathlib import Path
+
+import pytest
+from skips import missing
+
+from cnctwin.nc.compiled import (
+    COMPILED_MODULES,
+    PURE_PYTHON_VARIABLE,
+    check_compiled_are_current,
+)
+
+REPO = Path(__file__).resolve().parents[2]
+
+# A child interprets every program on its command line; it prints which modules it runs
+# compiled, then one JSON object per program: segments and summary by repr, warnings, or the
+# error.
+CHILD = r"""
+import dataclasses, json, sys
+from cnctwin.errors import NCError
+from cnctwin.nc import Interpreter, NCSetup, ToolEntry, compiled_modules, summarize
+
+def described(value):
+    if dataclasses.is_dataclass(value):
+        return [described(getattr(value, f.name)) for f in dataclasses.fields(value)]
+    if isinstance(value, (list, tuple)):
+        return [described(v) for v in value]
+    return repr(value)
+
+print(json.dumps(compiled_modules()))
+setup = NCSetup(tools={1: ToolEntry(number=1, diameter_mm=6.0, length_mm=50.0)})
+for path in sys.argv[1:]:
+    interp = Interpreter(setup)
+    try:
+        segments = list(interp.run_file(path))
+        result = {
+            "segments": described(segments),
+            "summary": described(summarize(segments, rapid_mm_min=10000.0)),
+            "warnings": described(interp.warnings),
+        }
+    except NCError as error:
+        result = {"error": str(error)}
+    print(json.dumps(result))
+"""
+
+
+@pytest.fixture(scope="module")
+def compiled_tree(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A copy of ``src/`` with setup.py's modules compiled by mypyc in place."""
+    compiler = (sysconfig.get_config_var("CC") or "cc").split()[0]
+    headers = Path(sysconfig.get_paths()["include"], "Python.h")
+    if shutil.which(compiler) is None or not headers.is_file():
+        missing(f"no C compiler ({compiler}) or no {headers}", "CNCTWIN_REQUIRE_SERVICES")
+    root = tmp_path_factory.mktemp("compiled")
+    shutil.copytree(
+        REPO / "src" / "cnctwin",
+        root / "src" / "cnctwin",
+        ignore=shutil.ignore_patterns("__pycache__", "*.so"),
+    )
+    built = subprocess.run(
+        [sys.executable, "-m", "mypyc", *(f"cnctwin/nc/{name}.py" for name in COMPILED_MODULES)],
+        cwd=root / "src",
+        capture_output=True,
+        text=True,
+        timeout=1200,
+    )
+    assert built.returncode == 0, built.stdout[-3000:] + built.stderr[-3000:]
+    return root / "src"
+
+
+def _env(tree: Path, pure: bool) -> dict[str, str]:
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    env.pop(PURE_PYTHON_VARIABLE, None)
+    if pure:
+        env[PURE_PYTHON_VARIABLE] = "1"
+    return env
+
+
+def _child(tree: Path, programs: list[Path], pure: bool) -> tuple[list[str], list[str]]:
+    done = subprocess.run(
+        [sys.executable, "-c", CHILD, *map(str, programs)],
+        env=_env(tree, pure),
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=True,
+    )
+    first, *results = done.stdout.splitlines()
+    return json.loads(first), results
+
+
+def _expressions(path: Path, blocks: int) -> Path:
+    """Parameters, functions, O-word if and repeat, as the speed benchmark writes them."""
+    text = ["G21 G90 G17 G94\nT1 M6\nS12000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F1200\n#1 = 0\n#3 = 0\n"]
+    for n in range(blocks):
+        text.append(
+            "#1 = [#1 + 0.25]\n#2 = [SIN[#1 * 3] * 10 + COS[#1] * 2]\n"
+            "G1 X[#1] Y[#2] F[1000 + #3 * 10]\n"
+            f"o{2 * n + 100} if [#2 GT 5]\n  #3 = [#3 + 1]\no{2 * n + 100} endif\n"
+            f"o{2 * n + 101} repeat [2]\n  G1 Y[#2 - ABS[#1 MOD 3]]\no{2 * n + 101} endrepeat\n"
+            "G0 X[#1 + 0.1] Y[ROUND[#2 * 100] / 100]\n"
+        )
+    path.write_text("".join(text) + "M2\n")
+    return path
+
+
+def test_compiled_and_source_modules_give_the_same_results(
+    compiled_tree: Path, shared_data: Path, tmp_path: Path
+) -> None:
+    programs = sorted(p for p in (shared_data / "gcode").rglob("*") if p.is_file())
+    programs.append(_expressions(tmp_path / "expressions.ngc", 300))
+    bad = tmp_path / "bad.ngc"
+    bad.write_text("G21 G90 F100\n#1 = [1 / 0]\nG1 X#1\nM2\n")
+    programs.append(bad)
+    compiled, from_compiled = _child(compiled_tree, programs, pure=False)
+    sources, from_sources = _child(compiled_tree, programs, pure=True)
+    assert compiled == sorted(f"cnctwin.nc.{name}" for name in COMPILED_MODULES)
+    assert sources == []
+    assert len(from_compiled) == len(programs)
+    for path, one, other in zip(programs, from_compiled, from_sources, strict=True):
+        assert one == other, path
+    assert sum('"segments"' in result for result in from_compiled) >= 30
+    assert "division by zero" in json.loads(from_compiled[-1])["error"]
+
+
+def test_the_version_says_which_build_runs(compiled_tree: Path) -> None:
+    for pure, build in ((False, "compiled"), (True, "pure Python")):
+        done = subprocess.run(
+            [sys.executable, "-m", "cnctwin", "--version"],
+            env=_env(compiled_tree, pure),
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        assert done.stdout.endswith(f"(NC interpreter: {build})\n")
+    code = "import cnctwin.nc.lexer as m; print(m.__file__)"
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        env=_env(compiled_tree, pure=True),
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert done.stdout.strip() == str(compiled_tree / "cnctwin/nc/lexer.py")
+
+
+def test_a_compiled_module_older_than_its_source_is_refused(tmp_path: Path) -> None:
+    source = tmp_path / "lexer.py"
+    source.write_text("")
+    extension = tmp_path / ("lexer" + importlib.machinery.EXTENSION_SUFFIXES[0])
+    extension.write_bytes(b"")
+    os.utime(source, (1_000, 1_000))
+    os.utime(extension, (2_000, 2_000))
+    check_compiled_are_current(tmp_path)  # compiled after the last change: fine
+    os.utime(source, (3_000, 3_000))
+    with pytest.raises(ImportError, match=r"older than lexer\.py.*CNCTWIN_COMPILE=1.*PURE"):
+        check_compiled_are_current(tmp_path)
