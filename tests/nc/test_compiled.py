@@ -15,7 +15,9 @@ Compiling takes about two minutes of one core; it needs a C compiler and Python'
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.machinery
+import inspect
 import json
 import os
 import shutil
@@ -32,6 +34,8 @@ from cnctwin.nc.compiled import (
     PURE_PYTHON_VARIABLE,
     check_compiled_are_current,
 )
+from cnctwin.nc.lexer import Block, OWord
+from cnctwin.nc.segments import MachineState, MotionKind, Segment
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -178,3 +182,27 @@ def test_a_compiled_module_older_than_its_source_is_refused(tmp_path: Path) -> N
     os.utime(source, (3_000, 3_000))
     with pytest.raises(ImportError, match=r"older than lexer\.py.*CNCTWIN_COMPILE=1.*PURE"):
         check_compiled_are_current(tmp_path)
+
+
+@pytest.mark.parametrize("cls", [Segment, Block, OWord])
+def test_written_out_inits_take_the_dataclass_fields(cls: type) -> None:
+    """Segment, Block and OWord write their ``__init__`` out (so that mypyc compiles it):
+    its parameters are the dataclass's fields, in order, with the fields' defaults."""
+    parameters = list(inspect.signature(cls.__init__).parameters.values())[1:]
+    fields = dataclasses.fields(cls)
+    assert [p.name for p in parameters] == [f.name for f in fields]
+    for parameter, field in zip(parameters, fields, strict=True):
+        if field.default is not dataclasses.MISSING:
+            assert parameter.default == field.default, field.name
+
+
+def test_a_segment_is_still_a_dataclass_value() -> None:
+    state = MachineState()
+    segment = Segment(MotionKind.LINEAR, 3, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 100.0, 0.0, state)
+    moved = dataclasses.replace(segment, line=4)
+    assert (moved.line, moved.turns, moved.file, moved.center_mm) == (4, 0, "", None)
+    assert dataclasses.replace(moved, line=3) == segment
+    assert repr(segment).startswith("Segment(kind=")
+    block = Block()
+    assert (block.gcodes, block.words, block.oword) == ([], {}, None)
+    assert Block().gcodes is not block.gcodes

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Sequence
+from typing import Final
 
 from cnctwin.errors import NCError
 
@@ -26,20 +27,20 @@ __all__ = [
     "spline_points",
 ]
 
-MM_PER_INCH = 25.4
+MM_PER_INCH: Final = 25.4
 #: Largest amount by which an R-format arc's radius may fall short of half its chord, mm.
-ARC_RADIUS_TOLERANCE_MM = 0.005
+ARC_RADIUS_TOLERANCE_MM: Final = 0.005
 #: LinuxCNC's test of an I/J/K arc's end radius (measured with its rs274): refused when the
 #: end radius differs from the start radius by more than the absolute tolerance and by more
 #: than ARC_RADIUS_TOLERANCE_REL of the larger radius, or by more than
 #: ARC_RADIUS_LIMIT_FACTOR times the absolute tolerance. The absolute tolerance is in program
 #: units: 0.028284 mm under G21, 0.0028284 in (0.0718 mm) under G20.
-ARC_END_TOLERANCE_MM = 0.028284
-ARC_END_TOLERANCE_INCH = 0.0028284
-ARC_RADIUS_TOLERANCE_REL = 0.001
-ARC_RADIUS_LIMIT_FACTOR = 100.0
+ARC_END_TOLERANCE_MM: Final = 0.028284
+ARC_END_TOLERANCE_INCH: Final = 0.0028284
+ARC_RADIUS_TOLERANCE_REL: Final = 0.001
+ARC_RADIUS_LIMIT_FACTOR: Final = 100.0
 #: Chord tolerance of the line segments that approximate G5.1 splines, mm.
-SPLINE_TOLERANCE_MM = 0.001
+SPLINE_TOLERANCE_MM: Final = 0.001
 
 
 def arc_turns(p_word: float | None, ccw: bool) -> int:

@@ -9,7 +9,7 @@ cnctwin does not implement); :func:`check_words` refuses a word nothing in the b
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NoReturn
+from typing import Final, NoReturn
 
 from cnctwin.nc.cursor import ProgramCursor
 from cnctwin.nc.lexer import Block
@@ -28,7 +28,7 @@ __all__ = [
 ]
 
 #: Modal group of each G-code (group 0: non-modal codes).
-G_GROUPS: dict[int, int] = {}
+G_GROUPS: Final[dict[int, int]] = {}
 for _group, _codes in {
     1: (0, 10, 20, 30, 51, 331, 730, 800, 810, 820, 830, 840, 850, 860, 890),
     2: (170, 180, 190),
@@ -49,7 +49,7 @@ for _group, _codes in {
         G_GROUPS[_code] = _group
 
 #: Modal groups of M-codes (RS274NGC): stops, tool change, spindle, coolant, overrides.
-M_GROUPS = {
+M_GROUPS: Final = {
     0: 4,
     1: 4,
     2: 4,
@@ -66,24 +66,24 @@ M_GROUPS = {
     48: 9,
     49: 9,
 }
-KNOWN_M = frozenset((0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 30, 48, 49, 60, 61))
+KNOWN_M: Final = frozenset((0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 30, 48, 49, 60, 61))
 
 #: Words of a modal G0/G1 block that the block executor's shortcut takes.
-FAST_WORDS = frozenset("xyzf")
+FAST_WORDS: Final = frozenset("xyzf")
 #: Words that every block may carry (feed, speed, tool, axes).
-PLAIN_WORDS = frozenset("fstxyzabc@^")
+PLAIN_WORDS: Final = frozenset("fstxyzabc@^")
 #: Words that move an axis; the centre words of an arc.
-AXIS_WORDS = frozenset("xyzabcuw@^")
-CENTRE_WORDS = frozenset("ijk")
+AXIS_WORDS: Final = frozenset("xyzabcuw@^")
+CENTRE_WORDS: Final = frozenset("ijk")
 #: Words an arc block (G2/G3) may carry.
-ARC_WORDS = PLAIN_WORDS | frozenset("ijkrp")
+ARC_WORDS: Final = PLAIN_WORDS | frozenset("ijkrp")
 #: Non-modal codes that use the axis words themselves.
-NON_MODAL_WITH_AXES = frozenset((100, 280, 300, 520, 920))
+NON_MODAL_WITH_AXES: Final = frozenset((100, 280, 300, 520, 920))
 #: The drilling cycles G73, G81-G86, G89.
-CYCLES = frozenset((730, 810, 820, 830, 840, 850, 860, 890))
+CYCLES: Final = frozenset((730, 810, 820, 830, 840, 850, 860, 890))
 
 #: G-codes recognised but not implemented, with what they are.
-UNSUPPORTED_G: dict[int, str] = {
+UNSUPPORTED_G: Final[dict[int, str]] = {
     50: "cubic spline (G5)",
     52: "NURBS (G5.2)",
     53: "NURBS (G5.3)",
@@ -112,7 +112,7 @@ UNSUPPORTED_G: dict[int, str] = {
     880: "boring cycle with manual retract (G88)",
     1000: "macro call (G100)",
 }
-UNSUPPORTED_M: dict[int, str] = {
+UNSUPPORTED_M: Final[dict[int, str]] = {
     98: "Fanuc subprogram call (M98)",
     99: "Fanuc subprogram return (M99)",
 }

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Final
 
 from cnctwin.errors import NCError
 from cnctwin.nc.cursor import ProgramCursor
@@ -30,7 +31,7 @@ __all__ = [
 
 #: Retract of G73 chip breaking and the stop short of the previous depth in G83, in mm
 #: (LinuxCNC uses 0.010 inch, i.e. 0.254 mm).
-PECK_CLEARANCE_MM = 0.254
+PECK_CLEARANCE_MM: Final = 0.254
 
 
 @dataclass(frozen=True, slots=True)

@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Final
 
 from cnctwin.errors import NCError
 from cnctwin.nc.segments import (
@@ -72,7 +73,7 @@ _Vec2 = tuple[float, float]
 #: Orientations 2 and 7 are checked against ``ccomp/lathe-comp``; the others follow from
 #: LinuxCNC's orientation chart (and agree with the front/back angles ``I``/``J`` of the
 #: oracle's tool table: the tip points away from the tool body).
-LATHE_TIP_SHIFT: dict[int, _Vec2] = {
+LATHE_TIP_SHIFT: Final[dict[int, _Vec2]] = {
     0: (0.0, 0.0),
     1: (1.0, -1.0),
     2: (-1.0, -1.0),
@@ -88,11 +89,11 @@ LATHE_TIP_SHIFT: dict[int, _Vec2] = {
 #: Offset end and offset start closer than this (mm) make a tangent junction: the next
 #: move starts where the held one ends. LinuxCNC's traces show no corner arc and no
 #: trimming up to a gap of 0.0007 mm (inside-corners), and corners from 0.0136 mm on.
-_TANGENT_GAP_MM = 0.0025
+_TANGENT_GAP_MM: Final = 0.0025
 #: sin of the angle within which a turn counts as a reversal (cusp) of the path.
-_CUSP_SIN = math.sin(0.05)
+_CUSP_SIN: Final = math.sin(0.05)
 #: In-plane displacement (mm) below which a straight move has no motion in the plane.
-_NO_MOTION_MM = 1e-9
+_NO_MOTION_MM: Final = 1e-9
 
 
 def _sub(a: _Vec2, b: _Vec2) -> _Vec2:

@@ -10,6 +10,8 @@ state, offsets, tool state, drilling cycles and motion.
 
 from __future__ import annotations
 
+from typing import Final
+
 from cnctwin.nc.blocks import (
     AXIS_WORDS,
     CENTRE_WORDS,
@@ -33,8 +35,8 @@ from cnctwin.nc.tool_state import ToolState
 
 __all__ = ["BlockExecutor"]
 
-_READ_ONLY = frozenset(("_x", "_y", "_z", "_abs_x", "_abs_y", "_abs_z"))
-_COORD_SYSTEMS = {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8, 593: 9}
+_READ_ONLY: Final = frozenset(("_x", "_y", "_z", "_abs_x", "_abs_y", "_abs_z"))
+_COORD_SYSTEMS: Final = {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8, 593: 9}
 
 
 class BlockExecutor:

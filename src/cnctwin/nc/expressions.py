@@ -47,7 +47,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Sequence
-from typing import Any, TypeVar
+from typing import Any, Final, TypeVar
 
 from cnctwin.errors import NCError
 from cnctwin.nc.limits import check_number_text
@@ -73,20 +73,20 @@ __all__ = [
 ]
 
 #: Highest numbered parameter (numbered parameters are #1..#MAX_PARAMETER).
-MAX_PARAMETER = 5602
+MAX_PARAMETER: Final = 5602
 #: Numbered parameters #1..#SUBROUTINE_PARAMETERS are local to a subroutine call.
-SUBROUTINE_PARAMETERS = 30
+SUBROUTINE_PARAMETERS: Final = 30
 #: Values closer than this compare equal under ``eq``, ``ne``, ``ge`` and ``le``.
-EQUAL_TOLERANCE = 1e-6
+EQUAL_TOLERANCE: Final = 1e-6
 #: Deepest nesting of brackets, ``#`` indirections, functions and unary signs.
-MAX_NESTING = 100
+MAX_NESTING: Final = 100
 #: A parameter number may differ from an integer by at most this much.
-_INDEX_TOLERANCE = 1e-4
+_INDEX_TOLERANCE: Final = 1e-4
 
-_DEG = math.pi / 180.0
-_RAD = 180.0 / math.pi
-_isfinite = math.isfinite
-_number = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)").match
+_DEG: Final = math.pi / 180.0
+_RAD: Final = 180.0 / math.pi
+_isfinite: Final = math.isfinite
+_number: Final = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)").match
 
 # Binary operators: codes, and precedence (higher binds tighter). _CLOSE is the ']'
 # that ends an expression; its precedence is below every operator's.

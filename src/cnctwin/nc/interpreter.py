@@ -24,6 +24,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Final
 
 from cnctwin.errors import NCError
 from cnctwin.nc.cursor import ProgramCursor
@@ -39,31 +40,31 @@ from cnctwin.nc.source import LineSource, RepeatBudget
 
 __all__ = ["Interpreter", "interpret_file", "interpret_text"]
 
-_NUM = r"\s*([-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+))\s*"
+_NUM: Final = r"\s*([-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+))\s*"
 #: A raw line of only an optional N word, an optional G0/G1 (G00, G01, ...), X, Y, Z and
 #: F words in that order; group 1 is the G-code's digit.
-_XYZ_LINE = re.compile(
+_XYZ_LINE: Final = re.compile(
     rf"\s*(?:[nN][0-9]+\s*)?(?:[gG]0*([01])(?![0-9.])\s*)?"
     rf"(?:[xX]{_NUM})?(?:[yY]{_NUM})?(?:[zZ]{_NUM})?(?:[fF]{_NUM})?"
 )
 #: A raw line of only an optional N word, an optional G2/G3 (G02, G03, ...) and X, Y, Z,
 #: I, J, K words in that order; group 1 is the G-code's digit.
-_ARC_LINE = re.compile(
+_ARC_LINE: Final = re.compile(
     rf"\s*(?:[nN][0-9]+\s*)?(?:[gG]0*([23])(?![0-9.])\s*)?"
     rf"(?:[xX]{_NUM})?(?:[yY]{_NUM})?(?:[zZ]{_NUM})?"
     rf"(?:[iI]{_NUM})?(?:[jJ]{_NUM})?(?:[kK]{_NUM})?"
 )
-_ARC_LETTERS = "xyzijk"
+_ARC_LETTERS: Final = "xyzijk"
 #: The bound of a length word (X Y Z I J K), program units.
-_LENGTH_WORD_LIMIT = WORD_LIMITS["x"][0]
+_LENGTH_WORD_LIMIT: Final = WORD_LIMITS["x"][0]
 #: The bound of an F word, program units per minute.
-_FEED_WORD_LIMIT = WORD_LIMITS["f"][0]
+_FEED_WORD_LIMIT: Final = WORD_LIMITS["f"][0]
 #: What :meth:`Interpreter._block` asks of the line loop: go on, or read the new source.
 _NEXT, _SWITCH = 0, 1
 #: The first letters of a line that may be an O-word statement read in :meth:`Interpreter._block`.
-_O_LETTERS = ("o", "O")
+_O_LETTERS: Final = ("o", "O")
 #: Lines without a look for a run of moves after a look that found none, at most.
-_MAX_BACKOFF = 4096
+_MAX_BACKOFF: Final = 4096
 
 
 class Interpreter:

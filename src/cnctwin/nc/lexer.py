@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Final
 
 from cnctwin.errors import NCError
 from cnctwin.nc.expressions import (
@@ -32,12 +32,12 @@ from cnctwin.nc.limits import MAX_NUMBER_CHARS, check_number_text, check_word
 
 __all__ = ["Block", "OWord", "lex_block", "read_oword", "squeeze", "strip_comments", "O_KEYWORDS"]
 
-_NUMBER = r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)"
-_SIMPLE_LINE = re.compile(rf"(?:[a-z@^]{_NUMBER})*")
-_WORD = re.compile(rf"([a-z@^])({_NUMBER})")
-_MESSAGE = re.compile(r"^\s*(msg|debug|print)\s*,(.*)$", re.IGNORECASE | re.DOTALL)
-_PROGRAM_NUMBER = re.compile(r"^[o:][0-9]+$")
-_NO_ASSIGNMENTS: list[tuple[int | str, float]] = []  # shared, never mutated
+_NUMBER: Final = r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)"
+_SIMPLE_LINE: Final = re.compile(rf"(?:[a-z@^]{_NUMBER})*")
+_WORD: Final = re.compile(rf"([a-z@^])({_NUMBER})")
+_MESSAGE: Final = re.compile(r"^\s*(msg|debug|print)\s*,(.*)$", re.IGNORECASE | re.DOTALL)
+_PROGRAM_NUMBER: Final = re.compile(r"^[o:][0-9]+$")
+_NO_ASSIGNMENTS: Final[list[tuple[int | str, float]]] = []  # shared, never mutated
 
 #: One word or setting of a compiled line: ``("#", read_key, value)`` for a parameter
 #: setting, ``(letter, _NO_KEY, value)`` for a word.
@@ -45,18 +45,18 @@ _Step = tuple[str, Callable[[Parameters], int | str], Evaluator]
 #: Lines read the general way, by the raw line: their messages and compiled steps, or None
 #: for a line seen once (read directly then: compiling costs about one more reading, so
 #: only lines met again are compiled). Bounded like the expressions' store.
-_COMPILED_LINES: dict[str, tuple[tuple[tuple[str, str], ...], tuple[_Step, ...]] | None] = {}
-_UNSEEN: Any = object()
+_COMPILED_LINES: Final[dict[str, tuple[tuple[tuple[str, str], ...], tuple[_Step, ...]] | None]] = {}
+_UNSEEN: Final[Any] = object()
 
 
 def _no_key(params: Parameters) -> int | str:
     raise AssertionError("a word has no parameter key")
 
 
-_NO_KEY = _no_key
+_NO_KEY: Final = _no_key
 
 #: O-word keywords (LinuxCNC subroutines and control flow).
-O_KEYWORDS = (
+O_KEYWORDS: Final = (
     "sub",
     "endsub",
     "call",
@@ -73,12 +73,12 @@ O_KEYWORDS = (
     "continue",
     "return",
 )
-_O_WORD = re.compile(
+_O_WORD: Final = re.compile(
     r"^o([0-9]+|<[^>]*>)(" + "|".join(sorted(O_KEYWORDS, key=len, reverse=True)) + ")"
 )
 
 
-@dataclass(slots=True)
+@dataclass(slots=True, init=False)
 class OWord:
     """An O-word control statement.
 
@@ -101,8 +101,16 @@ class OWord:
     text: str
     args_pos: int
 
+    def __init__(self, label: str, keyword: str, text: str, args_pos: int) -> None:
+        # Written out (init=False above): compiled by mypyc, a dataclass's generated
+        # __init__ would stay interpreted Python, and one runs per O-word line.
+        self.label = label
+        self.keyword = keyword
+        self.text = text
+        self.args_pos = args_pos
 
-@dataclass(slots=True)
+
+@dataclass(slots=True, init=False)
 class Block:
     """The words of one NC block.
 
@@ -125,12 +133,29 @@ class Block:
         The block's O-word statement, if any.
     """
 
-    gcodes: list[int] = field(default_factory=list)
-    mcodes: list[int] = field(default_factory=list)
-    words: dict[str, float] = field(default_factory=dict)
-    assignments: list[tuple[int | str, float]] = field(default_factory=list)
-    messages: list[tuple[str, str]] = field(default_factory=list)
-    oword: OWord | None = None
+    gcodes: list[int]
+    mcodes: list[int]
+    words: dict[str, float]
+    assignments: list[tuple[int | str, float]]
+    messages: list[tuple[str, str]]
+    oword: OWord | None
+
+    def __init__(
+        self,
+        gcodes: list[int] | None = None,
+        mcodes: list[int] | None = None,
+        words: dict[str, float] | None = None,
+        assignments: list[tuple[int | str, float]] | None = None,
+        messages: list[tuple[str, str]] | None = None,
+        oword: OWord | None = None,
+    ) -> None:
+        # Written out (init=False above), as OWord's: one block is made per line.
+        self.gcodes = [] if gcodes is None else gcodes
+        self.mcodes = [] if mcodes is None else mcodes
+        self.words = {} if words is None else words
+        self.assignments = [] if assignments is None else assignments
+        self.messages = [] if messages is None else messages
+        self.oword = oword
 
 
 def strip_comments(raw: str, messages: list[tuple[str, str]] | None = None) -> str:

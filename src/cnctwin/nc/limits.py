@@ -22,6 +22,7 @@ each):
 from __future__ import annotations
 
 import math
+from typing import Final
 
 from cnctwin.errors import NCError
 
@@ -43,33 +44,33 @@ __all__ = [
 
 #: Largest magnitude of a machine position, mm (1 km: twenty times the travel of the
 #: largest gantry mills).
-MAX_POSITION_MM = 1e6
+MAX_POSITION_MM: Final = 1e6
 #: Longest number literal, characters (sign, digits and point): a double has 17
 #: significant digits, so 64 leave room for any padding a post-processor writes.
-MAX_NUMBER_CHARS = 64
+MAX_NUMBER_CHARS: Final = 64
 #: Longest line, bytes (LinuxCNC reads at most 256 characters a line).
-MAX_LINE_BYTES = 65_536
+MAX_LINE_BYTES: Final = 65_536
 #: Largest program file, bytes, by default (about ten million lines of CAM output).
-MAX_PROGRAM_BYTES = 256 * 1024 * 1024
+MAX_PROGRAM_BYTES: Final = 256 * 1024 * 1024
 #: Most motion segments one program may produce, by default (a ten-million-line
 #: program; minutes of interpretation at the 60 000 segments/s of a loaded machine).
-MAX_SEGMENTS = 10_000_000
+MAX_SEGMENTS: Final = 10_000_000
 #: Most segments a single block may produce (canned-cycle repeats and pecks, splines).
-MAX_SEGMENTS_PER_BLOCK = 1_000_000
+MAX_SEGMENTS_PER_BLOCK: Final = 1_000_000
 #: Most lines read again after O-word jumps back (loop iterations, subroutine calls),
 #: by default: seconds of work (about 10 s on a loaded two-core machine).
-MAX_REPEATED_LINES = 1_000_000
+MAX_REPEATED_LINES: Final = 1_000_000
 #: Largest canned-cycle repeat count L (holes drilled by one block).
-MAX_CYCLE_REPEATS = 10_000
+MAX_CYCLE_REPEATS: Final = 10_000
 #: Most pecks of one G73/G83 hole.
-MAX_PECKS = 10_000
+MAX_PECKS: Final = 10_000
 
-_LENGTH = 1e6
-_TOOL = 99_999.0
+_LENGTH: Final = 1e6
+_TOOL: Final = 99_999.0
 #: Largest allowed magnitude of each word, in program units (mm or inch, degrees,
 #: mm/min or in/min, rpm, s); any other letter has the length bound. G and M values are
 #: then checked as codes by the lexer.
-WORD_LIMITS: dict[str, tuple[float, str]] = {
+WORD_LIMITS: Final[dict[str, tuple[float, str]]] = {
     **{letter: (_LENGTH, "length") for letter in "xyzuwijkrq@d"},
     **{letter: (_LENGTH, "angle, degrees") for letter in "abc^"},
     "f": (1e9, "feed"),
@@ -82,7 +83,7 @@ WORD_LIMITS: dict[str, tuple[float, str]] = {
     "m": (10_000.0, "M number"),
     "n": (1e12, "line number"),
 }
-_DEFAULT_LIMIT = (_LENGTH, "value")
+_DEFAULT_LIMIT: Final = (_LENGTH, "value")
 
 
 def check_number_text(text: str, column: int | None = None) -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import Final
 
 from cnctwin.nc.arcs import MM_PER_INCH
 from cnctwin.nc.cursor import ProgramCursor
@@ -19,7 +20,7 @@ from cnctwin.nc.segments import FeedMode, MachineState, Plane, Vec3
 
 __all__ = ["ModalState"]
 
-_SPINDLE = {3: 1, 4: -1, 5: 0}
+_SPINDLE: Final = {3: 1, 4: -1, 5: 0}
 
 
 class ModalState:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import Final
 
 from cnctwin.nc.arcs import arc_end_refused, arc_turns, center_from_radius, spline_points
 from cnctwin.nc.blocks import g_text
@@ -35,10 +36,12 @@ from cnctwin.nc.tool_state import ToolState
 
 __all__ = ["Motion", "check_target"]
 
-_AXES = "xyz"
-_ROTARY = "abc"
+_AXES: Final = "xyz"
+_ROTARY: Final = "abc"
 #: The centre words in each plane.
-_IN_PLANE = {plane: frozenset("ijk"[axis] for axis in PLANE_AXES[plane][:2]) for plane in Plane}
+_IN_PLANE: Final = {
+    plane: frozenset("ijk"[axis] for axis in PLANE_AXES[plane][:2]) for plane in Plane
+}
 
 
 def check_target(point: list[float] | tuple[float, float, float]) -> None:

@@ -10,7 +10,7 @@ is never held in memory. The interpreter hands each O-word statement to
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 from cnctwin.errors import NCError
 from cnctwin.nc.cursor import ProgramCursor
@@ -25,7 +25,7 @@ __all__ = ["OWordControl", "MAX_CALL_DEPTH", "MAX_LOOP_ITERATIONS"]
 MAX_LOOP_ITERATIONS = 100_000
 #: Most subroutine calls open at once: LinuxCNC refuses a tenth nested call
 #: ("Too many subroutine levels"), so cnctwin does too.
-MAX_CALL_DEPTH = 9
+MAX_CALL_DEPTH: Final = 9
 
 
 class OWordControl:

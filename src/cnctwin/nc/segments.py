@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import Literal
+from typing import Final, Literal
 
 __all__ = [
     "CutterComp",
@@ -37,7 +37,7 @@ __all__ = [
 ]
 
 Vec3 = tuple[float, float, float]
-ZERO3: Vec3 = (0.0, 0.0, 0.0)
+ZERO3: Final[Vec3] = (0.0, 0.0, 0.0)
 
 
 class MotionKind(IntEnum):
@@ -58,7 +58,7 @@ class Plane(IntEnum):
 
 
 #: (first, second, normal) axis indices of each plane, as in LinuxCNC's canonical calls.
-PLANE_AXES: dict[Plane, tuple[int, int, int]] = {
+PLANE_AXES: Final[dict[Plane, tuple[int, int, int]]] = {
     Plane.XY: (0, 1, 2),
     Plane.ZX: (2, 0, 1),
     Plane.YZ: (1, 2, 0),
@@ -171,7 +171,7 @@ class MachineState:
         return (x + w[0] + t[0], y + w[1] + t[1], z + w[2] + t[2])
 
 
-@dataclass(slots=True)
+@dataclass(slots=True, init=False)
 class Segment:
     """One motion of the controlled point, in machine coordinates.
 
@@ -221,6 +221,39 @@ class Segment:
     start_abc_deg: Vec3 = field(default=ZERO3)
     end_abc_deg: Vec3 = field(default=ZERO3)
     file: str = ""
+
+    def __init__(
+        self,
+        kind: MotionKind,
+        line: int,
+        start_mm: Vec3,
+        end_mm: Vec3,
+        feed_mm_min: float,
+        spindle_rpm: float,
+        state: MachineState,
+        center_mm: Vec3 | None = None,
+        turns: int = 0,
+        dwell_s: float = 0.0,
+        start_abc_deg: Vec3 = ZERO3,
+        end_abc_deg: Vec3 = ZERO3,
+        file: str = "",
+    ) -> None:
+        # Written out (init=False above; the fields and defaults are the dataclass's, a
+        # test compares them): compiled by mypyc, a dataclass's generated __init__ would
+        # stay interpreted Python, and one runs per motion.
+        self.kind = kind
+        self.line = line
+        self.start_mm = start_mm
+        self.end_mm = end_mm
+        self.feed_mm_min = feed_mm_min
+        self.spindle_rpm = spindle_rpm
+        self.state = state
+        self.center_mm = center_mm
+        self.turns = turns
+        self.dwell_s = dwell_s
+        self.start_abc_deg = start_abc_deg
+        self.end_abc_deg = end_abc_deg
+        self.file = file
 
     @property
     def tcp_start_mm(self) -> Vec3:

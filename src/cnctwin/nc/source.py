@@ -18,7 +18,7 @@ import re
 import stat
 from collections.abc import Iterator
 from pathlib import Path
-from typing import BinaryIO
+from typing import BinaryIO, Final
 
 from cnctwin.errors import NCError
 from cnctwin.nc.limits import MAX_LINE_BYTES, MAX_PROGRAM_BYTES, MAX_REPEATED_LINES
@@ -27,9 +27,9 @@ __all__ = ["CHUNK_BYTES", "LineSource", "RepeatBudget"]
 
 #: Bytes read from the file at a time; a run of moves read in bulk (:mod:`cnctwin.nc.runs`)
 #: is taken from one chunk, so larger chunks make fewer, longer runs.
-CHUNK_BYTES = 262_144
-_EOL = re.compile(rb"\r\n|\r|\n")
-_CR = 13
+CHUNK_BYTES: Final = 262_144
+_EOL: Final = re.compile(rb"\r\n|\r|\n")
+_CR: Final = 13
 
 
 class RepeatBudget:

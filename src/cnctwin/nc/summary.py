@@ -10,7 +10,7 @@ import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from itertools import repeat
-from typing import Any
+from typing import Any, Final
 
 from cnctwin.errors import ConfigError, NCError
 from cnctwin.nc.runs import MoveRun, arc_sweeps, map_floats, rows
@@ -18,11 +18,11 @@ from cnctwin.nc.segments import PLANE_AXES, FeedMode, MotionKind, Segment, Vec3,
 
 __all__ = ["ProgramSummary", "arc_extreme_points", "summarize"]
 
-_QUARTER = math.pi / 2.0
+_QUARTER: Final = math.pi / 2.0
 #: cos and sin of k * 90 degrees, exactly.
-_COS = (1.0, 0.0, -1.0, 0.0)
-_SIN = (0.0, 1.0, 0.0, -1.0)
-_ZERO3 = (0.0, 0.0, 0.0)
+_COS: Final = (1.0, 0.0, -1.0, 0.0)
+_SIN: Final = (0.0, 1.0, 0.0, -1.0)
+_ZERO3: Final = (0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True, slots=True)
