@@ -23,7 +23,6 @@ import os
 import shutil
 import subprocess
 import sys
-import sysconfig
 from pathlib import Path
 
 import pytest
@@ -32,6 +31,7 @@ from skips import missing
 from cnctwin.nc.compiled import (
     COMPILED_MODULES,
     PURE_PYTHON_VARIABLE,
+    cannot_compile,
     check_compiled_are_current,
 )
 from cnctwin.nc.lexer import Block, OWord
@@ -74,10 +74,9 @@ for path in sys.argv[1:]:
 @pytest.fixture(scope="module")
 def compiled_tree(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A copy of ``src/`` with setup.py's modules compiled by mypyc in place."""
-    compiler = (sysconfig.get_config_var("CC") or "cc").split()[0]
-    headers = Path(sysconfig.get_paths()["include"], "Python.h")
-    if shutil.which(compiler) is None or not headers.is_file():
-        missing(f"no C compiler ({compiler}) or no {headers}", "CNCTWIN_REQUIRE_SERVICES")
+    reason = cannot_compile()
+    if reason is not None:
+        missing(f"mypyc cannot compile here: {reason}", "CNCTWIN_REQUIRE_SERVICES")
     root = tmp_path_factory.mktemp("compiled")
     shutil.copytree(
         REPO / "src" / "cnctwin",

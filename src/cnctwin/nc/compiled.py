@@ -73,6 +73,22 @@ def _compiled_pairs(folder: Path) -> list[tuple[Path, Path]]:
     return pairs
 
 
+def cannot_compile() -> str | None:
+    """Why this Python cannot compile :data:`COMPILED_MODULES` (no C compiler, no Python
+    headers), or ``None``. Called at install and by tests only: its imports stay out of
+    every import of :mod:`cnctwin.nc` (shutil costs 5 ms)."""
+    import shutil
+    import sysconfig
+
+    compiler = (sysconfig.get_config_var("CC") or "cc").split()[0]
+    if shutil.which(compiler) is None:
+        return f"no C compiler ({compiler})"
+    headers = Path(sysconfig.get_paths()["include"], "Python.h")
+    if not headers.is_file():
+        return f"no Python headers ({headers}; Debian: python3-dev)"
+    return None
+
+
 def compiled_modules() -> list[str]:
     """Names (``cnctwin.nc.lexer``, ...) of the modules that are imported compiled in this
     process, sorted; empty for an ordinary install or with ``CNCTWIN_PURE_PYTHON=1``."""
