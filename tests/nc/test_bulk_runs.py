@@ -7,7 +7,11 @@ lines (alone or mixed) to
 interpreter's line-by-line path (:meth:`Interpreter.run_text`) and the per-segment summary:
 generated programs, with lines that must end a run mixed in, are run both ways and the
 segments, warnings, lines read, errors and summaries compared exactly (``repr`` of floats,
-so that -0.0 and 0.0 differ). The number parser is checked against Python's ``float``.
+so that -0.0 and 0.0 differ), and the canonical trace that ``nc trace`` prints of runs
+(:func:`~cnctwin.nc.trace.trace_text`, numbers printed with numpy) against the lines of
+:func:`~cnctwin.nc.trace.format_trace` (Python's ``%.4f``), character for character. The
+number parser is checked against Python's ``float``, the trace's number printer against
+Python's ``%.4f``.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from cnctwin.nc.runs import MIN_RUN_LINES, MoveRun, arc_sweeps, xy_atan2, xy_hyp
 from cnctwin.nc.segments import Plane, Segment, arc_sweep_rad
 from cnctwin.nc.setup import NCSetup, ToolEntry
 from cnctwin.nc.summary import summarize
+from cnctwin.nc.trace import _lines_text, format_trace, trace_text
 
 HEADER = "G21 G90 G17 G94\nT1 M6\nS1000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F300\n"
 
@@ -176,7 +181,7 @@ def _repr(value: object) -> object:
 
 def both_ways(text: str, setup: NCSetup | None = None) -> tuple[object, object, int]:
     """(line-by-line result, bulk result, moves in runs), each the segments, warnings,
-    lines read and summary, or the error message."""
+    lines read, summary and traces in both frames, or the error message."""
     results = []
     in_runs = 0
     for bulk in (False, True):
@@ -195,7 +200,14 @@ def both_ways(text: str, setup: NCSetup | None = None) -> tuple[object, object, 
         else:
             segments = [s for i in items for s in (i.segments() if isinstance(i, MoveRun) else [i])]
             summary = summarize(items, rapid_mm_min=5000.0).to_dict()
-            results.append(_repr([segments, interpreter.warnings, interpreter.lines_read, summary]))
+            traces = [
+                "".join(trace_text(items, frame))
+                if bulk
+                else "".join(f"{line}\n" for line in format_trace(segments, frame))
+                for frame in ("program", "machine")
+            ]
+            result = [segments, interpreter.warnings, interpreter.lines_read, summary, traces]
+            results.append(_repr(result))
         if bulk:
             in_runs = sum(len(i) for i in items if isinstance(i, MoveRun))
     return results[0], results[1], in_runs
@@ -460,3 +472,42 @@ def test_numbers_read_in_bulk_are_float_of_their_text(texts: list[str]) -> None:
             assert wrong
         else:
             assert not wrong and repr(value) == repr(expected)
+
+
+#: Numbers that the trace's printer must print as ``"%.4f"`` does: signed zeros, values that
+#: round to a signed zero, exact halves of the last digit, near halves, wide values.
+awkward = st.sampled_from(
+    [0.0, -0.0, -0.00004, 0.00005, 0.03125, -0.03125, 1.00005, 2.5e-5, 0.15625, 1e-300]
+    + [123456789.98765, 4.5e11, -4.6e11, 1e15, 9999.99995, 0.99995, -0.99995]
+)
+trace_number = st.one_of(
+    st.floats(-1e6, 1e6, allow_nan=False),
+    st.floats(-5000, 5000).map(lambda v: round(v, 3)),
+    st.integers(-(10**9), 10**9).map(lambda k: k / 20000),  # halves of the last digit
+    awkward,
+)
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.sampled_from([0, 1]), st.lists(trace_number, min_size=3, max_size=3)),
+        min_size=1,
+        max_size=30,
+    ),
+    st.integers(1, 10**7),
+)
+def test_trace_numbers_are_printed_as_python_prints_them(
+    rows: list[tuple[int, list[float]]], first_line: int
+) -> None:
+    """:func:`_lines_text` (numpy, or Python's ``%`` where a product is near a half or a
+    number too wide) against one ``%`` format a line."""
+    texts = [[" A(", ", ", ")\n"], [" BB(", "; ", ", ", " end\n"]]
+    kind = np.array([k for k, _ in rows])
+    numbers = np.array([values for _, values in rows])
+    lines = []
+    for i, (k, (a, b, c)) in enumerate(rows):
+        call = f"A({a:.4f}, {b:.4f})" if k == 0 else f"BB({a:.4f}; {b:.4f}, {c:.4f} end"
+        lines.append(f"{first_line + i} {call}\n")
+    expected = "".join(lines)
+    assert _lines_text(np, first_line, kind, texts, numbers) == expected

@@ -215,13 +215,13 @@ def trace_program(
     ``frame`` is ``"program"`` (program frame and units) or ``"machine"`` (machine
     coordinates, mm); the other parameters are the command's options (docs/cli.md).
     """
-    from cnctwin.nc import Interpreter, format_trace
+    from cnctwin.nc import Interpreter, trace_text
 
     setup = _bounded(_setup(_load(config)), max_segments, max_bytes, max_repeated_lines)
     interpreter = Interpreter(setup)
     out = sys.stdout
-    for line in format_trace(interpreter.run_file(program), frame):
-        out.write(f"{line}\n")
+    for text in trace_text(interpreter.run_file_bulk(program), frame):
+        out.write(text)
 
 
 def _tap(segments: Iterable[Segment], sink: Callable[[Segment], None]) -> Iterator[Segment]:

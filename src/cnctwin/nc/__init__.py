@@ -47,7 +47,7 @@ if TYPE_CHECKING:  # the names as type checkers see them; imported lazily at run
     from cnctwin.nc.setup import DEFAULT_RAPID_MM_MIN, NCSetup, ToolEntry
     from cnctwin.nc.summary import summarize
     from cnctwin.nc.tool_table import read_tool_table
-    from cnctwin.nc.trace import CanonicalMove, canonical_moves, format_trace
+    from cnctwin.nc.trace import CanonicalMove, canonical_moves, format_trace, trace_text
 
 #: Where each public name lives. Imported on first use, so that importing one submodule
 #: (the command line reads programs without sampling them) does not import numpy and numba.
@@ -83,6 +83,7 @@ _HOMES = {
     "sample_program": "sampler",
     "segment_length_mm": "segments",
     "summarize": "summary",
+    "trace_text": "trace",
 }
 
 __getattr__, __dir__ = _lazy.exports(__name__, _HOMES)
@@ -121,4 +122,5 @@ __all__ = [
     "sample_program",
     "segment_length_mm",
     "summarize",
+    "trace_text",
 ]

@@ -5,20 +5,34 @@ LinuxCNC's interpreter reports motion as canonical machining calls in the progra
 ``STRAIGHT_TRAVERSE(x, y, z, a, b, c)``, ``STRAIGHT_FEED(...)``,
 ``ARC_FEED(first_end, second_end, first_centre, second_centre, rotation, normal_end, a, b, c)``
 and ``DWELL(seconds)``. :func:`canonical_moves` turns segments into those calls, so that a
-trace of cnctwin can be compared number by number with one of LinuxCNC.
+trace of cnctwin can be compared number by number with one of LinuxCNC; :func:`format_trace`
+prints them one a line, and :func:`trace_text` prints runs of moves read in bulk
+(:class:`~cnctwin.nc.runs.MoveRun`) as well, many lines with one format operation.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from typing import Any, Final
 
 from cnctwin.errors import InputError
+from cnctwin.nc.runs import MoveRun
 from cnctwin.nc.segments import PLANE_AXES, MotionKind, Segment
 
-__all__ = ["CanonicalMove", "canonical_moves", "format_trace"]
+__all__ = ["CanonicalMove", "canonical_moves", "format_trace", "trace_text"]
 
-_MM_PER_INCH = 25.4
+_MM_PER_INCH: Final = 25.4
+#: How every number of a call is printed (LinuxCNC prints four decimals).
+_NUMBER: Final = "%.4f"
+_FOUR: Final = ", ".join([_NUMBER] * 4)
+#: Each call's text as a ``%`` format of its arguments (the arc's rotation an integer).
+_CALLS: Final = {
+    "STRAIGHT_TRAVERSE": f"STRAIGHT_TRAVERSE({_FOUR}, {_NUMBER}, {_NUMBER})",
+    "STRAIGHT_FEED": f"STRAIGHT_FEED({_FOUR}, {_NUMBER}, {_NUMBER})",
+    "ARC_FEED": f"ARC_FEED({_FOUR}, %d, {_FOUR})",
+    "DWELL": f"DWELL({_NUMBER})",
+}
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,11 +56,37 @@ class CanonicalMove:
 
     def format(self) -> str:
         """The call as text, e.g. ``STRAIGHT_FEED(1.0000, 2.0000, ...)``."""
-        if self.name == "ARC_FEED":
-            parts = [f"{v:.4f}" for v in self.values]
-            parts[4] = str(int(self.values[4]))
-            return f"ARC_FEED({', '.join(parts)})"
-        return f"{self.name}({', '.join(f'{v:.4f}' for v in self.values)})"
+        return _CALLS[self.name] % self.values
+
+
+def _is_program_frame(frame: str) -> bool:
+    if frame not in ("program", "machine"):
+        raise InputError(f"frame must be 'program' or 'machine', not {frame!r}")
+    return frame == "program"
+
+
+def _call(seg: Segment, program: bool) -> tuple[str, tuple[float, ...]]:
+    """The canonical call of one segment: its name and arguments (see :class:`CanonicalMove`)."""
+    state = seg.state
+    if program:
+        scale = 1.0 / _MM_PER_INCH if state.units == "inch" else 1.0
+        e = state.to_program(seg.end_mm)
+    else:
+        scale = 1.0
+        e = seg.end_mm
+    end = (e[0] * scale, e[1] * scale, e[2] * scale)
+    abc = seg.end_abc_deg
+    kind = seg.kind
+    if kind == MotionKind.DWELL:
+        return "DWELL", (seg.dwell_s,)
+    if kind == MotionKind.ARC and seg.center_mm is not None:
+        first, second, normal = PLANE_AXES[state.plane]
+        c = state.to_program(seg.center_mm) if program else seg.center_mm
+        centre = (c[0] * scale, c[1] * scale, c[2] * scale)
+        values = (end[first], end[second], centre[first], centre[second], float(seg.turns))
+        return "ARC_FEED", (*values, end[normal], abc[0], abc[1], abc[2])
+    name = "STRAIGHT_TRAVERSE" if kind == MotionKind.RAPID else "STRAIGHT_FEED"
+    return name, (*end, *abc)
 
 
 def canonical_moves(segments: Iterable[Segment], frame: str = "program") -> Iterator[CanonicalMove]:
@@ -64,44 +104,10 @@ def canonical_moves(segments: Iterable[Segment], frame: str = "program") -> Iter
     ------
     CanonicalMove
     """
-    if frame not in ("program", "machine"):
-        raise InputError(f"frame must be 'program' or 'machine', not {frame!r}")
-    program = frame == "program"
+    program = _is_program_frame(frame)
     for seg in segments:
-        state = seg.state
-        if program:
-            scale = 1.0 / _MM_PER_INCH if state.units == "inch" else 1.0
-            e = state.to_program(seg.end_mm)
-        else:
-            scale = 1.0
-            e = seg.end_mm
-        end = (e[0] * scale, e[1] * scale, e[2] * scale)
-        abc = seg.end_abc_deg
-        kind = seg.kind
-        if kind == MotionKind.DWELL:
-            yield CanonicalMove("DWELL", (seg.dwell_s,), seg.line)
-        elif kind == MotionKind.ARC and seg.center_mm is not None:
-            first, second, normal = PLANE_AXES[state.plane]
-            c = state.to_program(seg.center_mm) if program else seg.center_mm
-            centre = (c[0] * scale, c[1] * scale, c[2] * scale)
-            yield CanonicalMove(
-                "ARC_FEED",
-                (
-                    end[first],
-                    end[second],
-                    centre[first],
-                    centre[second],
-                    float(seg.turns),
-                    end[normal],
-                    abc[0],
-                    abc[1],
-                    abc[2],
-                ),
-                seg.line,
-            )
-        else:
-            name = "STRAIGHT_TRAVERSE" if kind == MotionKind.RAPID else "STRAIGHT_FEED"
-            yield CanonicalMove(name, (*end, *abc), seg.line)
+        name, values = _call(seg, program)
+        yield CanonicalMove(name, values, seg.line)
 
 
 def format_trace(segments: Iterable[Segment], frame: str = "program") -> Iterator[str]:
@@ -118,5 +124,158 @@ def format_trace(segments: Iterable[Segment], frame: str = "program") -> Iterato
     ------
     str
     """
-    for move in canonical_moves(segments, frame):
-        yield f"{move.line} {move.format()}"
+    program = _is_program_frame(frame)
+    for seg in segments:
+        name, values = _call(seg, program)
+        yield f"{seg.line} {_CALLS[name] % values}"
+
+
+def trace_text(items: Iterable[Segment | MoveRun], frame: str = "program") -> Iterator[str]:
+    """The lines of :func:`format_trace`, each ending in ``"\\n"``, for segments and runs of
+    moves read in bulk (:meth:`~cnctwin.nc.interpreter.Interpreter.run_file_bulk`): a run's
+    lines come as one string, equal to those of its segments.
+
+    Parameters
+    ----------
+    items
+        Segments and runs from the interpreter.
+    frame
+        ``"program"`` (LinuxCNC-comparable) or ``"machine"`` (mm, machine coordinates).
+
+    Yields
+    ------
+    str
+        One or more complete lines.
+    """
+    program = _is_program_frame(frame)
+    for item in items:
+        if isinstance(item, MoveRun):
+            yield _run_text(item, program)
+        else:
+            name, values = _call(item, program)
+            yield f"{item.line} {_CALLS[name] % values}\n"
+
+
+def _run_text(run: MoveRun, program: bool) -> str:
+    """The trace lines of a run, with the numbers :func:`_call` gives its segments: the same
+    floating-point operations on numpy columns, printed by :func:`_lines_text`.
+
+    A run is in the XY plane and never rotated (:mod:`cnctwin.nc.runs`), so the program
+    frame is ``MachineState.to_program`` without its rotation: machine minus work, tool and
+    axis offsets, in that order, then times the unit scale.
+    """
+    import numpy as np  # imported already: the run was read with it
+
+    state = run.state
+    end = run.end_mm
+    centre = run.center_mm
+    if program:
+        scale = 1.0 / _MM_PER_INCH if state.units == "inch" else 1.0
+        for shift in (state.work_offset_mm, state.tool_offset_mm, state.axis_offset_mm):
+            end = end - np.array(shift)
+            centre = centre - np.array(shift)
+        end = end * scale
+        centre = centre * scale
+    kind = run.motion // 10  # 0 to 3: G0 to G3
+    arc = kind >= 2
+    numbers = np.empty((len(end), 5))
+    numbers[:, 0:2] = end[:, :2]
+    numbers[:, 2] = np.where(arc, centre[:, 0], end[:, 2])
+    numbers[:, 3] = centre[:, 1]
+    numbers[:, 4] = end[:, 2]
+    tail = f", {', '.join([_NUMBER % v for v in run.abc_deg])})\n"
+    texts = [  # per kind: the text before the line's first number, then after each number
+        [" STRAIGHT_TRAVERSE(", ", ", ", ", tail],
+        [" STRAIGHT_FEED(", ", ", ", ", tail],
+        [" ARC_FEED(", ", ", ", ", ", ", ", -1, ", tail],
+        [" ARC_FEED(", ", ", ", ", ", ", ", 1, ", tail],
+    ]
+    return _lines_text(np, run.first_line, kind, texts, numbers)
+
+
+#: Widest number :func:`_lines_text` prints itself: below 2**52 ten-thousandths, so that
+#: ``rint`` of the scaled value is an exact integer (about 4.5e11 mm or inch).
+_FIXED_LIMIT: Final = 2.0**52
+_ZERO: Final = 48  # b"0"
+
+
+def _lines_text(np: Any, first_line: int, kind: Any, texts: list[list[str]], numbers: Any) -> str:
+    """Lines ``"<line> <text 0><number 0><text 1><number 1>...<last text>"`` for
+    consecutive source lines from ``first_line``, each number printed as ``"%.4f"`` does.
+
+    ``texts[k]`` are the constant pieces of a line of kind ``k``: the first before its
+    first number, then one after each number (a line of kind ``k`` has
+    ``len(texts[k]) - 1`` numbers); ``kind`` (n,) is each line's kind and ``numbers``
+    (n, m) its numbers, the first of each row printed.
+    The text is put together as bytes in fixed-width fields, zero bytes where a field is
+    shorter, and the zeros dropped: numpy, no call per number.
+
+    The digits are those of ``rint(|value| * 10000)``, which are ``"%.4f"``'s (the
+    correctly rounded digits of the exact binary value) unless the product lies within
+    its rounding error of a half: there, and for numbers too wide or not finite, the lines
+    are printed with Python's ``%`` instead.
+    """
+    n, m = numbers.shape
+    counts = np.array([len(row) - 1 for row in texts])[kind]
+    used = np.arange(m) < counts[:, None]
+    values = np.where(used, numbers, 0.0)
+    magnitude = np.abs(values) * 10000.0
+    near_half = np.abs(magnitude - np.floor(magnitude) - 0.5) <= 2.0 * np.spacing(magnitude)
+    if not np.all(magnitude < _FIXED_LIMIT) or np.any(near_half):
+        return _lines_text_python(first_line, kind, texts, numbers)
+    scaled = np.rint(magnitude).astype(np.int64)
+    fraction = scaled % 10000
+    decimals = [(fraction // 10 ** (3 - k) % 10 + _ZERO).astype(np.uint8) for k in range(4)]
+    point = np.full((n, m, 1), ord("."), dtype=np.uint8)
+    whole = _digits(np, scaled // 10000, np.signbit(values))
+    fields = np.concatenate([whole, point, np.stack(decimals, axis=-1)], axis=-1)
+    fields[~used] = 0
+    table = _text_table(np, texts)
+    pieces = [_digits(np, np.arange(first_line, first_line + n)), table[kind, 0]]
+    for j in range(m):
+        pieces += [fields[:, j], table[kind, j + 1]]
+    block = np.concatenate(pieces, axis=-1).ravel()
+    text: bytes = block[block != 0].tobytes()
+    return text.decode("ascii")
+
+
+def _digits(np: Any, values: Any, negative: Any = None) -> Any:
+    """Decimal digits of non-negative integers (numpy int64, any shape), right-aligned in
+    bytes along a new last axis, zero bytes before, with ``"-"`` before those where
+    ``negative`` is true."""
+    widest = int(values.max(initial=0))
+    width = len(str(widest)) + 1  # one more for a sign
+    out = np.zeros((*values.shape, width), dtype=np.uint8)
+    power = 1
+    for k in range(width - 1):
+        digit = (values // power % 10 + _ZERO).astype(np.uint8)
+        out[..., width - 1 - k] = np.where((values >= power) | (k == 0), digit, 0)
+        power *= 10
+    if negative is not None:
+        length = np.count_nonzero(out, axis=-1)
+        minus = np.where(negative, ord("-"), 0).astype(np.uint8)
+        np.put_along_axis(out, (width - 1 - length)[..., None], minus[..., None], axis=-1)
+    return out
+
+
+def _text_table(np: Any, texts: list[list[str]]) -> Any:
+    """(kinds, pieces, width) bytes of the constant pieces, zero bytes after each and for
+    pieces a kind does not have."""
+    width = max(len(t) for row in texts for t in row)
+    table = np.zeros((len(texts), max(len(row) for row in texts), width), dtype=np.uint8)
+    for k, row in enumerate(texts):
+        for j, text in enumerate(row):
+            table[k, j, : len(text)] = np.frombuffer(text.encode("ascii"), dtype=np.uint8)
+    return table
+
+
+def _lines_text_python(first_line: int, kind: Any, texts: list[list[str]], numbers: Any) -> str:
+    """As :func:`_lines_text`, each number formatted by Python's ``%``."""
+    formats = [f"%d{row[0]}" + "".join([f"{_NUMBER}{t}" for t in row[1:]]) for row in texts]
+    kinds = kind.tolist()
+    flat: list[float] = []
+    for line, k, row in zip(
+        range(first_line, first_line + len(kinds)), kinds, numbers.tolist(), strict=True
+    ):
+        flat += (line, *row[: len(texts[k]) - 1])
+    return "".join([formats[k] for k in kinds]) % tuple(flat)
