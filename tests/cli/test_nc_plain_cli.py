@@ -234,3 +234,20 @@ def test_importing_the_typer_root_module_keeps_the_root_exported() -> None:
         [sys.executable, "-c", probe], capture_output=True, text=True, timeout=120
     )
     assert done.stdout.split() == ["True", "True"], done.stderr
+
+
+def test_a_trace_prints_every_line_before_an_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The trace is written some lines at a time: those before a bad line still come out,
+    then the one-line error, exit 2 (a run of 300 moves read in bulk, then single lines)."""
+    moves = "".join(f"G1 X{i * 0.5:.1f} Y{i % 7}\n" for i in range(300))
+    program = tmp_path / "bad.ngc"
+    program.write_text(f"G21 G90 G94 F500\n{moves}G0 Z5\nG1 X1 F-5\nM2\n")
+    assert run(["nc", "trace", str(program)]) == 2
+    out, err = capsys.readouterr()
+    lines = out.splitlines()
+    assert len(lines) == 301
+    assert lines[0] == "2 STRAIGHT_FEED(0.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)"
+    assert lines[-1] == "302 STRAIGHT_TRAVERSE(149.5000, 5.0000, 5.0000, 0.0000, 0.0000, 0.0000)"
+    assert err.count("\n") == 1 and "bad.ngc:303: feed rate F-5" in err, err

@@ -219,9 +219,29 @@ def trace_program(
 
     setup = _bounded(_setup(_load(config)), max_segments, max_bytes, max_repeated_lines)
     interpreter = Interpreter(setup)
+    pending: list[str] = []  # written 64 KiB at a time: one write a line costs
+    size = 0
+    try:
+        for text in trace_text(interpreter.run_file_bulk(program), frame):
+            pending.append(text)
+            size += len(text)
+            if size >= _TRACE_WRITE:
+                _write_pieces("".join(pending))
+                pending.clear()
+                size = 0
+    finally:  # the lines before an error are printed too
+        _write_pieces("".join(pending))
+
+
+#: Characters of a trace (ASCII) written at once: a pipe's capacity. A larger write to a
+#: pipe that the reader closes part-way (``| head``) can end without an error.
+_TRACE_WRITE = 1 << 16
+
+
+def _write_pieces(text: str) -> None:
     out = sys.stdout
-    for text in trace_text(interpreter.run_file_bulk(program), frame):
-        out.write(text)
+    for start in range(0, len(text), _TRACE_WRITE):
+        out.write(text[start : start + _TRACE_WRITE])
 
 
 def _tap(segments: Iterable[Segment], sink: Callable[[Segment], None]) -> Iterator[Segment]:
