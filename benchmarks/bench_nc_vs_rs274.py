@@ -1,11 +1,14 @@
-"""Benchmark: ``cnctwin nc inspect --json`` against LinuxCNC's ``rs274``, end to end.
+"""Benchmark: ``cnctwin nc inspect --json`` and ``cnctwin nc trace`` against LinuxCNC's
+``rs274``, end to end.
 
-Both interpreters run as whole processes on the same generated programs, one after the
+The interpreters run as whole processes on the same generated programs, one after the
 other in one run: ``cnctwin nc inspect --json FILE`` (start-up, imports, interpretation,
-summary, JSON) and ``rs274 -g -t TOOLTABLE FILE`` (start-up, interpretation, one printed
-canonical call per move; its output goes to ``/dev/null``). For each, the CPU time (user +
-system, from ``os.wait4`` of that child alone) and its peak RSS are reported, with lines
-per CPU second and the ratio cnctwin / rs274 of lines/s (above 1: cnctwin is faster).
+summary, JSON), ``cnctwin nc trace FILE`` (start-up, interpretation, one printed canonical
+call per move, as rs274 prints them) and ``rs274 -g -t TOOLTABLE FILE`` (start-up,
+interpretation, one printed canonical call per move); printed output goes to
+``/dev/null``. For each, the CPU time (user + system, from ``os.wait4`` of that child
+alone) and its peak RSS are reported, with lines per CPU second and the ratios cnctwin /
+rs274 of lines/s (above 1: cnctwin is faster).
 CPU time, not wall time, because the benchmark machine is shared and loaded.
 
 Programs (lines are lines of the file; a loop body counts once):
@@ -185,12 +188,13 @@ def main() -> None:
     )
     if rs274 is None:
         print("rs274 was not found (apt-get install linuxcnc-uspace): cnctwin measured alone")
-    sources = ["| sources CPU s | sources ratio "] if compiled else []
+    sources = ["| sources inspect CPU s | sources ratio "] if compiled else []
     print(
-        "| program | lines | cnctwin CPU s | cnctwin lines/s | cnctwin peak MiB "
-        f"| rs274 CPU s | rs274 lines/s | rs274 peak MiB | ratio {''.join(sources)}|"
+        "| program | lines | inspect CPU s | inspect lines/s | inspect peak MiB "
+        "| trace CPU s | trace peak MiB | rs274 CPU s | rs274 lines/s | rs274 peak MiB "
+        f"| inspect ratio | trace ratio {''.join(sources)}|"
     )
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|" + ("---:|---:|" if compiled else ""))
+    print("|---|" + "---:|" * (11 + (2 if compiled else 0)))
     pure_env = {**os.environ, "CNCTWIN_PURE_PYTHON": "1"}  # docs/nc.md
     data = Path(os.environ.get("CNCTWIN_DATA") or REPO.parent / "shared" / "data")
     with tempfile.TemporaryDirectory() as tmp:
@@ -209,15 +213,20 @@ def main() -> None:
             ours, ours_mib = best_of(
                 repeat, [*cnctwin, "nc", "inspect", "--json", str(path)], work, False
             )
-            row = f"| {name} | {n:,} | {ours:.2f} | {n / ours:,.0f} | {ours_mib:.0f} "
+            traced, traced_mib = best_of(repeat, [*cnctwin, "nc", "trace", str(path)], work, False)
+            row = (
+                f"| {name} | {n:,} | {ours:.2f} | {n / ours:,.0f} | {ours_mib:.0f} "
+                f"| {traced:.2f} | {traced_mib:.0f} "
+            )
             if rs274 is None:
-                row += "| - | - | - | - |"
+                row += "| - | - | - | - | - |"
             else:
                 theirs, theirs_mib = best_of(
                     repeat, [rs274, "-g", "-t", "tools.tbl", str(path)], work, True
                 )
                 row += (
-                    f"| {theirs:.2f} | {n / theirs:,.0f} | {theirs_mib:.0f} | {theirs / ours:.2f} |"
+                    f"| {theirs:.2f} | {n / theirs:,.0f} | {theirs_mib:.0f} "
+                    f"| {theirs / ours:.2f} | {theirs / traced:.2f} |"
                 )
             if compiled:
                 pure, _ = best_of(
