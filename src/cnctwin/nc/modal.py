@@ -83,7 +83,7 @@ class ModalState:
         if value < 0:
             raise self._where.error(f"feed rate F{value:g} is negative: F must be >= 0")
         if value != self.state.programmed_feed:
-            self.state = replace(self.state, programmed_feed=value)
+            self.state = self.state.with_feed(value)
 
     def set_feed_mode(self, mode: FeedMode) -> None:
         """G93, G94 or G95."""

@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from cnctwin.nc.arcs import (
@@ -224,7 +224,7 @@ class MoveRun:
 
     def _state(self, feed: float, state: MachineState) -> MachineState:
         # As ModalState.set_feed: a new state only when the feed differs.
-        return state if feed == state.programmed_feed else replace(state, programmed_feed=feed)
+        return state if feed == state.programmed_feed else state.with_feed(feed)
 
     def segments(self) -> Iterator[Segment]:
         """The segments of the run, equal to those the line-by-line path makes."""

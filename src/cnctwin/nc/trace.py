@@ -33,6 +33,8 @@ _CALLS: Final = {
     "ARC_FEED": f"ARC_FEED({_FOUR}, %d, {_FOUR})",
     "DWELL": f"DWELL({_NUMBER})",
 }
+#: A trace line: the source line, the call, the line end.
+_LINES: Final = {name: f"%d {call}\n" for name, call in _CALLS.items()}
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,7 +76,7 @@ def _call(seg: Segment, program: bool) -> tuple[str, tuple[float, ...]]:
     else:
         scale = 1.0
         e = seg.end_mm
-    end = (e[0] * scale, e[1] * scale, e[2] * scale)
+    end = e if scale == 1.0 else (e[0] * scale, e[1] * scale, e[2] * scale)
     abc = seg.end_abc_deg
     kind = seg.kind
     if kind == MotionKind.DWELL:
@@ -82,7 +84,7 @@ def _call(seg: Segment, program: bool) -> tuple[str, tuple[float, ...]]:
     if kind == MotionKind.ARC and seg.center_mm is not None:
         first, second, normal = PLANE_AXES[state.plane]
         c = state.to_program(seg.center_mm) if program else seg.center_mm
-        centre = (c[0] * scale, c[1] * scale, c[2] * scale)
+        centre = c if scale == 1.0 else (c[0] * scale, c[1] * scale, c[2] * scale)
         values = (end[first], end[second], centre[first], centre[second], float(seg.turns))
         return "ARC_FEED", (*values, end[normal], abc[0], abc[1], abc[2])
     name = "STRAIGHT_TRAVERSE" if kind == MotionKind.RAPID else "STRAIGHT_FEED"
@@ -153,7 +155,7 @@ def trace_text(items: Iterable[Segment | MoveRun], frame: str = "program") -> It
             yield _run_text(item, program)
         else:
             name, values = _call(item, program)
-            yield f"{item.line} {_CALLS[name] % values}\n"
+            yield _LINES[name] % (item.line, *values)
 
 
 def _run_text(run: MoveRun, program: bool) -> str:
