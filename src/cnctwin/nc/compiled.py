@@ -50,6 +50,7 @@ COMPILED_MODULES = (
     "source",
     "summary",
     "tool_state",
+    "trace",
 )
 
 _HERE = Path(__file__).resolve().parent
