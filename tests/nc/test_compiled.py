@@ -25,7 +25,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from skips import missing
+from skips import missing, on_sources
 
 import cnctwin
 from cnctwin.nc import compiled_modules
@@ -208,9 +208,13 @@ def test_a_stale_compiled_module_runs_all_from_sources(compiled_tree: Path, tmp_
 
 
 @pytest.mark.parametrize("cls", [Segment, Block, OWord])
-def test_written_out_inits_take_the_dataclass_fields(cls: type) -> None:
+def test_written_out_inits_take_the_dataclass_fields(
+    cls: type, request: pytest.FixtureRequest
+) -> None:
     """Segment, Block and OWord write their ``__init__`` out (so that mypyc compiles it):
     its parameters are the dataclass's fields, in order, with the fields' defaults."""
+    if on_sources(request):  # a compiled __init__ shows (*args, **kwargs)
+        return
     parameters = list(inspect.signature(cls.__init__).parameters.values())[1:]
     fields = dataclasses.fields(cls)
     assert [p.name for p in parameters] == [f.name for f in fields]

@@ -8,15 +8,11 @@ so each program is run both ways and the segments, warnings and errors must be i
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-
 import pytest
+from skips import on_sources
 
 import cnctwin.nc.interpreter as interpreter_module
 from cnctwin.errors import NCError
-from cnctwin.nc.compiled import PURE_PYTHON_VARIABLE
 from cnctwin.nc.interpreter import Interpreter
 
 PROGRAMS = {
@@ -76,26 +72,11 @@ def test_fast_path_errors_equal_the_general_path(name: str) -> None:
     assert ":3:" in str(fast.value)
 
 
-def test_plain_motion_lines_skip_the_lexer(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_plain_motion_lines_skip_the_lexer(
+    monkeypatch: pytest.MonkeyPatch, request: pytest.FixtureRequest
+) -> None:
     """Without this the comparisons above would compare the general path with itself."""
-    if not (interpreter_module.__file__ or "").endswith(".py"):
-        # Compiled modules call lex_block past the spy: this test, on the sources.
-        on_sources = subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "pytest",
-                "-q",
-                "-p",
-                "no:cacheprovider",
-                f"{__file__}::test_plain_motion_lines_skip_the_lexer",
-            ],
-            env={**os.environ, PURE_PYTHON_VARIABLE: "1"},
-            capture_output=True,
-            text=True,
-            timeout=300,
-        )
-        assert on_sources.returncode == 0, on_sources.stdout[-3000:]
+    if on_sources(request):  # compiled modules call lex_block past the spy
         return
     lexed: list[str] = []
     lex = interpreter_module.lex_block
