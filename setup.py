@@ -1,10 +1,10 @@
-"""Build hook: with ``CNCTWIN_COMPILE=1``, the NC interpreter's per-line modules are compiled
-to C extensions with mypyc.
+"""Build hook: compiles the NC interpreter's per-line modules to C extensions with mypyc.
 
-Everything else about the package is declared in pyproject.toml. An ordinary install compiles
-nothing. ``CNCTWIN_COMPILE=1 pip install -e .`` compiles the modules that
-``cnctwin.nc.compiled.COMPILED_MODULES`` lists, from the same typed sources (docs/nc.md,
-"Compiled with mypyc"; figures in docs/benchmarks.md).
+Everything else about the package is declared in pyproject.toml. ``CNCTWIN_COMPILE`` at
+install chooses the build: unset or empty, the modules that
+``cnctwin.nc.compiled.COMPILED_MODULES`` lists are compiled where a C compiler and Python's
+headers exist, else installed as Python (one line on stderr says why); ``1`` compiles them or
+fails; ``0`` never compiles (docs/nc.md, "Compiled with mypyc"; figures in docs/benchmarks.md).
 """
 
 from __future__ import annotations
@@ -32,12 +32,24 @@ def _compiled() -> ModuleType:
 
 
 def _extensions() -> list[object]:
-    if os.environ.get("CNCTWIN_COMPILE", "") in ("", "0"):
+    choice = os.environ.get("CNCTWIN_COMPILE", "")
+    if choice not in ("", "0", "1"):
+        sys.exit(
+            f"CNCTWIN_COMPILE={choice!r} is not a choice: 1 (compile), 0 (do not compile) or "
+            "unset (compile where a C compiler and Python's headers exist)"
+        )
+    if choice == "0":
         return []
     compiled = _compiled()
     reason = compiled.cannot_compile()
     if reason is not None:
-        sys.exit(f"CNCTWIN_COMPILE=1: {reason}; install it, or install without CNCTWIN_COMPILE")
+        if choice == "1":
+            sys.exit(f"CNCTWIN_COMPILE=1: {reason}; install it, or install with CNCTWIN_COMPILE=0")
+        print(
+            f"cnctwin: the NC interpreter is not compiled ({reason}); it runs as Python",
+            file=sys.stderr,
+        )
+        return []
     from mypyc.build import mypycify
 
     modules = [f"src/cnctwin/nc/{name}.py" for name in compiled.COMPILED_MODULES]

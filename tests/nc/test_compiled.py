@@ -1,16 +1,15 @@
-"""The NC interpreter compiled with mypyc (``CNCTWIN_COMPILE=1``) gives what its sources
-give.
+"""The NC interpreter compiled with mypyc (an install's default) gives what its sources give.
 
-The modules ``COMPILED_MODULES`` lists are compiled once, with mypyc, in a copy of the
-package. The reference is the same copy run as Python (``CNCTWIN_PURE_PYTHON=1``): two child
-processes interpret the same programs (the 45 real programs of ../shared/data/gcode, one of
-expressions and O-word loops, an erroring one), one on the compiled modules and one on the
-sources, and their segments (floats by ``repr``), warnings, summaries and errors must be
-identical. Also checked: the switch to the sources at run time, ``cnctwin --version``, and
-the refusal of a compiled module older than its source.
-
-Compiling takes about two minutes of one core; it needs a C compiler and Python's headers
-(skipped without them, failed in CI).
+The compiled modules are those of the installed build when it is compiled; on a pure Python
+install the modules ``COMPILED_MODULES`` lists are compiled once, with mypyc, in a copy of the
+package (about two minutes of one core; skipped without a C compiler and Python's headers,
+failed in CI). The reference is the same modules run as Python (``CNCTWIN_PURE_PYTHON=1``):
+two child processes interpret the same programs (the 45 real programs of ../shared/data/gcode,
+one of expressions and O-word loops, an erroring one), one on the compiled modules and one on
+the sources, and their segments (floats by ``repr``), warnings, summaries and errors must be
+identical. Also checked: the switch to the sources at run time, ``cnctwin --version``, the
+exported classes' docstrings, and that a compiled module older than its source makes all of
+:mod:`cnctwin.nc` run from its sources, with a warning.
 """
 
 from __future__ import annotations
@@ -26,13 +25,15 @@ import sys
 from pathlib import Path
 
 import pytest
-from skips import missing
+from skips import missing, on_sources
 
+import cnctwin
+from cnctwin.nc import compiled_modules
 from cnctwin.nc.compiled import (
     COMPILED_MODULES,
     PURE_PYTHON_VARIABLE,
     cannot_compile,
-    check_compiled_are_current,
+    first_stale,
 )
 from cnctwin.nc.lexer import Block, OWord
 from cnctwin.nc.segments import MachineState, MotionKind, Segment
@@ -73,7 +74,11 @@ for path in sys.argv[1:]:
 
 @pytest.fixture(scope="module")
 def compiled_tree(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A copy of ``src/`` with setup.py's modules compiled by mypyc in place."""
+    """The folder holding a ``cnctwin`` whose compiled modules are imported: the installed one
+    when it runs compiled, else a copy of ``src/`` with setup.py's modules compiled by mypyc in
+    place."""
+    if compiled_modules():
+        return Path(cnctwin.__file__).parents[1]
     reason = cannot_compile()
     if reason is not None:
         missing(f"mypyc cannot compile here: {reason}", "CNCTWIN_REQUIRE_SERVICES")
@@ -94,24 +99,19 @@ def compiled_tree(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root / "src"
 
 
-def _env(tree: Path, pure: bool) -> dict[str, str]:
+def _python(tree: Path, pure: bool, *args: str) -> subprocess.CompletedProcess[str]:
+    """``python *args`` with ``tree`` first on the path, the sources forced when ``pure``."""
     env = {**os.environ, "PYTHONPATH": str(tree)}
     env.pop(PURE_PYTHON_VARIABLE, None)
     if pure:
         env[PURE_PYTHON_VARIABLE] = "1"
-    return env
+    return subprocess.run(
+        [sys.executable, *args], env=env, capture_output=True, text=True, timeout=600, check=True
+    )
 
 
 def _child(tree: Path, programs: list[Path], pure: bool) -> tuple[list[str], list[str]]:
-    done = subprocess.run(
-        [sys.executable, "-c", CHILD, *map(str, programs)],
-        env=_env(tree, pure),
-        capture_output=True,
-        text=True,
-        timeout=600,
-        check=True,
-    )
-    first, *results = done.stdout.splitlines()
+    first, *results = _python(tree, pure, "-c", CHILD, *map(str, programs)).stdout.splitlines()
     return json.loads(first), results
 
 
@@ -140,7 +140,9 @@ def test_compiled_and_source_modules_give_the_same_results(
     programs.append(bad)
     compiled, from_compiled = _child(compiled_tree, programs, pure=False)
     sources, from_sources = _child(compiled_tree, programs, pure=True)
-    assert compiled == sorted(f"cnctwin.nc.{name}" for name in COMPILED_MODULES)
+    assert compiled == sorted(f"cnctwin.nc.{name}" for name in COMPILED_MODULES), (
+        "the installed build compiles other modules than COMPILED_MODULES: pip install -e ."
+    )
     assert sources == []
     assert len(from_compiled) == len(programs)
     for path, one, other in zip(programs, from_compiled, from_sources, strict=True):
@@ -151,42 +153,68 @@ def test_compiled_and_source_modules_give_the_same_results(
 
 def test_the_version_says_which_build_runs(compiled_tree: Path) -> None:
     for pure, build in ((False, "compiled"), (True, "pure Python")):
-        done = subprocess.run(
-            [sys.executable, "-m", "cnctwin", "--version"],
-            env=_env(compiled_tree, pure),
-            capture_output=True,
-            text=True,
-            check=True,
-        )
+        done = _python(compiled_tree, pure, "-m", "cnctwin", "--version")
         assert done.stdout.endswith(f"(NC interpreter: {build})\n")
-    code = "import cnctwin.nc.lexer as m; print(m.__file__)"
-    done = subprocess.run(
-        [sys.executable, "-c", code],
-        env=_env(compiled_tree, pure=True),
-        capture_output=True,
-        text=True,
-        check=True,
-    )
+    done = _python(compiled_tree, True, "-c", "import cnctwin.nc.lexer as m; print(m.__file__)")
     assert done.stdout.strip() == str(compiled_tree / "cnctwin/nc/lexer.py")
 
 
-def test_a_compiled_module_older_than_its_source_is_refused(tmp_path: Path) -> None:
+def test_compiled_classes_keep_their_docstrings(compiled_tree: Path) -> None:
+    code = (
+        "import inspect, json, cnctwin.nc as nc\n"
+        "values = [getattr(nc, name) for name in nc.__all__]\n"
+        "print(json.dumps({v.__name__: inspect.getdoc(v) for v in values if inspect.isclass(v)}))"
+    )
+    compiled, sources = (
+        json.loads(_python(compiled_tree, p, "-c", code).stdout) for p in (False, True)
+    )
+    assert compiled == sources
+    assert compiled["Interpreter"].startswith("Interpret NC programs")
+
+
+def test_first_stale_finds_a_compiled_module_older_than_its_source(tmp_path: Path) -> None:
     source = tmp_path / "lexer.py"
     source.write_text("")
     extension = tmp_path / ("lexer" + importlib.machinery.EXTENSION_SUFFIXES[0])
     extension.write_bytes(b"")
     os.utime(source, (1_000, 1_000))
     os.utime(extension, (2_000, 2_000))
-    check_compiled_are_current(tmp_path)  # compiled after the last change: fine
+    assert first_stale(tmp_path) is None  # compiled after the last change
     os.utime(source, (3_000, 3_000))
-    with pytest.raises(ImportError, match=r"older than lexer\.py.*CNCTWIN_COMPILE=1.*PURE"):
-        check_compiled_are_current(tmp_path)
+    assert first_stale(tmp_path) == (source, extension)
+
+
+def test_a_stale_compiled_module_runs_all_from_sources(compiled_tree: Path, tmp_path: Path) -> None:
+    """Compiled modules call one another natively: one changed source makes all of cnctwin.nc
+    run as Python, with one warning that names it."""
+    tree = tmp_path / "src"
+    shutil.copytree(compiled_tree / "cnctwin", tree / "cnctwin")  # mtimes kept
+    for shared in compiled_tree.glob("*__mypyc.*"):  # the compiled modules' common library
+        shutil.copy2(shared, tree)
+    code = (
+        "import cnctwin.nc.lexer as m, cnctwin.nc as nc; print(nc.compiled_modules(), m.__file__)"
+    )
+    current = _python(tree, False, "-c", code)
+    assert current.stderr == "" and current.stdout.split()[-1].endswith(".so")
+    os.utime(tree / "cnctwin/nc/trace.py")  # now: after its compiled module
+    stale = _python(tree, False, "-c", code)
+    assert stale.stdout == f"[] {tree / 'cnctwin/nc/lexer.py'}\n"
+    warning = [line for line in stale.stderr.splitlines() if "RuntimeWarning" in line]
+    assert len(warning) == 1, stale.stderr
+    assert "cnctwin.nc.trace changed since it was compiled" in warning[0]
+    assert "runs as Python" in warning[0] and "pip install -e ." in warning[0]
+    version = _python(tree, False, "-m", "cnctwin", "--version")
+    assert version.stdout.endswith("(NC interpreter: pure Python)\n")
 
 
 @pytest.mark.parametrize("cls", [Segment, Block, OWord])
-def test_written_out_inits_take_the_dataclass_fields(cls: type) -> None:
+def test_written_out_inits_take_the_dataclass_fields(
+    cls: type, request: pytest.FixtureRequest
+) -> None:
     """Segment, Block and OWord write their ``__init__`` out (so that mypyc compiles it):
     its parameters are the dataclass's fields, in order, with the fields' defaults."""
+    if on_sources(request):  # a compiled __init__ shows (*args, **kwargs)
+        return
     parameters = list(inspect.signature(cls.__init__).parameters.values())[1:]
     fields = dataclasses.fields(cls)
     assert [p.name for p in parameters] == [f.name for f in fields]

@@ -13,7 +13,7 @@ Lengths are in mm, feeds in mm/min, spindle speeds in rpm (names say so).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from cnctwin import _lazy
 from cnctwin.nc import compiled as _compiled
@@ -86,7 +86,14 @@ _HOMES = {
     "trace_text": "trace",
 }
 
-__getattr__, __dir__ = _lazy.exports(__name__, _HOMES)
+_resolve, __dir__ = _lazy.exports(__name__, _HOMES)
+
+
+def __getattr__(name: str) -> Any:
+    """A public name, imported on first use; a compiled class gets its docstring back."""
+    value = _resolve(name)
+    _compiled.keep_docstring(value)
+    return value
 
 
 __all__ = [

@@ -1,16 +1,19 @@
-"""Which modules of :mod:`cnctwin.nc` run compiled, the switch back to their sources, and a
-guard against stale compiled modules.
+"""Which modules of :mod:`cnctwin.nc` run compiled, the switch back to their sources, the
+guard against stale compiled modules, and the compiled classes' docstrings.
 
-Installed with ``CNCTWIN_COMPILE=1``, ``setup.py`` compiles the interpreter's per-line
-modules with mypyc. Each compiled module is a C extension next to its source, and Python
-imports the extension first. Two things follow, both handled by :func:`prepare_imports` when
-:mod:`cnctwin.nc` is imported:
+An install compiles the interpreter's per-line modules with mypyc where it can (setup.py;
+``CNCTWIN_COMPILE=0`` opts out). Each compiled module is a C extension next to its source, and
+Python imports the extension first. Two things follow, both handled by
+:func:`prepare_imports` when :mod:`cnctwin.nc` is imported:
 
 - with ``CNCTWIN_PURE_PYTHON=1`` set at run time, the sources are imported instead (for
   debugging, profiling with :mod:`cProfile`, or comparing the two);
-- in an editable install the sources can change without the extensions: an extension
-  older than its source is refused rather than run.
+- in an editable install the sources can change without the extensions: when an extension
+  is older than its source, all of :mod:`cnctwin.nc` runs from its sources, with a
+  ``RuntimeWarning`` (not only the changed module: compiled modules call one another
+  natively, past any module imported as Python).
 
+mypyc drops docstrings; :func:`keep_docstring` gives an exported class its docstring back.
 This module itself is never compiled (it reads the file system; the others do not).
 """
 
@@ -19,6 +22,7 @@ from __future__ import annotations
 import importlib.machinery
 import os
 import sys
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
@@ -27,7 +31,7 @@ from types import ModuleType
 #: imported. Any value but "" and "0".
 PURE_PYTHON_VARIABLE = "CNCTWIN_PURE_PYTHON"
 
-#: The modules ``CNCTWIN_COMPILE=1`` compiles (setup.py reads this list): the interpreter's
+#: The modules an install compiles (setup.py reads this list): the interpreter's
 #: per-line path of reading lines, words and expressions, O-word control, executing blocks,
 #: modes, motion and the summary. Not compiled: ``runs`` (numpy does its work), the numba
 #: kernels, plotting, sampling, the tool table (read once) and this module.
@@ -50,6 +54,7 @@ COMPILED_MODULES = (
     "source",
     "summary",
     "tool_state",
+    "trace",
 )
 
 _HERE = Path(__file__).resolve().parent
@@ -91,8 +96,9 @@ def cannot_compile() -> str | None:
 
 def compiled_modules() -> list[str]:
     """Names (``cnctwin.nc.lexer``, ...) of the modules that are imported compiled in this
-    process, sorted; empty for an ordinary install or with ``CNCTWIN_PURE_PYTHON=1``."""
-    if pure_python_requested():
+    process, sorted; empty for a pure Python install, with ``CNCTWIN_PURE_PYTHON=1`` and
+    with stale compiled modules (:func:`prepare_imports`)."""
+    if _sources_imported():
         return []
     return [f"{__package__}.{source.stem}" for source, _ in _compiled_pairs(_HERE)]
 
@@ -117,35 +123,75 @@ class _SourceFinder:
         return spec
 
 
-def check_compiled_are_current(folder: Path = _HERE) -> None:
-    """Refuse compiled modules in ``folder`` (this package's) older than their sources.
+def _sources_imported() -> bool:
+    return any(isinstance(finder, _SourceFinder) for finder in sys.meta_path)
 
-    Raises
-    ------
-    ImportError
-        Naming the first such module and how to compile it again or run the sources.
-    """
+
+def first_stale(folder: Path = _HERE) -> tuple[Path, Path] | None:
+    """(source, extension) of the first compiled module in ``folder`` (this package's) that
+    is older than its source, or ``None``."""
     for source, extension in _compiled_pairs(folder):
         if source.stat().st_mtime > extension.stat().st_mtime:
-            raise ImportError(
-                f"{extension} is older than {source.name}, which changed since it was "
-                "compiled: install again with CNCTWIN_COMPILE=1 (pip install -e .) to compile it "
-                f"again, delete the compiled modules ({folder}/*.so) to run the sources, or set "
-                f"{PURE_PYTHON_VARIABLE}=1 to run them this time"
-            )
+            return source, extension
+    return None
 
 
 def prepare_imports() -> None:
     """Before any module of :mod:`cnctwin.nc` is imported: the sources with
-    ``CNCTWIN_PURE_PYTHON=1``, else refuse stale compiled modules (see the module's text).
+    ``CNCTWIN_PURE_PYTHON=1`` or when a compiled module is stale (then with a
+    ``RuntimeWarning`` that names it), else the compiled modules (see the module's text)."""
+    if not pure_python_requested():
+        stale = first_stale()
+        if stale is None:
+            return
+        source, extension = stale
+        warnings.warn(
+            f"{__package__}.{source.stem} changed since it was compiled ({extension.name} is "
+            f"older than {source.name}): all of {__package__} runs as Python; install again "
+            "(pip install -e .) to compile it again",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    if not _sources_imported():
+        sys.meta_path.insert(0, _SourceFinder())
 
-    Raises
-    ------
-    ImportError
-        From :func:`check_compiled_are_current`.
-    """
-    if pure_python_requested():
-        if not any(isinstance(finder, _SourceFinder) for finder in sys.meta_path):
-            sys.meta_path.insert(0, _SourceFinder())
+
+def source_docstring(module: str, name: str) -> str | None:
+    """The docstring of the class or function ``name`` defined in ``module`` (a module of this
+    package), read from its source with :mod:`ast`: what a compiled module no longer
+    carries."""
+    import ast  # only when a docstring is asked for: 5 ms
+
+    source = _HERE / f"{module.rpartition('.')[2]}.py"
+    for node in ast.parse(source.read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.ClassDef | ast.FunctionDef) and node.name == name:
+            return ast.get_docstring(node, clean=False)
+    return None
+
+
+class _SourceDocstring:
+    """A compiled class's ``__doc__``: :func:`source_docstring`, read when first asked.
+    ``type.__doc__`` calls ``__get__`` of a descriptor stored as ``__doc__`` (as does an
+    instance's ``__doc__``)."""
+
+    def __init__(self, module: str, name: str) -> None:
+        self._module = module
+        self._name = name
+        self._doc: str | None = None
+        self._read = False
+
+    def __get__(self, instance: object, owner: type | None = None) -> str | None:
+        if not self._read:
+            self._doc = source_docstring(self._module, self._name)
+            self._read = True
+        return self._doc
+
+
+def keep_docstring(value: object) -> None:
+    """Give ``value``, when it is a class of a compiled module of this package, its docstring
+    back, read from its source when first asked (``help()``, :func:`inspect.getdoc`). mypyc
+    drops docstrings; a compiled function's (or method's) cannot be set."""
+    if not isinstance(value, type) or not value.__module__.startswith(f"{__package__}."):
         return
-    check_compiled_are_current()
+    if not (sys.modules[value.__module__].__file__ or "").endswith(".py"):
+        value.__doc__ = _SourceDocstring(value.__module__, value.__name__)  # type: ignore[assignment]
