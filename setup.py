@@ -39,6 +39,7 @@ def _extensions() -> list[object]:
             "unset (compile where a C compiler and Python's headers exist)"
         )
     if choice == "0":
+        _remove_compiled()
         return []
     compiled = _compiled()
     reason = compiled.cannot_compile()
@@ -49,11 +50,22 @@ def _extensions() -> list[object]:
             f"cnctwin: the NC interpreter is not compiled ({reason}); it runs as Python",
             file=sys.stderr,
         )
+        _remove_compiled()
         return []
     from mypyc.build import mypycify
 
     modules = [f"src/cnctwin/nc/{name}.py" for name in compiled.COMPILED_MODULES]
     return list(mypycify(modules, opt_level="3"))
+
+
+def _remove_compiled() -> None:
+    """Delete the modules an earlier compiled editable install left in the sources: Python
+    would import them before the sources."""
+    import importlib.machinery
+
+    for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+        for stale in [*HERE.glob(f"src/cnctwin/nc/*{suffix}"), *HERE.glob(f"src/*__mypyc{suffix}")]:
+            stale.unlink()
 
 
 setup(ext_modules=_extensions())
