@@ -18,19 +18,20 @@ from typing import Any, Final
 
 from cnctwin.errors import InputError
 from cnctwin.nc.runs import MoveRun
-from cnctwin.nc.segments import PLANE_AXES, MotionKind, Segment
+from cnctwin.nc.segments import PLANE_AXES, MotionKind, Segment, Vec3
 
 __all__ = ["CanonicalMove", "canonical_moves", "format_trace", "trace_text"]
 
 _MM_PER_INCH: Final = 25.4
 #: How every number of a call is printed (LinuxCNC prints four decimals).
 _NUMBER: Final = "%.4f"
-_FOUR: Final = ", ".join([_NUMBER] * 4)
-#: Each call's text as a ``%`` format of its arguments (the arc's rotation an integer).
+_THREE: Final = ", ".join([_NUMBER] * 3)
+#: Each call's text as a ``%`` format of its numbers before the rotary axes (the arc's
+#: rotation an integer), and then of those axes (a dwell has none).
 _CALLS: Final = {
-    "STRAIGHT_TRAVERSE": f"STRAIGHT_TRAVERSE({_FOUR}, {_NUMBER}, {_NUMBER})",
-    "STRAIGHT_FEED": f"STRAIGHT_FEED({_FOUR}, {_NUMBER}, {_NUMBER})",
-    "ARC_FEED": f"ARC_FEED({_FOUR}, %d, {_FOUR})",
+    "STRAIGHT_TRAVERSE": f"STRAIGHT_TRAVERSE({_THREE}, %s)",
+    "STRAIGHT_FEED": f"STRAIGHT_FEED({_THREE}, %s)",
+    "ARC_FEED": f"ARC_FEED({_NUMBER}, {_NUMBER}, {_NUMBER}, {_NUMBER}, %d, {_NUMBER}, %s)",
     "DWELL": f"DWELL({_NUMBER})",
 }
 #: A trace line: the source line, the call, the line end.
@@ -58,7 +59,9 @@ class CanonicalMove:
 
     def format(self) -> str:
         """The call as text, e.g. ``STRAIGHT_FEED(1.0000, 2.0000, ...)``."""
-        return _CALLS[self.name] % self.values
+        if self.name == "DWELL":
+            return _CALLS[self.name] % self.values
+        return _CALLS[self.name] % (*self.values[:-3], _THREE % self.values[-3:])
 
 
 def _is_program_frame(frame: str) -> bool:
@@ -67,9 +70,13 @@ def _is_program_frame(frame: str) -> bool:
     return frame == "program"
 
 
-def _call(seg: Segment, program: bool) -> tuple[str, tuple[float, ...]]:
-    """The canonical call of one segment: its name and arguments (see :class:`CanonicalMove`)."""
+def _call(seg: Segment, program: bool) -> tuple[str, tuple[float, ...], Vec3 | None]:
+    """The canonical call of one segment: its name, its arguments before the rotary axes,
+    and those axes (degrees; ``None`` for a dwell). See :class:`CanonicalMove`."""
     state = seg.state
+    kind = seg.kind
+    if kind == MotionKind.DWELL:
+        return "DWELL", (seg.dwell_s,), None
     if program:
         scale = 1.0 / _MM_PER_INCH if state.units == "inch" else 1.0
         e = state.to_program(seg.end_mm)
@@ -77,18 +84,14 @@ def _call(seg: Segment, program: bool) -> tuple[str, tuple[float, ...]]:
         scale = 1.0
         e = seg.end_mm
     end = e if scale == 1.0 else (e[0] * scale, e[1] * scale, e[2] * scale)
-    abc = seg.end_abc_deg
-    kind = seg.kind
-    if kind == MotionKind.DWELL:
-        return "DWELL", (seg.dwell_s,)
     if kind == MotionKind.ARC and seg.center_mm is not None:
         first, second, normal = PLANE_AXES[state.plane]
         c = state.to_program(seg.center_mm) if program else seg.center_mm
         centre = c if scale == 1.0 else (c[0] * scale, c[1] * scale, c[2] * scale)
         values = (end[first], end[second], centre[first], centre[second], float(seg.turns))
-        return "ARC_FEED", (*values, end[normal], abc[0], abc[1], abc[2])
+        return "ARC_FEED", (*values, end[normal]), seg.end_abc_deg
     name = "STRAIGHT_TRAVERSE" if kind == MotionKind.RAPID else "STRAIGHT_FEED"
-    return name, (*end, *abc)
+    return name, end, seg.end_abc_deg
 
 
 def canonical_moves(segments: Iterable[Segment], frame: str = "program") -> Iterator[CanonicalMove]:
@@ -108,8 +111,8 @@ def canonical_moves(segments: Iterable[Segment], frame: str = "program") -> Iter
     """
     program = _is_program_frame(frame)
     for seg in segments:
-        name, values = _call(seg, program)
-        yield CanonicalMove(name, values, seg.line)
+        name, values, abc = _call(seg, program)
+        yield CanonicalMove(name, values if abc is None else (*values, *abc), seg.line)
 
 
 def format_trace(segments: Iterable[Segment], frame: str = "program") -> Iterator[str]:
@@ -126,10 +129,8 @@ def format_trace(segments: Iterable[Segment], frame: str = "program") -> Iterato
     ------
     str
     """
-    program = _is_program_frame(frame)
-    for seg in segments:
-        name, values = _call(seg, program)
-        yield f"{seg.line} {_CALLS[name] % values}"
+    for line in trace_text(segments, frame):
+        yield line[:-1]
 
 
 def trace_text(items: Iterable[Segment | MoveRun], frame: str = "program") -> Iterator[str]:
@@ -150,12 +151,20 @@ def trace_text(items: Iterable[Segment | MoveRun], frame: str = "program") -> It
         One or more complete lines.
     """
     program = _is_program_frame(frame)
+    last_abc: Vec3 | None = None
+    abc_text = ""  # the rotary axes printed: mostly the same from line to line
     for item in items:
         if isinstance(item, MoveRun):
             yield _run_text(item, program)
-        else:
-            name, values = _call(item, program)
+            continue
+        name, values, abc = _call(item, program)
+        if abc is None:
             yield _LINES[name] % (item.line, *values)
+            continue
+        if abc is not last_abc:
+            last_abc = abc
+            abc_text = _THREE % abc
+        yield _LINES[name] % (item.line, *values, abc_text)
 
 
 def _run_text(run: MoveRun, program: bool) -> str:
@@ -185,7 +194,7 @@ def _run_text(run: MoveRun, program: bool) -> str:
     numbers[:, 2] = np.where(arc, centre[:, 0], end[:, 2])
     numbers[:, 3] = centre[:, 1]
     numbers[:, 4] = end[:, 2]
-    tail = f", {', '.join([_NUMBER % v for v in run.abc_deg])})\n"
+    tail = f", {_THREE % run.abc_deg})\n"
     texts = [  # per kind: the text before the line's first number, then after each number
         [" STRAIGHT_TRAVERSE(", ", ", ", ", tail],
         [" STRAIGHT_FEED(", ", ", ", ", tail],
