@@ -9,6 +9,7 @@ fails; ``0`` never compiles (docs/nc.md, "Compiled with mypyc"; figures in docs/
 
 from __future__ import annotations
 
+import importlib.machinery
 import importlib.util
 import os
 import sys
@@ -61,8 +62,6 @@ def _extensions() -> list[object]:
 def _remove_compiled() -> None:
     """Delete the modules an earlier compiled editable install left in the sources: Python
     would import them before the sources."""
-    import importlib.machinery
-
     for suffix in importlib.machinery.EXTENSION_SUFFIXES:
         for stale in [*HERE.glob(f"src/cnctwin/nc/*{suffix}"), *HERE.glob(f"src/*__mypyc{suffix}")]:
             stale.unlink()

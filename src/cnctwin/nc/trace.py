@@ -7,7 +7,7 @@ LinuxCNC's interpreter reports motion as canonical machining calls in the progra
 and ``DWELL(seconds)``. :func:`canonical_moves` turns segments into those calls, so that a
 trace of cnctwin can be compared number by number with one of LinuxCNC; :func:`format_trace`
 prints them one a line, and :func:`trace_text` prints runs of moves read in bulk
-(:class:`~cnctwin.nc.runs.MoveRun`) as well, many lines with one format operation.
+(:class:`~cnctwin.nc.runs.MoveRun`) as well, all lines of a run at once with numpy.
 """
 
 from __future__ import annotations
@@ -17,12 +17,12 @@ from dataclasses import dataclass
 from typing import Any, Final
 
 from cnctwin.errors import InputError
+from cnctwin.nc.arcs import MM_PER_INCH
 from cnctwin.nc.runs import MoveRun
-from cnctwin.nc.segments import PLANE_AXES, MotionKind, Segment, Vec3
+from cnctwin.nc.segments import PLANE_AXES, MachineState, MotionKind, Segment, Vec3
 
 __all__ = ["CanonicalMove", "canonical_moves", "format_trace", "trace_text"]
 
-_MM_PER_INCH: Final = 25.4
 #: How every number of a call is printed (LinuxCNC prints four decimals).
 _NUMBER: Final = "%.4f"
 _THREE: Final = ", ".join([_NUMBER] * 3)
@@ -70,6 +70,11 @@ def _is_program_frame(frame: str) -> bool:
     return frame == "program"
 
 
+def _unit_scale(state: MachineState) -> float:
+    """Program units per mm: a trace in the program frame is in the program's units."""
+    return 1.0 / MM_PER_INCH if state.units == "inch" else 1.0
+
+
 def _call(seg: Segment, program: bool) -> tuple[str, tuple[float, ...], Vec3 | None]:
     """The canonical call of one segment: its name, its arguments before the rotary axes,
     and those axes (degrees; ``None`` for a dwell). See :class:`CanonicalMove`."""
@@ -78,7 +83,7 @@ def _call(seg: Segment, program: bool) -> tuple[str, tuple[float, ...], Vec3 | N
     if kind == MotionKind.DWELL:
         return "DWELL", (seg.dwell_s,), None
     if program:
-        scale = 1.0 / _MM_PER_INCH if state.units == "inch" else 1.0
+        scale = _unit_scale(state)
         e = state.to_program(seg.end_mm)
     else:
         scale = 1.0
@@ -181,7 +186,7 @@ def _run_text(run: MoveRun, program: bool) -> str:
     end = run.end_mm
     centre = run.center_mm
     if program:
-        scale = 1.0 / _MM_PER_INCH if state.units == "inch" else 1.0
+        scale = _unit_scale(state)
         for shift in (state.work_offset_mm, state.tool_offset_mm, state.axis_offset_mm):
             end = end - np.array(shift)
             centre = centre - np.array(shift)
@@ -194,15 +199,21 @@ def _run_text(run: MoveRun, program: bool) -> str:
     numbers[:, 2] = np.where(arc, centre[:, 0], end[:, 2])
     numbers[:, 3] = centre[:, 1]
     numbers[:, 4] = end[:, 2]
-    tail = f", {_THREE % run.abc_deg})\n"
-    texts = [  # per kind: the text before the line's first number, then after each number
-        [" STRAIGHT_TRAVERSE(", ", ", ", ", tail],
-        [" STRAIGHT_FEED(", ", ", ", ", tail],
-        [" ARC_FEED(", ", ", ", ", ", ", ", -1, ", tail],
-        [" ARC_FEED(", ", ", ", ", ", ", ", 1, ", tail],
-    ]
+    # Per kind, the text before the line's first number, then after each number: the
+    # call's format with the run's rotary axes and the arc's rotation filled in.
+    abc = _THREE % run.abc_deg
+    calls = [_CALLS[name].replace("%d", turns).replace("%s", abc) for name, turns in _RUN_CALLS]
+    texts = [f" {call}\n".split(_NUMBER) for call in calls]
     return _lines_text(np, run.first_line, kind, texts, numbers)
 
+
+#: A run's calls by motion code // 10 (G0 to G3), with the arc's rotation (G2 clockwise).
+_RUN_CALLS: Final = (
+    ("STRAIGHT_TRAVERSE", ""),
+    ("STRAIGHT_FEED", ""),
+    ("ARC_FEED", "-1"),
+    ("ARC_FEED", "1"),
+)
 
 #: Widest number :func:`_lines_text` prints itself: below 2**52 ten-thousandths, so that
 #: ``rint`` of the scaled value is an exact integer (about 4.5e11 mm or inch).
